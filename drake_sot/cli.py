@@ -1,0 +1,78 @@
+"""The ``drake-sot`` command: ``drake-sot list`` and ``drake-sot run SCENARIO``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import TextIO
+
+from drake_sot.diagrams import SCENARIOS
+from drake_sot.diagrams.scenario import run_scenario
+
+
+class ProgressBar:
+    """A one-line progress bar on a terminal; sparse plain lines otherwise (CI logs)."""
+
+    def __init__(self, stream: TextIO = sys.stderr, width: int = 30) -> None:
+        self._stream = stream
+        self._width = width
+        self._tty = stream.isatty()
+        self._last_decile = -1
+
+    def __call__(self, t: float, duration: float, wall: float) -> None:
+        fraction = min(t / duration, 1.0)
+        rtf = t / wall if wall > 0 else float("nan")
+        text = f"{t:6.2f}/{duration:.2f} s simulated, real-time factor {rtf:4.2f}"
+        if self._tty:
+            filled = int(round(fraction * self._width))
+            self._stream.write(f"\r[{'#' * filled}{'.' * (self._width - filled)}] {text}")
+            if fraction >= 1.0:
+                self._stream.write("\n")
+        elif int(fraction * 10) > self._last_decile:
+            self._last_decile = int(fraction * 10)
+            self._stream.write(f"{100 * fraction:3.0f}% {text}\n")
+        self._stream.flush()
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="drake-sot", description="The Stack of Tasks on Drake.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="list the scenarios")
+    run = sub.add_parser("run", help="simulate a scenario and write its artefacts")
+    run.add_argument("scenario", choices=sorted(SCENARIOS), metavar="SCENARIO",
+                     help=f"one of: {', '.join(sorted(SCENARIOS))}")
+    run.add_argument("--duration", type=float, default=None, metavar="S", help="simulated seconds")
+    run.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
+    run.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.command == "list":
+        for name in sorted(SCENARIOS):
+            print(f"{name:20s} {SCENARIOS[name].description}")
+        return 0
+    if args.duration is not None and args.duration <= 0:
+        print(f"drake-sot: --duration must be > 0, got {args.duration}", file=sys.stderr)
+        return 2
+    output = run_scenario(
+        SCENARIOS[args.scenario], args.out, duration=args.duration,
+        record=not args.no_record, progress=ProgressBar(),
+    )
+    result = output.result
+    for kind, path in output.files.items():
+        print(f"wrote {path}")
+    print(f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s (real-time factor {result.realtime_factor:.2f})")
+    if result.interrupted:
+        print("interrupted: the artefacts cover the simulated part", file=sys.stderr)
+        return 130
+    if result.failure is not None:
+        print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

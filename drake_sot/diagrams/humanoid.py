@@ -1,0 +1,238 @@
+"""Compose the simulated humanoid and the kinematic Stack of Tasks in one Drake diagram.
+
+:class:`HumanoidSoTBuilder` is what every scenario starts from::
+
+    sot = HumanoidSoTBuilder()
+    sot.add_op_point_task("taskRH", "right_hand", gain=2.0)
+    sot.add_com_task("taskCom", selection="110")
+    built = sot.build(stack=["taskCom", "taskRH"])
+    simulator = built.create_simulator()
+
+It puts the humanoid in a ``MultibodyPlant`` (SAP, 1 ms, point contact) on a ground
+plane with its ``SceneGraph`` and builds the controller's own copy of the robot model
+with its ``RobotKinematics`` (the paper's ``dyn``). Tasks are added by name; on
+:meth:`HumanoidSoTBuilder.build` every task is wired into one ``StackOfTasks`` and the
+loop is closed: features → tasks → ``StackOfTasks`` → ``Integrator`` (q_ref) → the
+plant's PD actuators, with a quasi-static gravity feed-forward (both feet in contact), loggers and
+(optionally) a recorded Meshcat replay.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import Meshcat, MeshcatParams
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
+from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
+
+from drake_sot.features import SelectionLike
+from drake_sot.gains import Gain
+from drake_sot.models import HumanoidInfo, add_ground, half_sitting_configuration, load_humanoid, make_control_model
+from drake_sot.systems.features import FeatureCoM, FeatureJointLimits, FeaturePoint6d, FeaturePosture, _Feature
+from drake_sot.systems.gravity import GravityFeedforward
+from drake_sot.systems.integrator import Integrator
+from drake_sot.systems.kinematics import RobotKinematics
+from drake_sot.systems.sot import StackOfTasks
+from drake_sot.systems.task import Task
+
+@dataclass
+class HumanoidSoT:
+    """A built diagram and handles on the parts a scenario, a test or a user needs."""
+
+    diagram: Diagram
+    plant: MultibodyPlant
+    info: HumanoidInfo
+    control_plant: MultibodyPlant
+    dyn: RobotKinematics
+    sot: StackOfTasks
+    device: Integrator
+    tasks: dict[str, Task]
+    features: dict[str, _Feature]
+    loggers: dict[str, VectorLogSink]
+    q0: np.ndarray
+    meshcat: Meshcat | None
+    visualizer: MeshcatVisualizer | None
+
+    def create_simulator(self) -> Simulator:
+        """A simulator whose plant starts in the reference configuration q0, at rest."""
+        simulator = Simulator(self.diagram)
+        context = simulator.get_mutable_context()
+        plant_context = self.plant.GetMyMutableContextFromRoot(context)
+        self.plant.SetPositions(plant_context, self.info.model_instance, self.q0)
+        simulator.Initialize()
+        return simulator
+
+    def frame_pose(self, root_context, frame_key: str) -> RigidTransform:
+        """Pose in world of a humanoid frame (logical name, e.g. ``"right_hand"``) in the *simulated* plant."""
+        plant_context = self.plant.GetMyContextFromRoot(root_context)
+        return self.plant.GetFrameByName(self.info.frames[frame_key], self.info.model_instance).CalcPoseInWorld(
+            plant_context
+        )
+
+
+class HumanoidSoTBuilder:
+    """Adds tasks by name around the embedded humanoid, then builds the closed loop.
+
+    Args:
+        control_period: period of the SoT tick [s] (5 ms as on HRP-2).
+        time_step: physics step of the plant [s].
+        meshcat: a Meshcat to draw in; None for no visualisation. Use
+            :func:`loopback_meshcat` for a headless recorder bound to localhost.
+    """
+
+    def __init__(
+        self, *, control_period: float = 0.005, time_step: float = 1e-3, meshcat: Meshcat | None = None
+    ) -> None:
+        self.builder = DiagramBuilder()
+        config = MultibodyPlantConfig(
+            time_step=time_step, discrete_contact_approximation="sap", contact_model="point"
+        )
+        self.plant, self.scene_graph = AddMultibodyPlant(config, self.builder)
+        self.info = load_humanoid(self.plant)
+        add_ground(self.plant)
+        self.plant.Finalize()
+        self.control_plant, self.control_info = make_control_model()
+        self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
+        self.control_period = control_period
+        self.meshcat = meshcat
+        self.dyn = self.builder.AddSystem(RobotKinematics(self.control_plant))
+        self.dyn.set_name("dyn")
+        self.tasks: dict[str, Task] = {}
+        self.features: dict[str, _Feature] = {}
+        self._q_consumers: list = [self.dyn.GetInputPort("q")]
+        self._probe_context = self.control_plant.CreateDefaultContext()
+        self.control_plant.SetPositions(self._probe_context, self.q0)
+
+    # --- reference values at the initial configuration -----------------------------
+    def initial_pose(self, frame_key: str) -> RigidTransform:
+        """Pose in world of a humanoid frame (logical name) in the initial configuration q0."""
+        return self._frame(frame_key).CalcPoseInWorld(self._probe_context)
+
+    def initial_com(self) -> np.ndarray:
+        """CoM position (3,) [m] in the initial configuration q0."""
+        return self.control_plant.CalcCenterOfMassPositionInWorld(self._probe_context)
+
+    def _frame(self, frame_key: str):
+        if frame_key not in self.control_info.frames:
+            raise KeyError(f"unknown frame {frame_key!r}; known: {', '.join(self.control_info.frames)}")
+        return self.control_plant.GetFrameByName(self.control_info.frames[frame_key])
+
+    # --- tasks -----------------------------------------------------------------------
+    def op_point(self, frame_key: str) -> str:
+        """Create (once) the operational point of a humanoid frame on ``dyn``; returns its name."""
+        if frame_key not in self.dyn.operational_points:
+            self._frame(frame_key)
+            self.dyn.add_operational_point(frame_key, self.control_info.frames[frame_key])
+        return frame_key
+
+    def _add_task(self, task_name: str, feature: _Feature, gain: Gain) -> Task:
+        if task_name in self.tasks:
+            raise ValueError(f"a task named {task_name!r} exists already")
+        self.builder.AddSystem(feature)
+        task = self.builder.AddSystem(Task(task_name, gain=gain))
+        self.builder.Connect(feature.GetOutputPort("feature"), task.add(feature))
+        self.tasks[task_name] = task
+        self.features[task_name] = feature
+        return task
+
+    def add_op_point_task(
+        self, task_name: str, frame_key: str, *, selection: SelectionLike = None, gain: Gain = 1.0,
+        desired: RigidTransform | None = None,
+    ) -> Task:
+        """A 6D task (``FeaturePoint6d``) on a humanoid frame; holds its initial pose unless ``desired``."""
+        op = self.op_point(frame_key)
+        feature = FeaturePoint6d(
+            selection=selection, name=f"feature_{task_name}",
+            desired=self.initial_pose(frame_key) if desired is None else desired,
+        )
+        task = self._add_task(task_name, feature, gain)
+        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        return task
+
+    def add_com_task(
+        self, task_name: str, *, selection: SelectionLike = "110", gain: Gain = 1.0, desired: np.ndarray | None = None
+    ) -> Task:
+        """A CoM task (``FeatureCoM``, xy by default); holds the initial CoM unless ``desired``."""
+        feature = FeatureCoM(
+            selection=selection, name=f"feature_{task_name}",
+            desired=self.initial_com() if desired is None else desired,
+        )
+        task = self._add_task(task_name, feature, gain)
+        self.builder.Connect(self.dyn.GetOutputPort("com"), feature.GetInputPort("com"))
+        self.builder.Connect(self.dyn.GetOutputPort("Jcom"), feature.GetInputPort("Jcom"))
+        return task
+
+    def add_posture_task(
+        self, task_name: str, joints: Sequence[str] | None = None, *, gain: Gain = 1.0, desired: np.ndarray | None = None
+    ) -> Task:
+        """A posture task (``FeaturePosture``) on ``joints`` (all actuated joints by default) toward q0."""
+        feature = FeaturePosture(
+            self.control_plant, list(joints) if joints is not None else list(self.control_info.actuated_joints),
+            name=f"feature_{task_name}", desired=self.q0 if desired is None else desired,
+        )
+        task = self._add_task(task_name, feature, gain)
+        self._q_consumers.append(feature.GetInputPort("q"))
+        return task
+
+    def add_joint_limits_task(self, task_name: str, *, margin: float = 0.02, gain: Gain = 5.0) -> Task:
+        """A joint-limit task (``FeatureJointLimits``) on every actuated joint; put it at the top of the stack."""
+        feature = FeatureJointLimits(
+            self.control_plant, list(self.control_info.actuated_joints), margin=margin, name=f"feature_{task_name}"
+        )
+        task = self._add_task(task_name, feature, gain)
+        self._q_consumers.append(feature.GetInputPort("q"))
+        return task
+
+    # --- closing the loop ------------------------------------------------------------
+    def build(self, stack: Sequence[str], *, log_period: float | None = None) -> HumanoidSoT:
+        """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop."""
+        b = self.builder
+        period = self.control_period
+        sot = b.AddSystem(
+            StackOfTasks(self.control_plant.num_velocities(), list(self.tasks.values()), period=period, stack=stack)
+        )
+        for task_name, task in self.tasks.items():
+            b.Connect(task.GetOutputPort("task"), sot.GetInputPort(task_name))
+        device = b.AddSystem(Integrator(self.control_plant, self.control_info.actuated_joints, self.q0, period=period))
+        b.Connect(sot.GetOutputPort("qdot"), device.GetInputPort("qdot"))
+        for port in self._q_consumers:
+            b.Connect(device.GetOutputPort("q"), port)
+        b.Connect(device.GetOutputPort("state_des"), self.plant.get_desired_state_input_port(self.info.model_instance))
+        feet = [self.control_info.frames["left_foot"], self.control_info.frames["right_foot"]]
+        gravity = b.AddSystem(GravityFeedforward(self.control_plant, self.control_info.actuated_joints, feet))
+        gravity.set_name("gravity_feedforward")
+        b.Connect(device.GetOutputPort("q"), gravity.GetInputPort("q"))
+        b.Connect(gravity.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance))
+
+        log_period = log_period or period
+        loggers = {
+            "state": LogVectorOutput(self.plant.get_state_output_port(self.info.model_instance), b, log_period),
+            "q_ref": LogVectorOutput(device.GetOutputPort("q"), b, log_period),
+            "errors": LogVectorOutput(sot.GetOutputPort("errors"), b, log_period),
+        }
+        for name, logger in loggers.items():
+            logger.set_name(f"log_{name}")
+        visualizer = None
+        if self.meshcat is not None:
+            visualizer = MeshcatVisualizer.AddToBuilder(
+                b, self.scene_graph, self.meshcat, MeshcatVisualizerParams(publish_period=1 / 30)
+            )
+        diagram = b.Build()
+        diagram.set_name("drake_sot")
+        return HumanoidSoT(
+            diagram=diagram, plant=self.plant, info=self.info, control_plant=self.control_plant, dyn=self.dyn,
+            sot=sot, device=device, tasks=dict(self.tasks), features=dict(self.features), loggers=loggers,
+            q0=self.q0, meshcat=self.meshcat, visualizer=visualizer,
+        )
+
+
+def loopback_meshcat() -> Meshcat:
+    """A Meshcat server bound to localhost on a free port (headless recording; nothing listens outside)."""
+    return Meshcat(MeshcatParams(host="localhost", port=0))

@@ -1,0 +1,65 @@
+"""Scenario ``reach``: stand, reach with the right hand, then push and remove a left-hand task.
+
+Stack (highest priority first): joint limits, left foot 6D, right foot 6D, CoM xy,
+right hand 6D, posture. The joint-limit task is inactive (zero rows) until a joint
+comes within 2 cm·rad of a limit. Script:
+
+- t = 1 s: the right-hand target moves 25 cm forward and 20 cm up from where the hand
+  started (orientation kept);
+- t = 3 s: ``push taskLH`` (left hand to a second target, 20 cm forward, 15 cm up),
+  then ``up taskLH`` so that it ranks above the posture task (a pushed task lands at
+  the lowest priority, where the full-rank posture would leave it no freedom);
+- t = 5 s: ``rm taskLH``: the left hand is no longer controlled, the posture task
+  takes it back.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.math import RigidTransform
+
+from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+
+RIGHT_HAND_OFFSET = np.array([0.25, 0.0, 0.20])  # [m] from the initial hand position, world frame
+LEFT_HAND_OFFSET = np.array([0.20, 0.0, 0.15])
+STACK = ("taskJL", "taskLF", "taskRF", "taskCom", "taskRH", "taskPosture")
+
+
+def _shifted(X: RigidTransform, offset: np.ndarray) -> RigidTransform:
+    return RigidTransform(X.rotation(), X.translation() + offset)
+
+
+def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
+    """Build the ``reach`` diagram and its script."""
+    b = HumanoidSoTBuilder(meshcat=meshcat)
+    target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
+    target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
+    b.add_joint_limits_task("taskJL")
+    b.add_op_point_task("taskLF", "left_foot", gain=5.0)
+    b.add_op_point_task("taskRF", "right_foot", gain=5.0)
+    b.add_com_task("taskCom", selection="110", gain=3.0)
+    b.add_op_point_task("taskRH", "right_hand", gain=2.5)
+    b.add_op_point_task("taskLH", "left_hand", gain=2.5, desired=target_lh)
+    b.add_posture_task("taskPosture", gain=1.0)
+    built = b.build(stack=STACK)
+    sot, feature_rh = built.sot, built.features["taskRH"]
+    commands = [
+        Command(1.0, "taskRH target +25 cm x, +20 cm z", lambda c: feature_rh.set_desired(c, target_rh)),
+        Command(3.0, "push taskLH", lambda c: sot.push(c, "taskLH")),
+        Command(3.0, "up taskLH", lambda c: sot.up(c, "taskLH")),
+        Command(5.0, "rm taskLH", lambda c: sot.rm(c, "taskLH")),
+    ]
+    return ScenarioSetup(
+        built=built, commands=commands, duration=7.0,
+        targets={"right_hand": target_rh, "left_hand": target_lh},
+    )
+
+
+SCENARIO = Scenario(
+    name="reach",
+    description="stand, reach with the right hand (t=1 s), push then rm a left-hand task (t=3 s, t=5 s)",
+    build=build,
+)

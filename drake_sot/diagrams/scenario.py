@@ -1,0 +1,88 @@
+"""Scenarios: a named diagram with its timed commands, and the run that writes its artefacts."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.math import RigidTransform
+
+from drake_sot.diagrams.artifacts import log_arrays, write_npz, write_replay, write_svg
+from drake_sot.diagrams.humanoid import HumanoidSoT, loopback_meshcat
+from drake_sot.diagrams.run import Command, Progress, RunResult, simulate
+from drake_sot.plots import plot_task_errors
+
+
+@dataclass
+class ScenarioSetup:
+    """A built scenario, ready to simulate.
+
+    Attributes:
+        built: the diagram and its parts.
+        commands: the timed commands of the scenario's script.
+        duration: default simulated duration [s].
+        targets: named target poses, for checks and plots.
+    """
+
+    built: HumanoidSoT
+    commands: list[Command]
+    duration: float
+    targets: dict[str, RigidTransform] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A scenario of the ``drake-sot`` command: a name, a one-line description, a builder."""
+
+    name: str
+    description: str
+    build: Callable[[Meshcat | None], ScenarioSetup]
+
+
+@dataclass
+class ScenarioOutput:
+    """What :func:`run_scenario` produced."""
+
+    result: RunResult
+    arrays: dict[str, np.ndarray]
+    files: dict[str, Path]
+
+
+def run_scenario(
+    scenario: Scenario,
+    out_dir: str | Path,
+    *,
+    duration: float | None = None,
+    record: bool = True,
+    progress: Progress | None = None,
+) -> ScenarioOutput:
+    """Build, simulate and write ``<name>.html`` (replay, when ``record``), ``<name>.svg``
+    (diagram), ``<name>.png`` (task errors) and ``<name>.npz`` (logs) into ``out_dir``.
+
+    Artefacts are written even when the run is interrupted (Ctrl-C) or fails, covering
+    what was simulated; ``result`` says how it ended.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    setup = scenario.build(loopback_meshcat() if record else None)
+    built = setup.built
+    files = {"svg": out / f"{scenario.name}.svg"}
+    write_svg(built.diagram, files["svg"])
+    simulator = built.create_simulator()
+    if built.visualizer is not None:
+        built.visualizer.StartRecording(set_transforms_while_recording=False)
+    result = simulate(simulator, duration or setup.duration, setup.commands, progress=progress)
+    context = simulator.get_context()
+    arrays = log_arrays(built, context, result)
+    files["npz"] = out / f"{scenario.name}.npz"
+    write_npz(arrays, files["npz"])
+    files["png"] = out / f"{scenario.name}.png"
+    errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
+    plot_task_errors(arrays["time"], errors, result.events, files["png"], title=f"{scenario.name}: task errors")
+    if record:
+        files["html"] = out / f"{scenario.name}.html"
+        write_replay(built, files["html"])
+    return ScenarioOutput(result=result, arrays=arrays, files=files)

@@ -1,0 +1,44 @@
+"""The values that travel on abstract-valued ports between features, tasks and solvers.
+
+Small immutable records of numpy arrays (DESIGN.md: "matrices and structured values
+travel on abstract-valued ports as small immutable dataclasses"). Pure; no Drake.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FeatureSignal:
+    """A feature's contribution to a task (paper 000 eq. 5-7).
+
+    Attributes:
+        error: ``e = s - s*`` (m,), the selected components only.
+        jacobian: ``J = ∂e/∂q`` (m, nv), with respect to the generalized velocity v.
+        feedforward: ``-∂e/∂t`` (m,): how the reference moves; a task adds it to its
+            desired error rate so that a moving reference is tracked without lag.
+    """
+
+    error: np.ndarray
+    jacobian: np.ndarray
+    feedforward: np.ndarray
+
+
+@dataclass(frozen=True)
+class TaskSignal:
+    """A task as the solver sees it: ``J q̇ = ė*`` with ``ė* = -λ e + feedforward``.
+
+    Attributes:
+        name: the task's name (the key the stack uses).
+        error: ``e`` (m,).
+        jacobian: ``J`` (m, nv).
+        edot_des: ``ė*`` (m,).
+    """
+
+    name: str
+    error: np.ndarray
+    jacobian: np.ndarray
+    edot_des: np.ndarray

@@ -1,0 +1,378 @@
+"""Features (paper 000, III-B.4): each measures ``s`` on the robot and outputs ``e = s - s*`` and ``J``.
+
+Every feature has the same two outputs and the same way of receiving its desired
+value ``s*``:
+
+Output ports (all features):
+    feature: abstract :class:`~drake_sot.signals.FeatureSignal` (error, Jacobian
+        w.r.t. v, reference feed-forward), selected components only; plug it into a
+        :class:`~drake_sot.systems.task.Task`.
+    error: ``e`` as a vector (m,), for logging and plotting.
+
+Desired value: from the feature's desired-value input port when that port is
+connected (a reference generator, the paper's ``plug PGselec.scomref ...``), otherwise
+from a parameter set with :meth:`set_desired` (the paper's ``set ... sdes``). Setting
+the parameter while the port is connected is refused, not ignored. The constructor's
+``desired`` argument is the parameter's default (what a new context holds).
+
+Selection: a mask over the feature's components (``"001000"`` keeps z alone for a 6D
+feature, as the tele-cooperation paper does for hand altitudes). The output size is
+the number of selected components.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JointIndex
+from pydrake.systems.framework import Context, InputPort, LeafSystem
+
+from drake_sot import features as fmath
+from drake_sot.signals import FeatureSignal
+from drake_sot.systems._context import own_context
+
+
+class _Feature(LeafSystem):
+    """Selection, desired value and the two outputs shared by every feature."""
+
+    def __init__(self, size: int, selection: fmath.SelectionLike, name: str | None) -> None:
+        super().__init__()
+        if name:
+            self.set_name(name)
+        self._indices = fmath.selection_indices(selection, size, name=f"selection of {self.get_name()!r}")
+        self._full = self._indices.size == size
+        self._size = size
+        self._desired_port: InputPort | None = None
+        self._desired_param: int | None = None
+
+    @property
+    def dimension(self) -> int:
+        """Number of selected components m (the size of ``error``)."""
+        return int(self._indices.size)
+
+    def _declare_desired(self, port_name: str, default_value, vector_size: int | None) -> None:
+        """The ``s*`` input (vector of ``vector_size``, or abstract) and its parameter fallback."""
+        if vector_size is None:
+            self._desired_port = self.DeclareAbstractInputPort(port_name, AbstractValue.Make(default_value))
+        else:
+            self._desired_port = self.DeclareVectorInputPort(port_name, vector_size)
+        self._desired_param = self.DeclareAbstractParameter(AbstractValue.Make(default_value))
+
+    def _declare_outputs(self) -> None:
+        m = self.dimension
+        feature = self.DeclareAbstractOutputPort(
+            "feature",
+            lambda: AbstractValue.Make(FeatureSignal(np.zeros(m), np.zeros((m, 0)), np.zeros(m))),
+            self._calc_feature,
+            prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "error", m,
+            lambda context, out: out.SetFromVector(feature.Eval(context).error),
+            prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
+        )
+
+    def desired(self, context: Context):
+        """``s*`` now: the input port's value when connected, else the parameter."""
+        context = own_context(self, context)
+        if self._desired_port.HasValue(context):
+            return self._desired_port.Eval(context)
+        return context.get_abstract_parameter(self._desired_param).get_value()
+
+    def set_desired(self, context: Context, value) -> None:
+        """Set the parameter ``s*`` (own or root context); refused when the input is connected."""
+        context = own_context(self, context)
+        if self._desired_port.HasValue(context):
+            raise ValueError(
+                f"{self.get_name()!r}: the desired value comes from input port "
+                f"{self._desired_port.get_name()!r}; change its source instead"
+            )
+        context.get_mutable_abstract_parameter(self._desired_param).set_value(self._check_desired(value))
+
+    def _check_desired(self, value):
+        """Validate and convert a desired value (overridden per feature)."""
+        raise NotImplementedError
+
+    def _compute(self, context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Full (unselected) ``(e, J, feedforward)``."""
+        raise NotImplementedError
+
+    def _calc_feature(self, context: Context, value: AbstractValue) -> None:
+        e, J, ff = self._compute(context)
+        if not self._full:
+            e, J, ff = e[self._indices], J[self._indices], ff[self._indices]
+        value.set_value(FeatureSignal(e, J, ff))
+
+
+class FeatureGeneric(_Feature):
+    """A feature whose value and Jacobian come from input signals (SoT ``FeatureGeneric``).
+
+    ``e = s - s*`` with ``s`` = ``errorIN``; ``J`` = ``jacobianIN``.
+
+    Input ports:
+        errorIN: the measured value s (size,).
+        jacobianIN: abstract ``ndarray`` (size, nv), ∂s/∂q w.r.t. v.
+        sdes: desired value s* (size,), optional (else the parameter).
+        sdes_dot: rate of the desired value ds*/dt (size,), optional (else zero): the
+            feed-forward of a moving reference.
+    Output ports: ``feature``, ``error`` (see the module docstring).
+    """
+
+    _value_port = "errorIN"
+    _jacobian_port = "jacobianIN"
+
+    def __init__(
+        self, size: int, *, selection: fmath.SelectionLike = None, name: str | None = None,
+        desired: np.ndarray | None = None,
+    ) -> None:
+        if size < 1:
+            raise ValueError(f"feature size {size} must be >= 1")
+        super().__init__(size, selection, name)
+        self._s = self.DeclareVectorInputPort(self._value_port, size)
+        self._J = self.DeclareAbstractInputPort(self._jacobian_port, AbstractValue.Make(np.zeros((size, 0))))
+        self._declare_desired("sdes", self._check_desired(np.zeros(size) if desired is None else desired), size)
+        self._sdes_dot = self.DeclareVectorInputPort("sdes_dot", size)
+        self._declare_outputs()
+
+    def _check_desired(self, value) -> np.ndarray:
+        value = np.asarray(value, dtype=float).reshape(-1)
+        if value.shape != (self._size,) or not np.all(np.isfinite(value)):
+            raise ValueError(f"{self.get_name()!r}: desired value {value} must be {self._size} finite numbers")
+        return value
+
+    def _compute(self, context):
+        J = self._J.Eval(context)
+        if J.shape[0] != self._size:
+            raise ValueError(
+                f"{self.get_name()!r}: {self._jacobian_port} has shape {J.shape}, expected ({self._size}, nv)"
+            )
+        e = self._s.Eval(context) - np.asarray(self.desired(context))
+        ff = self._sdes_dot.Eval(context) if self._sdes_dot.HasValue(context) else np.zeros(self._size)
+        return e, J, ff
+
+
+class FeatureCoM(FeatureGeneric):
+    """Centre-of-mass feature: ``e = c - c*`` (3,), ``J = Jcom`` (SoT ``FeatureCoM``).
+
+    Input ports:
+        com: CoM position (3,) [m] (``RobotKinematics.com``).
+        Jcom: abstract ``ndarray`` (3, nv) (``RobotKinematics.Jcom``).
+        sdes: desired CoM (3,) [m], optional (else the parameter).
+        sdes_dot: desired CoM velocity (3,) [m/s], optional.
+    Output ports: ``feature``, ``error``. Use ``selection="110"`` for the ground
+    projection (CoM xy) of balance control.
+    """
+
+    _value_port = "com"
+    _jacobian_port = "Jcom"
+
+    def __init__(
+        self, *, selection: fmath.SelectionLike = None, name: str | None = None, desired: np.ndarray | None = None
+    ) -> None:
+        super().__init__(3, selection=selection, name=name, desired=desired)
+
+
+def _check_pose(owner: LeafSystem, value) -> RigidTransform:
+    if not isinstance(value, RigidTransform):
+        raise TypeError(f"{owner.get_name()!r}: desired pose must be a RigidTransform, got {type(value).__name__}")
+    if not np.all(np.isfinite(value.GetAsMatrix4())):
+        raise ValueError(f"{owner.get_name()!r}: desired pose is not finite")
+    return value
+
+
+class FeaturePoint6d(_Feature):
+    """Pose of an operational point against a desired pose (SoT ``FeaturePoint6d``).
+
+    ``e = [p - p*; log(R R*ᵀ)]`` (6,): position error [m] then the rotation vector
+    [rad] of the orientation error, world frame, with its exact Jacobian.
+
+    Input ports:
+        position: abstract ``RigidTransform``, the frame's pose in world.
+        Jq: abstract ``ndarray`` (6, nv), the frame Jacobian (rows ``[ω; v]``).
+        position_des: abstract ``RigidTransform``, desired pose, optional (else the parameter).
+        velocity_des: desired spatial velocity ``[v*; ω*]`` (6,) [m/s, rad/s], world
+            frame, optional (else zero): the feed-forward of a moving reference.
+    Output ports: ``feature``, ``error``.
+    """
+
+    def __init__(
+        self, *, selection: fmath.SelectionLike = None, name: str | None = None,
+        desired: RigidTransform | None = None,
+    ) -> None:
+        super().__init__(6, selection, name)
+        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
+        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
+        self._declare_desired("position_des", _check_pose(self, RigidTransform() if desired is None else desired), None)
+        self._velocity_des = self.DeclareVectorInputPort("velocity_des", 6)
+        self._declare_outputs()
+
+    def _check_desired(self, value) -> RigidTransform:
+        return _check_pose(self, value)
+
+    def _compute(self, context):
+        X = self._pose.Eval(context)
+        X_des = self.desired(context)
+        velocity_des = self._velocity_des.Eval(context) if self._velocity_des.HasValue(context) else None
+        return fmath.point6d(
+            X.rotation().matrix(), X.translation(), self._J.Eval(context),
+            X_des.rotation().matrix(), X_des.translation(), velocity_des,
+        )
+
+
+class FeaturePoint6dRelative(_Feature):
+    """Pose of one operational point in the frame of another (SoT ``FeaturePoint6dRelative``).
+
+    E.g. one foot relative to the other. ``e = [p_ba - p*; log(R_ba R*ᵀ)]`` (6,),
+    expressed in the reference frame b, with its exact Jacobian.
+
+    Input ports:
+        position: abstract ``RigidTransform``, pose of the moving frame a in world.
+        Jq: abstract ``ndarray`` (6, nv), its Jacobian (rows ``[ω; v]``).
+        positionRef: abstract ``RigidTransform``, pose of the reference frame b in world.
+        JqRef: abstract ``ndarray`` (6, nv), its Jacobian.
+        position_des: abstract ``RigidTransform``, desired pose of a in b, optional.
+    Output ports: ``feature``, ``error``.
+    """
+
+    def __init__(
+        self, *, selection: fmath.SelectionLike = None, name: str | None = None,
+        desired: RigidTransform | None = None,
+    ) -> None:
+        super().__init__(6, selection, name)
+        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
+        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
+        self._pose_ref = self.DeclareAbstractInputPort("positionRef", AbstractValue.Make(RigidTransform()))
+        self._J_ref = self.DeclareAbstractInputPort("JqRef", AbstractValue.Make(np.zeros((6, 0))))
+        self._declare_desired("position_des", _check_pose(self, RigidTransform() if desired is None else desired), None)
+        self._declare_outputs()
+
+    def _check_desired(self, value) -> RigidTransform:
+        return _check_pose(self, value)
+
+    def _compute(self, context):
+        X_a, X_b = self._pose.Eval(context), self._pose_ref.Eval(context)
+        X_des = self.desired(context)
+        e, J = fmath.point6d_relative(
+            X_a.rotation().matrix(), X_a.translation(), self._J.Eval(context),
+            X_b.rotation().matrix(), X_b.translation(), self._J_ref.Eval(context),
+            X_des.rotation().matrix(), X_des.translation(),
+        )
+        return e, J, np.zeros(6)
+
+
+class FeaturePosture(_Feature):
+    """Joint positions against a reference posture, on a selection of joints.
+
+    ``e = q[joints] - q*[joints]``; ``J`` selects the joints' velocity columns.
+
+    Input ports:
+        q: configuration (nq,) of ``plant``.
+        sdes: desired configuration q* (nq,), optional (else the parameter; only the
+            selected joints are read).
+    Output ports: ``feature``, ``error`` (one component per joint).
+
+    Args:
+        plant: the finalized robot model (the same one ``RobotKinematics`` uses).
+        joints: names of one-DoF joints to control; None for every one-DoF joint.
+    """
+
+    def __init__(
+        self, plant: MultibodyPlant, joints: Sequence[str] | None = None, *,
+        selection: fmath.SelectionLike = None, name: str | None = None, desired: np.ndarray | None = None,
+    ) -> None:
+        names = list(joints) if joints is not None else _one_dof_joint_names(plant)
+        unknown = [j for j in names if not plant.HasJointNamed(j)]
+        if unknown:
+            raise ValueError(
+                f"FeaturePosture: unknown joints {unknown}; the model has {_one_dof_joint_names(plant)}"
+            )
+        joint_objs = [plant.GetJointByName(j) for j in names]
+        bad = [j.name() for j in joint_objs if j.num_positions() != 1 or j.num_velocities() != 1]
+        if bad:
+            raise ValueError(f"FeaturePosture: joints {bad} are not one-DoF joints")
+        super().__init__(len(names), selection, name)
+        self.joint_names = tuple(names)
+        self._q_index = np.array([j.position_start() for j in joint_objs])
+        self._J_full = np.zeros((len(names), plant.num_velocities()))
+        self._J_full[np.arange(len(names)), [j.velocity_start() for j in joint_objs]] = 1.0
+        self._nq = plant.num_positions()
+        self._q = self.DeclareVectorInputPort("q", self._nq)
+        default = plant.GetPositions(plant.CreateDefaultContext()) if desired is None else desired
+        self._declare_desired("sdes", self._check_desired(default), self._nq)
+        self._declare_outputs()
+
+    def _check_desired(self, value) -> np.ndarray:
+        value = np.asarray(value, dtype=float).reshape(-1)
+        if value.shape != (self._nq,) or not np.all(np.isfinite(value[self._q_index])):
+            raise ValueError(f"{self.get_name()!r}: desired configuration must be {self._nq} finite numbers")
+        return value
+
+    def _compute(self, context):
+        q = self._q.Eval(context)
+        q_des = np.asarray(self.desired(context))
+        return q[self._q_index] - q_des[self._q_index], self._J_full, np.zeros(self._size)
+
+
+def _one_dof_joint_names(plant: MultibodyPlant) -> list[str]:
+    joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
+    return [j.name() for j in joints if j.num_positions() == 1 and j.num_velocities() == 1]
+
+
+class FeatureJointLimits(_Feature):
+    """Keeps joints inside their position limits: one row per joint, active near a limit.
+
+    For a joint inside ``[lower + margin, upper - margin]`` the row is zero (error 0,
+    Jacobian 0) and, being rank-deficient, takes no freedom from lower tasks. Past
+    the margin the row is ``e = q - (lower + margin)`` (or ``q - (upper - margin)``)
+    with the joint's unit Jacobian, so a task at the top of the stack drives the
+    joint back to the margin and blocks motion further out; the lower tasks then do
+    without that joint. This is the stack's answer to joint limits: the reference is
+    never clipped afterwards.
+
+    Input ports:
+        q: configuration (nq,) of ``plant``.
+    Output ports: ``feature``, ``error`` (one component per joint, 0 when inactive).
+
+    Args:
+        plant: the finalized robot model (its joints' position limits are used).
+        joints: one-DoF joints to guard; None for all.
+        margin: distance from each limit where the row activates [rad or m].
+    """
+
+    def __init__(
+        self, plant: MultibodyPlant, joints: Sequence[str] | None = None, *, margin: float = 0.02,
+        name: str | None = None,
+    ) -> None:
+        names = list(joints) if joints is not None else _one_dof_joint_names(plant)
+        joint_objs = [plant.GetJointByName(j) for j in names]
+        lower = np.array([j.position_lower_limits()[0] for j in joint_objs])
+        upper = np.array([j.position_upper_limits()[0] for j in joint_objs])
+        if margin < 0 or np.any(upper - lower <= 2 * margin):
+            raise ValueError(f"margin {margin} must be >= 0 and leave room inside every joint's limits")
+        super().__init__(len(names), None, name)
+        self.joint_names = tuple(names)
+        self._q_index = np.array([j.position_start() for j in joint_objs])
+        self._v_index = np.array([j.velocity_start() for j in joint_objs])
+        self._low = lower + margin
+        self._high = upper - margin
+        self._nv = plant.num_velocities()
+        self._q = self.DeclareVectorInputPort("q", plant.num_positions())
+        self._declare_outputs()
+
+    def set_desired(self, context: Context, value) -> None:
+        raise ValueError(f"{self.get_name()!r}: joint limits have no desired value to set")
+
+    def desired(self, context: Context):
+        return None
+
+    def _compute(self, context):
+        q = self._q.Eval(context)[self._q_index]
+        e = np.where(q < self._low, q - self._low, np.where(q > self._high, q - self._high, 0.0))
+        J = np.zeros((self._size, self._nv))
+        active = np.flatnonzero(e)
+        J[active, self._v_index[active]] = 1.0
+        return e, J, np.zeros(self._size)

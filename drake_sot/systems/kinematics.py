@@ -1,0 +1,123 @@
+"""``RobotKinematics``: the SoT's dynamic-model entity ("dyn") on a Drake MultibodyPlant."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import FrameIndex, JacobianWrtVariable
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+
+class RobotKinematics(LeafSystem):
+    """Forward kinematics of the controller's robot model, on demand.
+
+    The paper's ``dyn`` entity: it reads the configuration and provides the CoM, its
+    Jacobian and, for each *operational point* created with
+    :meth:`add_operational_point` (the paper's ``createOpPoint``), the frame's pose and
+    Jacobian. Only the operational points a scenario asks for are computed, and each
+    only when q changed (Drake's cache).
+
+    Input ports:
+        q: configuration (nq,) of ``plant`` (quaternion floating base first).
+
+    Output ports:
+        com: centre of mass position in world (3,) [m].
+        Jcom: CoM Jacobian, abstract ``ndarray`` (3, nv), w.r.t. v.
+        <name>: pose of the operational point's frame in world, abstract ``RigidTransform``.
+        J<name>: the frame's Jacobian, abstract ``ndarray`` (6, nv): rows ``[ω; v]``
+            (angular velocity, then velocity of the frame origin, world frame), w.r.t. v.
+
+    The plant is a finalized model owned by the controller (see
+    ``drake_sot.models.make_control_model``), distinct from the simulated plant; this
+    system keeps one scratch context for it, so evaluate it from one thread.
+    """
+
+    def __init__(self, plant: MultibodyPlant) -> None:
+        super().__init__()
+        if not plant.is_finalized():
+            raise ValueError("RobotKinematics needs a finalized MultibodyPlant")
+        self._plant = plant
+        self._plant_context = plant.CreateDefaultContext()
+        self._world = plant.world_frame()
+        self._last_q: np.ndarray | None = None
+        self._operational_points: dict[str, str] = {}
+        nq, nv = plant.num_positions(), plant.num_velocities()
+        self._q_port = self.DeclareVectorInputPort("q", nq)
+        q_ticket = {self.input_port_ticket(self._q_port.get_index())}
+        self.DeclareVectorOutputPort("com", 3, self._calc_com, prerequisites_of_calc=q_ticket)
+        self.DeclareAbstractOutputPort(
+            "Jcom", lambda: AbstractValue.Make(np.zeros((3, nv))), self._calc_jcom,
+            prerequisites_of_calc=q_ticket,
+        )
+
+    @property
+    def plant(self) -> MultibodyPlant:
+        """The robot model the kinematics is computed on."""
+        return self._plant
+
+    @property
+    def operational_points(self) -> dict[str, str]:
+        """Operational point name → frame name."""
+        return dict(self._operational_points)
+
+    def add_operational_point(self, name: str, frame_name: str) -> None:
+        """Create output ports ``name`` (pose) and ``J<name>`` (Jacobian) for a frame.
+
+        The paper's ``dyn.createOpPoint rleg 6``, naming a frame instead of a joint rank.
+        Must be called before the diagram is built. Raises ValueError when the name is
+        taken or the frame does not exist (listing the model's frames).
+        """
+        if name in self._operational_points or name in ("com", "Jcom", "q"):
+            raise ValueError(f"operational point {name!r} already exists on {self.get_name()!r}")
+        if not self._plant.HasFrameNamed(frame_name):
+            frames = sorted(
+                self._plant.get_frame(FrameIndex(i)).name() for i in range(self._plant.num_frames())
+            )
+            raise ValueError(f"no frame {frame_name!r} in the robot model; frames: {', '.join(frames)}")
+        frame = self._plant.GetFrameByName(frame_name)
+        self._operational_points[name] = frame_name
+        nv = self._plant.num_velocities()
+        q_ticket = {self.input_port_ticket(self._q_port.get_index())}
+
+        def calc_pose(context, value) -> None:
+            self._update(context)
+            value.set_value(frame.CalcPoseInWorld(self._plant_context))
+
+        def calc_jacobian(context, value) -> None:
+            self._update(context)
+            value.set_value(
+                self._plant.CalcJacobianSpatialVelocity(
+                    self._plant_context, JacobianWrtVariable.kV, frame,
+                    np.zeros(3), self._world, self._world,
+                )
+            )
+
+        self.DeclareAbstractOutputPort(
+            name, lambda: AbstractValue.Make(RigidTransform()), calc_pose,
+            prerequisites_of_calc=q_ticket,
+        )
+        self.DeclareAbstractOutputPort(
+            "J" + name, lambda: AbstractValue.Make(np.zeros((6, nv))), calc_jacobian,
+            prerequisites_of_calc=q_ticket,
+        )
+
+    def _update(self, context) -> None:
+        """Load q into the scratch plant context, only when it changed."""
+        q = self._q_port.Eval(context)
+        if self._last_q is None or not np.array_equal(q, self._last_q):
+            self._plant.SetPositions(self._plant_context, q)
+            self._last_q = np.array(q)
+
+    def _calc_com(self, context, output: BasicVector) -> None:
+        self._update(context)
+        output.SetFromVector(self._plant.CalcCenterOfMassPositionInWorld(self._plant_context))
+
+    def _calc_jcom(self, context, value) -> None:
+        self._update(context)
+        value.set_value(
+            self._plant.CalcJacobianCenterOfMassTranslationalVelocity(
+                self._plant_context, JacobianWrtVariable.kV, self._world, self._world
+            )
+        )

@@ -1,0 +1,80 @@
+"""``Task``: features → ``(e, J, ė*)`` with ``ė* = -λ e + feedforward`` (paper 000 eq. 3, 10)."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import Context, InputPort, LeafSystem
+
+from drake_sot.gains import Gain, evaluate_gain, validate_gain
+from drake_sot.signals import FeatureSignal, TaskSignal
+from drake_sot.systems._context import own_context
+from drake_sot.systems.features import _Feature
+
+
+class Task(LeafSystem):
+    """A task: the concatenation of one or more features and a gain.
+
+    ``e = [e_1; e_2; ...]`` (paper 000 eq. 10), ``J = [J_1; J_2; ...]`` and the desired
+    error rate ``ė* = -λ e + feedforward`` (eq. 3, plus the feed-forward of moving
+    references). λ is a constant or an :class:`~drake_sot.gains.AdaptiveGain` of ‖e‖,
+    held in a parameter that :meth:`set_gain` changes at run time.
+
+    Input ports:
+        <feature name>: one per feature added with :meth:`add`, abstract
+            :class:`~drake_sot.signals.FeatureSignal` (plug the feature's ``feature`` output).
+    Output ports:
+        task: abstract :class:`~drake_sot.signals.TaskSignal` for ``StackOfTasks``.
+
+    Example (the paper's ``new Task taskCom; taskCom.add featureCom``)::
+
+        task_com = builder.AddSystem(Task("taskCom", gain=2.0))
+        builder.Connect(feature_com.GetOutputPort("feature"), task_com.add(feature_com))
+    """
+
+    def __init__(self, name: str, *, gain: Gain = 1.0) -> None:
+        super().__init__()
+        self.set_name(name)
+        self._features: list[tuple[InputPort, int]] = []
+        self._gain = self.DeclareAbstractParameter(AbstractValue.Make(validate_gain(gain, name=name)))
+        self.DeclareAbstractOutputPort(
+            "task",
+            lambda: AbstractValue.Make(TaskSignal(name, np.zeros(0), np.zeros((0, 0)), np.zeros(0))),
+            self._calc_task,
+            prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
+        )
+
+    @property
+    def dimension(self) -> int:
+        """Total dimension m of the task (sum of its features' selected components)."""
+        return sum(m for _, m in self._features)
+
+    def add(self, feature: _Feature) -> InputPort:
+        """Add a feature (the paper's ``task.add feature``) and return the input port to plug it into."""
+        name = feature.get_name()
+        if self.HasInputPort(name):
+            raise ValueError(f"task {self.get_name()!r} already has a feature named {name!r}")
+        port = self.DeclareAbstractInputPort(
+            name, AbstractValue.Make(FeatureSignal(np.zeros(0), np.zeros((0, 0)), np.zeros(0)))
+        )
+        self._features.append((port, feature.dimension))
+        return port
+
+    def set_gain(self, context: Context, gain: Gain) -> None:
+        """Change λ at run time (own or root context)."""
+        own_context(self, context).get_mutable_abstract_parameter(self._gain).set_value(
+            validate_gain(gain, name=self.get_name())
+        )
+
+    def _calc_task(self, context: Context, value: AbstractValue) -> None:
+        if not self._features:
+            raise RuntimeError(f"task {self.get_name()!r} has no feature: call add() before building")
+        signals = [port.Eval(context) for port, _ in self._features]
+        if len(signals) == 1:
+            e, J, ff = signals[0].error, signals[0].jacobian, signals[0].feedforward
+        else:
+            e = np.concatenate([s.error for s in signals])
+            J = np.vstack([s.jacobian for s in signals])
+            ff = np.concatenate([s.feedforward for s in signals])
+        gain = evaluate_gain(context.get_abstract_parameter(self._gain).get_value(), float(np.linalg.norm(e)))
+        value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))
