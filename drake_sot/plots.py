@@ -31,7 +31,11 @@ def plot_task_errors(
     fig, ax = plt.subplots(figsize=(10, 5), dpi=110)
     for name, e in errors.items():
         ax.semilogy(time, np.maximum(np.linalg.norm(e, axis=1), 1e-6), label=name)
-    for t, label in events:
+    merged: dict[float, list[str]] = {}
+    for t, label in events:  # commands at the same instant share one marker
+        merged.setdefault(round(t, 6), []).append(label)
+    for t, labels in merged.items():
+        label = "; ".join(labels)
         ax.axvline(t, color="0.5", linestyle="--", linewidth=0.8)
         ax.text(t, 1.0, f" {label}", transform=ax.get_xaxis_transform(), rotation=90,
                 va="top", ha="left", fontsize=8, color="0.3")

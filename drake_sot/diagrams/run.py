@@ -33,6 +33,7 @@ class RunResult:
         end_time: simulated time reached [s].
         wall_time: wall-clock duration [s].
         events: ``(time, label)`` of every command applied.
+        not_reached: ``(time, label)`` of the commands scheduled after the run's end.
         interrupted: True when stopped by Ctrl-C.
         failure: the exception that stopped the run, if any.
     """
@@ -40,6 +41,7 @@ class RunResult:
     end_time: float = 0.0
     wall_time: float = 0.0
     events: list[tuple[float, str]] = field(default_factory=list)
+    not_reached: list[tuple[float, str]] = field(default_factory=list)
     interrupted: bool = False
     failure: BaseException | None = None
 
@@ -88,7 +90,8 @@ def simulate(
             t = context.get_time()
             if progress:
                 progress(t, duration, wallclock.perf_counter() - start)
-        for command in pending:  # commands due exactly at the end
+        while pending:  # commands due exactly at the end
+            command = pending.pop(0)
             command.apply(context)
             result.events.append((t, command.label))
     except KeyboardInterrupt:
@@ -97,5 +100,5 @@ def simulate(
         result.failure = exc
     result.end_time = context.get_time()
     result.wall_time = wallclock.perf_counter() - start
-    result.events.extend((c.time, f"(not reached) {c.label}") for c in late)
+    result.not_reached = [(c.time, c.label) for c in late + pending]
     return result

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
+from pydrake.systems.framework import Context
 
 from drake_sot.diagrams.artifacts import log_arrays, write_npz, write_replay, write_svg
 from drake_sot.diagrams.humanoid import HumanoidSoT, loopback_meshcat
@@ -44,11 +45,14 @@ class Scenario:
 
 @dataclass
 class ScenarioOutput:
-    """What :func:`run_scenario` produced."""
+    """What :func:`run_scenario` produced: how the run ended, the logs, the files, and
+    the scenario with its final context (to inspect the stack or the plant)."""
 
     result: RunResult
     arrays: dict[str, np.ndarray]
     files: dict[str, Path]
+    setup: ScenarioSetup
+    context: Context
 
 
 def run_scenario(
@@ -85,4 +89,4 @@ def run_scenario(
     if record:
         files["html"] = out / f"{scenario.name}.html"
         write_replay(built, files["html"])
-    return ScenarioOutput(result=result, arrays=arrays, files=files)
+    return ScenarioOutput(result=result, arrays=arrays, files=files, setup=setup, context=context)

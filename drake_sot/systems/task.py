@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from pydrake.common.value import AbstractValue
+from pydrake.common.value import AbstractValue, Value
 from pydrake.systems.framework import Context, InputPort, LeafSystem
 
 from drake_sot.gains import Gain, evaluate_gain, validate_gain
@@ -36,7 +36,8 @@ class Task(LeafSystem):
         super().__init__()
         self.set_name(name)
         self._features: list[tuple[InputPort, int]] = []
-        self._gain = self.DeclareAbstractParameter(AbstractValue.Make(validate_gain(gain, name=name)))
+        # Value[object]: the parameter holds a float or an AdaptiveGain.
+        self._gain = self.DeclareAbstractParameter(Value[object](validate_gain(gain, name=name)))
         self.DeclareAbstractOutputPort(
             "task",
             lambda: AbstractValue.Make(TaskSignal(name, np.zeros(0), np.zeros((0, 0)), np.zeros(0))),

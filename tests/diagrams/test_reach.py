@@ -1,0 +1,63 @@
+"""The ``reach`` scenario in physics: outcomes measured on the simulated plant."""
+
+import numpy as np
+import pytest
+
+from drake_sot.diagrams import reach
+from drake_sot.diagrams.scenario import run_scenario
+
+
+@pytest.fixture(scope="module")
+def reach_run(tmp_path_factory):
+    output = run_scenario(reach.SCENARIO, tmp_path_factory.mktemp("reach"), duration=6.0, record=False)
+    assert output.result.completed, output.result.failure
+    return output
+
+
+def _frame_positions(output, frame_key, times):
+    """World position of a humanoid frame in the *simulated* plant at the logged samples nearest ``times``."""
+    built, arrays = output.setup.built, output.arrays
+    plant = built.plant
+    context = plant.CreateDefaultContext()
+    frame = plant.GetFrameByName(built.info.frames[frame_key], built.info.model_instance)
+    out = []
+    for t in times:
+        k = int(np.argmin(np.abs(arrays["time"] - t)))
+        plant.SetPositions(context, built.info.model_instance, arrays["q"][k])
+        out.append(frame.CalcPoseInWorld(context).translation())
+    return np.array(out)
+
+
+def test_right_hand_reaches_its_target_by_3s(reach_run):
+    target = reach_run.setup.targets["right_hand"].translation()
+    p = _frame_positions(reach_run, "right_hand", [0.0, 3.0])
+    assert np.linalg.norm(p[0] - target) == pytest.approx(np.linalg.norm(reach.RIGHT_HAND_OFFSET), abs=0.01)
+    assert np.linalg.norm(p[1] - target) < 0.01
+
+
+def test_left_hand_reaches_its_target_by_5s(reach_run):
+    target = reach_run.setup.targets["left_hand"].translation()
+    p = _frame_positions(reach_run, "left_hand", [2.99, 4.995])
+    assert np.linalg.norm(p[0] - target) > 0.2  # it had not moved before the push
+    assert np.linalg.norm(p[1] - target) < 0.01
+
+
+def test_feet_do_not_slide_and_the_robot_stands(reach_run):
+    times = reach_run.arrays["time"]
+    for foot in ("left_foot", "right_foot"):
+        p = _frame_positions(reach_run, foot, times[::10])
+        slide = np.linalg.norm(p[:, :2] - p[0, :2], axis=1)
+        assert slide.max() < 0.002, f"{foot} slid {1000 * slide.max():.2f} mm"
+    pelvis_z = reach_run.arrays["q"][:, 6]
+    assert pelvis_z.min() > 0.6
+
+
+def test_left_hand_task_pushed_then_removed(reach_run):
+    built, context = reach_run.setup.built, reach_run.context
+    assert "taskLH" not in built.sot.list(context)
+    t, e_lh = reach_run.arrays["time"], reach_run.arrays["error/taskLH"]
+    assert np.all(np.isnan(e_lh[t < 2.99]))  # out of the stack before the push
+    assert np.all(np.isfinite(e_lh[(t > 3.01) & (t < 4.99)]))  # in it between push and rm
+    assert np.all(np.isnan(e_lh[t > 5.01]))  # out again after rm
+    labels = list(reach_run.arrays["event_label"])
+    assert labels.index("push taskLH") < labels.index("up taskLH") < labels.index("rm taskLH")

@@ -1,0 +1,110 @@
+"""Integrator (the SoT device), RobotKinematics (dyn) and the quasi-static feed-forward."""
+
+import numpy as np
+import pytest
+from pydrake.multibody.math import SpatialForce
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
+
+from drake_sot.configuration import integrate
+from drake_sot.statics import static_torques
+from drake_sot.systems.gravity import GravityFeedforward
+from drake_sot.systems.integrator import Integrator
+from drake_sot.systems.kinematics import RobotKinematics
+from conftest import random_configuration
+
+
+def test_integrator_integrates_on_the_manifold(control_model):
+    plant, info, q0 = control_model
+    device = Integrator(plant, info.actuated_joints, q0, period=0.005)
+    context = device.CreateDefaultContext()
+    rng = np.random.default_rng(0)
+    qdot = rng.normal(size=plant.num_velocities())
+    device.GetInputPort("qdot").FixValue(context, qdot)
+    q = q0.copy()
+    for _ in range(10):
+        context.SetDiscreteState(device.EvalUniquePeriodicDiscreteUpdate(context))
+        q = integrate(q, qdot, 0.005)
+    np.testing.assert_allclose(device.GetOutputPort("q").Eval(context), q, atol=1e-12)
+    assert abs(np.linalg.norm(device.GetOutputPort("q").Eval(context)[:4]) - 1.0) < 1e-14
+    # state_des is [q; v] of the actuated joints in actuator order, read through Drake's joint API.
+    state_des = device.GetOutputPort("state_des").Eval(context)
+    for k, name in enumerate(info.actuated_joints):
+        joint = plant.GetJointByName(name)
+        assert state_des[k] == q[joint.position_start()]
+        assert state_des[len(info.actuated_joints) + k] == qdot[joint.velocity_start()]
+
+
+def test_integrator_refuses_nan(control_model):
+    plant, info, q0 = control_model
+    device = Integrator(plant, info.actuated_joints, q0)
+    context = device.CreateDefaultContext()
+    qdot = np.zeros(plant.num_velocities())
+    qdot[7] = np.nan
+    device.GetInputPort("qdot").FixValue(context, qdot)
+    with pytest.raises(RuntimeError, match="input 'qdot' holds NaN"):
+        device.EvalUniquePeriodicDiscreteUpdate(context)
+
+
+def test_dyn_operational_points_match_the_plant(control_model):
+    plant, info, q0 = control_model
+    dyn = RobotKinematics(plant)
+    dyn.add_operational_point("rleg", info.frames["right_foot"])
+    with pytest.raises(ValueError, match="no frame 'nope'.*r_sole"):
+        dyn.add_operational_point("x", "nope")
+    with pytest.raises(ValueError, match="already exists"):
+        dyn.add_operational_point("rleg", info.frames["left_foot"])
+    context = dyn.CreateDefaultContext()
+    q = random_configuration(plant, q0, np.random.default_rng(1))
+    dyn.GetInputPort("q").FixValue(context, q)
+    pc = plant.CreateDefaultContext()
+    plant.SetPositions(pc, q)
+    frame = plant.GetFrameByName(info.frames["right_foot"])
+    X = dyn.GetOutputPort("rleg").Eval(context)
+    np.testing.assert_allclose(X.GetAsMatrix4(), frame.CalcPoseInWorld(pc).GetAsMatrix4(), atol=1e-14)
+    J = plant.CalcJacobianSpatialVelocity(pc, JacobianWrtVariable.kV, frame, np.zeros(3), plant.world_frame(), plant.world_frame())
+    np.testing.assert_allclose(dyn.GetOutputPort("Jrleg").Eval(context), J, atol=1e-14)
+    np.testing.assert_allclose(dyn.GetOutputPort("com").Eval(context), plant.CalcCenterOfMassPositionInWorld(pc), atol=1e-14)
+
+
+def test_static_torques_balance_the_robot_by_inverse_dynamics(control_model):
+    """Drake's inverse dynamics at rest, with the computed sole wrenches applied, needs
+    no base force and exactly the feed-forward joint torques."""
+    plant, info, q0 = control_model
+    context = plant.CreateDefaultContext()
+    q = q0.copy()
+    q[7:] += np.random.default_rng(2).uniform(-0.1, 0.1, q.size - 7)  # an asymmetric posture
+    plant.SetPositions(context, q)
+    soles = [plant.GetFrameByName(info.frames[k]) for k in ("left_foot", "right_foot")]
+    world = plant.world_frame()
+    J = np.vstack([plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, f, np.zeros(3), world, world) for f in soles])
+    tau, f = static_torques(plant.CalcGravityGeneralizedForces(context), J)
+    forces = MultibodyForces(plant)
+    plant.CalcForceElementsContribution(context, forces)  # gravity (not included by inverse dynamics)
+    for k, frame in enumerate(soles):
+        w = f[6 * k : 6 * k + 6]  # [torque; force] at the sole origin, world frame
+        body = frame.body()
+        p_BoF_W = frame.CalcPoseInWorld(context).translation() - body.EvalPoseInWorld(context).translation()
+        torque_about_body_origin = w[:3] + np.cross(p_BoF_W, w[3:])
+        body.AddInForceInWorld(context, SpatialForce(torque_about_body_origin, w[3:]), forces)
+    tau_id = plant.CalcInverseDynamics(context, np.zeros(plant.num_velocities()), forces)
+    np.testing.assert_allclose(tau_id[:6], 0.0, atol=1e-8)
+    np.testing.assert_allclose(tau_id[6:], tau, atol=1e-8)
+    # The soles carry the weight.
+    assert f[5] + f[11] == pytest.approx(plant.CalcTotalMass(context) * 9.81, rel=1e-6)
+
+
+def test_gravity_feedforward_in_actuator_order(control_model):
+    plant, info, q0 = control_model
+    gravity = GravityFeedforward(plant, info.actuated_joints, [info.frames["left_foot"], info.frames["right_foot"]])
+    context = gravity.CreateDefaultContext()
+    gravity.GetInputPort("q").FixValue(context, q0)
+    tau = gravity.GetOutputPort("tau").Eval(context)
+    pc = plant.CreateDefaultContext()
+    plant.SetPositions(pc, q0)
+    tau_g = plant.CalcGravityGeneralizedForces(pc)
+    # An arm joint carries only its distal subtree: its torque is -τ_g of that joint.
+    k = list(info.actuated_joints).index("r_shoulder_pitch")
+    v = plant.GetJointByName("r_shoulder_pitch").velocity_start()
+    assert tau[k] == pytest.approx(-tau_g[v], abs=1e-9)
+    assert abs(tau[k]) > 0.1  # the arm hangs nearly straight: small but not zero

@@ -1,0 +1,163 @@
+"""Task (concatenation, gain, feed-forward) and StackOfTasks (stack commands, control law)."""
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+
+from drake_sot.gains import AdaptiveGain
+from drake_sot.hierarchy import solve_strict
+from drake_sot.signals import FeatureSignal, TaskSignal
+from drake_sot.systems.features import FeatureGeneric
+from drake_sot.systems.sot import StackOfTasks
+from drake_sot.systems.task import Task
+
+NV = 5
+
+
+def _feature_signal(rng, m, ff=None):
+    return FeatureSignal(rng.normal(size=m), rng.normal(size=(m, NV)), np.zeros(m) if ff is None else ff)
+
+
+def test_task_concatenates_features_and_applies_gain():
+    rng = np.random.default_rng(0)
+    f1, f2 = FeatureGeneric(2, name="f1"), FeatureGeneric(3, name="f2")
+    task = Task("t", gain=3.0)
+    task.add(f1)
+    task.add(f2)
+    assert task.dimension == 5
+    context = task.CreateDefaultContext()
+    s1, s2 = _feature_signal(rng, 2, ff=np.array([1.0, 2.0])), _feature_signal(rng, 3)
+    task.GetInputPort("f1").FixValue(context, s1)
+    task.GetInputPort("f2").FixValue(context, s2)
+    out = task.GetOutputPort("task").Eval(context)
+    e = np.concatenate((s1.error, s2.error))
+    np.testing.assert_array_equal(out.error, e)
+    np.testing.assert_array_equal(out.jacobian, np.vstack((s1.jacobian, s2.jacobian)))
+    np.testing.assert_allclose(out.edot_des, -3.0 * e + np.concatenate(([1.0, 2.0], np.zeros(3))))
+    task.set_gain(context, AdaptiveGain(a=2.0, b=0.5, c=1.0))
+    lam = 2.0 * np.exp(-0.5 * np.linalg.norm(e)) + 1.0
+    np.testing.assert_allclose(task.GetOutputPort("task").Eval(context).edot_des[2:], -lam * e[2:])
+
+
+def test_adaptive_gain_from_sot_limits():
+    g = AdaptiveGain.from_limits(at_zero=4.0, at_infinity=1.0, slope_at_zero=6.0)
+    assert g(0.0) == pytest.approx(4.0)
+    assert g(1e9) == pytest.approx(1.0)
+    h = 1e-7
+    assert (g(h) - g(0.0)) / h == pytest.approx(-6.0, rel=1e-5)
+    with pytest.raises(ValueError, match="gain -1"):
+        Task("bad", gain=-1.0)
+    with pytest.raises(ValueError, match="at_zero"):
+        AdaptiveGain.from_limits(1.0, 2.0, 1.0)
+
+
+def _sot_with_fixed_tasks(rng, dims, stack=()):
+    sot = StackOfTasks(NV, dims, stack=stack, period=0.005)
+    context = sot.CreateDefaultContext()
+    signals = {}
+    for name, m in dims.items():
+        J = rng.normal(size=(m, NV))
+        e = rng.normal(size=m)
+        signals[name] = TaskSignal(name, e, J, -e)
+        sot.GetInputPort(name).FixValue(context, signals[name])
+    return sot, context, signals
+
+
+def _tick(sot, context):
+    values = sot.EvalUniquePeriodicDiscreteUpdate(context)
+    context.SetDiscreteState(values)
+    return sot.GetOutputPort("qdot").Eval(context), sot.GetOutputPort("errors").Eval(context)
+
+
+def test_stack_commands_follow_the_paper():
+    rng = np.random.default_rng(1)
+    sot, context, _ = _sot_with_fixed_tasks(rng, {"a": 1, "b": 1, "c": 1, "d": 1})
+    for name in "abc":
+        sot.push(context, name)
+    assert sot.list(context) == ("a", "b", "c")
+    sot.up(context, "c")
+    assert sot.list(context) == ("a", "c", "b")
+    sot.down(context, "a")
+    assert sot.list(context) == ("c", "a", "b")
+    sot.up(context, "c")  # already on top: no-op
+    sot.down(context, "b")  # already at the bottom: no-op
+    assert sot.list(context) == ("c", "a", "b")
+    assert sot.pop(context) == "b"
+    sot.rm(context, "c")
+    assert sot.list(context) == ("a",)
+    sot.clear(context)
+    assert sot.list(context) == ()
+    with pytest.raises(IndexError):
+        sot.pop(context)
+
+
+def test_stack_commands_refuse_bad_names():
+    rng = np.random.default_rng(2)
+    sot, context, _ = _sot_with_fixed_tasks(rng, {"taskCom": 1, "taskRH": 1})
+    with pytest.raises(KeyError, match="unknown task 'taskXX'; known tasks: taskCom, taskRH"):
+        sot.push(context, "taskXX")
+    sot.push(context, "taskCom")
+    with pytest.raises(ValueError, match="already in the stack"):
+        sot.push(context, "taskCom")
+    with pytest.raises(ValueError, match="'taskRH' is not in the stack"):
+        sot.rm(context, "taskRH")
+    with pytest.raises(KeyError, match="known tasks"):
+        StackOfTasks(NV, {"a": 1}, stack=["b"])
+
+
+def test_control_law_is_the_strict_hierarchy_of_the_stack():
+    rng = np.random.default_rng(3)
+    dims = {"a": 2, "b": 2, "c": 3}
+    sot, context, signals = _sot_with_fixed_tasks(rng, dims, stack=("b", "a"))
+    qdot, errors = _tick(sot, context)
+    expected = solve_strict([(signals[n].jacobian, signals[n].edot_des) for n in ("b", "a")]).qdot
+    np.testing.assert_allclose(qdot, expected, atol=1e-12)
+    slices = sot.error_slices()
+    np.testing.assert_array_equal(errors[slices["a"]], signals["a"].error)
+    assert np.all(np.isnan(errors[slices["c"]]))  # not in the stack
+    # Order matters: the higher-priority task is achieved exactly.
+    np.testing.assert_allclose(signals["b"].jacobian @ qdot, signals["b"].edot_des, atol=1e-10)
+    sot.clear(context)
+    qdot, errors = _tick(sot, context)
+    np.testing.assert_array_equal(qdot, 0.0)
+
+
+def test_bad_task_signals_name_the_task():
+    rng = np.random.default_rng(4)
+    sot, context, signals = _sot_with_fixed_tasks(rng, {"a": 2, "b": 1}, stack=("a", "b"))
+    bad = TaskSignal("b", np.zeros(1), np.full((1, NV), np.nan), np.zeros(1))
+    sot.GetInputPort("b").FixValue(context, bad)
+    with pytest.raises(RuntimeError, match="task 'b': NaN or Inf"):
+        _tick(sot, context)
+    sot.GetInputPort("b").FixValue(context, TaskSignal("b", np.zeros(2), np.zeros((2, NV)), np.zeros(2)))
+    with pytest.raises(RuntimeError, match="task 'b': error \\(2,\\)"):
+        _tick(sot, context)
+
+
+class _CountingTask(LeafSystem):
+    """A task source that counts how often it is evaluated."""
+
+    def __init__(self, name):
+        super().__init__()
+        self.calls = 0
+        self._name = name
+        self.DeclareAbstractOutputPort("task", lambda: AbstractValue.Make(TaskSignal(name, np.zeros(1), np.zeros((1, NV)), np.zeros(1))), self._calc)
+
+    def _calc(self, context, value):
+        self.calls += 1
+        value.set_value(TaskSignal(self._name, np.ones(1), np.ones((1, NV)), -np.ones(1)))
+
+
+def test_tasks_outside_the_stack_are_not_evaluated():
+    from pydrake.systems.analysis import Simulator
+
+    builder = DiagramBuilder()
+    sot = builder.AddSystem(StackOfTasks(NV, {"used": 1, "idle": 1}, stack=("used",), period=0.01))
+    sources = {n: builder.AddSystem(_CountingTask(n)) for n in ("used", "idle")}
+    for n, src in sources.items():
+        builder.Connect(src.get_output_port(), sot.GetInputPort(n))
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(0.1)
+    assert sources["used"].calls >= 10
+    assert sources["idle"].calls == 0
