@@ -1,0 +1,17 @@
+"""Embedded robot models."""
+
+from drake_sot.models.humanoid import (
+    HumanoidInfo,
+    add_ground,
+    half_sitting_configuration,
+    load_humanoid,
+    make_control_model,
+)
+
+__all__ = [
+    "HumanoidInfo",
+    "add_ground",
+    "half_sitting_configuration",
+    "load_humanoid",
+    "make_control_model",
+]
