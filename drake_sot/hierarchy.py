@@ -1,0 +1,152 @@
+"""Strict-priority solver of the Stack of Tasks (paper 000, eq. 8-9).
+
+The recursion of eq. (8),
+
+    qdot_i = qdot_{i-1} + (J_i P_{i-1})^+ (edot_i - J_i qdot_{i-1}),
+
+with ``P_i`` the projector onto the null space of the augmented Jacobian
+``(J_1, ..., J_i)`` (eq. 9), is computed here in null-space *basis* form, as
+the original SoT does: instead of the n x n projector ``P_{i-1}`` we keep an
+orthonormal basis ``Z_{i-1}`` (n, k_{i-1}) of that null space, so that
+``P_{i-1} = Z_{i-1} Z_{i-1}^T`` and ``(J_i P_{i-1})^+ = Z_{i-1} (J_i Z_{i-1})^+``.
+Each level costs one SVD of the small matrix ``J_i Z_{i-1}`` (m_i, k_{i-1}),
+which gives at once the pseudo-inverse and the basis of what remains free:
+``Z_i = Z_{i-1} V_i[:, r_i:]``.  The free space shrinks level by level and the
+solver stops doing work once it is empty.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from drake_sot.linalg import SvdSplit, _nonnegative
+
+__all__ = ["HierarchyResult", "solve_strict"]
+
+
+@dataclass(frozen=True)
+class HierarchyResult:
+    """Outcome of :func:`solve_strict` for a stack of L levels on n joints.
+
+    Attributes:
+        qdot: (n,) joint velocity realising the stack.
+        rank: per level, the rank of ``J_i Z_{i-1}``: how many task directions
+            the level could use in the freedom left by the levels above it.
+        residual: per level, ``||J_i qdot - edot_i||`` (2-norm) for the final qdot.
+        free_dims: per level, the dimension of the null space of the augmented
+            Jacobian ``(J_1, ..., J_i)`` left for the levels below it.
+    """
+
+    qdot: np.ndarray
+    rank: tuple[int, ...]
+    residual: tuple[float, ...]
+    free_dims: tuple[int, ...]
+
+
+def _validate(
+    levels: Sequence[tuple[np.ndarray, np.ndarray]], qdot0: np.ndarray | None
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
+    """Return ``levels`` as float arrays and ``qdot0`` as a float vector, or raise ValueError.
+
+    Every ``J_i`` must be 2-D with the same number n of columns, every
+    ``edot_i`` of length m_i, ``qdot0`` of length n, and all values finite.
+    """
+    if qdot0 is not None:
+        qdot0 = np.asarray(qdot0, dtype=float)
+        if qdot0.ndim != 1:
+            raise ValueError(f"qdot0 must be a vector, got shape {qdot0.shape}")
+        if not np.isfinite(qdot0).all():
+            raise ValueError("qdot0 contains NaN or Inf")
+    checked = []
+    for i, (J, edot) in enumerate(levels):
+        J = np.asarray(J, dtype=float)
+        edot = np.asarray(edot, dtype=float)
+        if J.ndim != 2:
+            raise ValueError(f"levels[{i}]: J must be a 2-D matrix, got shape {J.shape}")
+        if edot.shape != (J.shape[0],):
+            raise ValueError(
+                f"levels[{i}]: edot has shape {edot.shape} but J has shape {J.shape}; "
+                f"expected edot of shape ({J.shape[0]},)"
+            )
+        if checked and J.shape[1] != checked[0][0].shape[1]:
+            raise ValueError(
+                f"levels[{i}]: J has shape {J.shape} but levels[0] J has shape "
+                f"{checked[0][0].shape}; all levels need the same number of columns"
+            )
+        if qdot0 is not None and J.shape[1] != qdot0.shape[0]:
+            raise ValueError(
+                f"levels[{i}]: J has shape {J.shape} but qdot0 has shape {qdot0.shape}; "
+                f"expected {J.shape[1]} joints"
+            )
+        if not (np.isfinite(J).all() and np.isfinite(edot).all()):
+            raise ValueError(f"levels[{i}]: J or edot contains NaN or Inf")
+        checked.append((J, edot))
+    return checked, qdot0
+
+
+def solve_strict(
+    levels: Sequence[tuple[np.ndarray, np.ndarray]],
+    *,
+    rank_threshold: float = 1e-6,
+    damping: float = 0.0,
+    qdot0: np.ndarray | None = None,
+) -> HierarchyResult:
+    """Solve a stack of tasks in strict priority (paper 000, eq. 8-9).
+
+    Args:
+        levels: ``(J_i, edot_i)`` pairs, highest priority first; ``J_i`` has
+            shape (m_i, n) and ``edot_i`` shape (m_i,).
+        rank_threshold: singular values of ``J_i Z_{i-1}`` at or below this
+            absolute value are treated as zero (the SoT "damping").
+        damping: if > 0, the kept singular values are inverted as
+            ``s / (s^2 + damping^2)`` (damped least squares) instead of ``1/s``;
+            the null spaces passed down are unchanged.
+        qdot0: (n,) initial velocity (eq. 8 uses ``qdot_0 = 0``, the default).
+            The levels correct it only inside the row space of the augmented
+            Jacobian, so its component in the final null space is kept:
+            ``Z_L Z_L^T qdot = Z_L Z_L^T qdot0``.  With ``damping = 0`` the
+            result is the lexicographic least-squares solution closest to
+            ``qdot0`` (the minimum-norm one when ``qdot0`` is None).
+
+    Returns:
+        The joint velocity and, per level, the rank used, the final residual
+        and the remaining free dimensions.  With no levels, ``qdot`` is
+        ``qdot0`` (or an empty vector) and the tuples are empty.
+
+    Raises:
+        ValueError: shapes disagree or a value is non-finite (the message
+            names the level index and the shapes), or ``rank_threshold`` or
+            ``damping`` is negative or not finite.
+    """
+    rank_threshold = _nonnegative("rank_threshold", rank_threshold)
+    damping = _nonnegative("damping", damping)
+    checked, qdot0 = _validate(levels, qdot0)
+    if not checked:
+        return HierarchyResult(
+            qdot=np.zeros(0) if qdot0 is None else qdot0.copy(), rank=(), residual=(), free_dims=()
+        )
+
+    n = checked[0][0].shape[1]
+    qdot = np.zeros(n) if qdot0 is None else qdot0.copy()
+    Z: np.ndarray | None = None  # basis of the free space; None stands for I_n
+    ranks: list[int] = []
+    free_dims: list[int] = []
+    for J, edot in checked:
+        if Z is not None and Z.shape[1] == 0:
+            ranks.append(0)
+            free_dims.append(0)
+            continue
+        A = J if Z is None else J @ Z  # (m_i, k_{i-1})
+        split = SvdSplit.of(A, rank_threshold)
+        u = split.solve(edot - J @ qdot, damping)  # (k_{i-1},)
+        qdot += u if Z is None else Z @ u
+        N = split.null_basis()  # (k_{i-1}, k_i)
+        Z = N if Z is None else Z @ N
+        ranks.append(split.rank)
+        free_dims.append(Z.shape[1])
+
+    residuals = tuple(float(np.linalg.norm(J @ qdot - edot)) for J, edot in checked)
+    return HierarchyResult(qdot=qdot, rank=tuple(ranks), residual=residuals, free_dims=tuple(free_dims))

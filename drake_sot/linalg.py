@@ -1,0 +1,166 @@
+"""Pseudo-inverses and null-space bases (pure numpy/scipy).
+
+Every function takes a Jacobian-like matrix ``J`` of shape ``(m, n)`` (m task
+rows, n joints) and works from one singular value decomposition.  A singular
+value is *kept* when it is strictly greater than ``rank_threshold`` (an
+absolute value, in the units of ``J``); the others are treated as exact zeros.
+The original Stack of Tasks calls this threshold the "damping" of its
+pseudo-inverse, although it truncates rather than damps; true damping (damped
+least squares) is :func:`damped_pinv`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+__all__ = [
+    "SvdSplit",
+    "damped_pinv",
+    "null_space_basis",
+    "pinv",
+    "rank",
+    "weighted_pinv",
+]
+
+
+def _matrix(name: str, value: np.ndarray) -> np.ndarray:
+    """Return ``value`` as a finite 2-D float array or raise ValueError naming ``name``."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D matrix, got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} of shape {a.shape} contains NaN or Inf")
+    return a
+
+
+def _nonnegative(name: str, value: float) -> float:
+    """Return ``value`` as a float or raise ValueError if it is negative or not finite."""
+    v = float(value)
+    if not (np.isfinite(v) and v >= 0.0):
+        raise ValueError(f"{name} must be a finite value >= 0, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class SvdSplit:
+    """One SVD of a matrix ``A`` of shape ``(m, k)``, split at its numerical rank.
+
+    ``A = U[:, :p] @ diag(s) @ Vt[:p]`` with ``p = min(m, k)``.  ``U`` is thin,
+    ``(m, p)``; ``Vt`` is always complete, ``(k, k)``, so that its last
+    ``k - rank`` rows span ker A.  One instance gives the rank, the action of
+    the (damped) pseudo-inverse and the null-space basis, which is what one
+    level of the strict-priority solver needs.
+
+    Attributes:
+        U: (m, p) left singular vectors.
+        s: (p,) singular values, descending.
+        Vt: (k, k) right singular vectors (rows).
+        rank: number of singular values > the rank threshold.
+    """
+
+    U: np.ndarray
+    s: np.ndarray
+    Vt: np.ndarray
+    rank: int
+
+    @classmethod
+    def of(cls, A: np.ndarray, rank_threshold: float = 1e-6) -> SvdSplit:
+        """Decompose ``A`` (m, k); singular values <= ``rank_threshold`` count as zero.
+
+        ``A`` is assumed finite (validate with the public functions first).
+        """
+        m, k = A.shape
+        U, s, Vt = np.linalg.svd(A, full_matrices=m < k)
+        return cls(U=U, s=s, Vt=Vt, rank=int(np.count_nonzero(s > rank_threshold)))
+
+    def _inverse_values(self, damping: float) -> np.ndarray:
+        """(rank,) inverted kept singular values: 1/s, or s/(s^2 + damping^2)."""
+        s = self.s[: self.rank]
+        return s / (s * s + damping * damping) if damping > 0.0 else 1.0 / s
+
+    def solve(self, b: np.ndarray, damping: float = 0.0) -> np.ndarray:
+        """Return ``A^+ b`` of shape (k,) for ``b`` of shape (m,).
+
+        With ``damping > 0`` the kept singular values are inverted as
+        ``s / (s^2 + damping^2)`` (damped least squares on the kept subspace).
+        """
+        r = self.rank
+        return self.Vt[:r].T @ (self._inverse_values(damping) * (self.U[:, :r].T @ b))
+
+    def pinv(self, damping: float = 0.0) -> np.ndarray:
+        """Return the (damped) pseudo-inverse of ``A``, shape (k, m)."""
+        r = self.rank
+        return (self.Vt[:r].T * self._inverse_values(damping)) @ self.U[:, :r].T
+
+    def null_basis(self) -> np.ndarray:
+        """Return an orthonormal basis of ker A, shape (k, k - rank)."""
+        return self.Vt[self.rank :].T
+
+
+def pinv(J: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:
+    """Rank-revealing Moore-Penrose pseudo-inverse of ``J`` (m, n) -> (n, m).
+
+    Singular values <= ``rank_threshold`` (absolute) are treated as zero.  This
+    threshold is what the original SoT calls the "damping" of its
+    pseudo-inverse.
+    """
+    J = _matrix("J", J)
+    return SvdSplit.of(J, _nonnegative("rank_threshold", rank_threshold)).pinv()
+
+
+def damped_pinv(J: np.ndarray, damping: float) -> np.ndarray:
+    """Damped least-squares inverse ``J^T (J J^T + damping^2 I)^-1`` of ``J`` (m, n) -> (n, m).
+
+    Computed by SVD as ``V diag(s / (s^2 + damping^2)) U^T``, which stays
+    bounded (by ``1 / (2 damping)``) near singularities.  ``damping = 0`` gives
+    the exact pseudo-inverse in which only exactly-zero singular values are
+    dropped.
+    """
+    J = _matrix("J", J)
+    return SvdSplit.of(J, 0.0).pinv(_nonnegative("damping", damping))
+
+
+def weighted_pinv(J: np.ndarray, W: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:
+    """Weighted pseudo-inverse ``W^-1 J^T (J W^-1 J^T)^+`` (paper 000, eq. 12), (m, n) -> (n, m).
+
+    ``W`` (n, n) is a symmetric positive definite joint weight: ``J^#W y`` is
+    the solution of ``J x = y`` (least squares if inconsistent) minimising
+    ``x^T W x``.  With the Cholesky factor ``W = L L^T`` it is computed as
+    ``L^-T (J L^-T)^+``, an exact identity that avoids forming ``W^-1`` and
+    squaring the condition number; ``rank_threshold`` (absolute) applies to
+    the singular values of the scaled Jacobian ``J L^-T``.
+
+    Raises:
+        ValueError: non-finite input, ``W`` not (n, n), not symmetric, or not
+            positive definite.
+    """
+    J = _matrix("J", J)
+    W = _matrix("W", W)
+    n = J.shape[1]
+    if W.shape != (n, n):
+        raise ValueError(f"W must have shape ({n}, {n}) to match J of shape {J.shape}, got {W.shape}")
+    if not np.allclose(W, W.T, rtol=1e-10, atol=1e-12 * np.abs(W).max(initial=0.0)):
+        raise ValueError("W must be symmetric positive definite: W is not symmetric")
+    try:
+        L = scipy.linalg.cholesky(W, lower=True)
+    except np.linalg.LinAlgError as err:
+        raise ValueError(f"W must be symmetric positive definite: Cholesky failed ({err})") from None
+    G = scipy.linalg.solve_triangular(L, J.T, lower=True).T  # J L^-T, (m, n)
+    G_pinv = SvdSplit.of(G, _nonnegative("rank_threshold", rank_threshold)).pinv()
+    return scipy.linalg.solve_triangular(L, G_pinv, lower=True, trans="T")
+
+
+def null_space_basis(J: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:
+    """Orthonormal basis ``Z`` of ker J for ``J`` (m, n): shape (n, n - rank), ``J Z = 0``, ``Z^T Z = I``."""
+    J = _matrix("J", J)
+    return SvdSplit.of(J, _nonnegative("rank_threshold", rank_threshold)).null_basis()
+
+
+def rank(J: np.ndarray, rank_threshold: float = 1e-6) -> int:
+    """Number of singular values of ``J`` (m, n) strictly greater than ``rank_threshold``."""
+    J = _matrix("J", J)
+    threshold = _nonnegative("rank_threshold", rank_threshold)
+    return int(np.count_nonzero(np.linalg.svd(J, compute_uv=False) > threshold))
