@@ -34,7 +34,14 @@ from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, add_ground, half_sitting_configuration, load_humanoid, make_control_model
-from drake_sot.systems.features import FeatureCoM, FeatureJointLimits, FeaturePoint6d, FeaturePosture, _Feature
+from drake_sot.systems.features import (
+    FeatureCoM,
+    FeatureJointLimits,
+    FeaturePoint6d,
+    FeaturePoint6dRelative,
+    FeaturePosture,
+    _Feature,
+)
 from drake_sot.systems.gravity import GravityFeedforward
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
@@ -154,6 +161,23 @@ class HumanoidSoTBuilder:
         task = self._add_task(task_name, feature, gain)
         self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
         self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        return task
+
+    def add_relative_task(
+        self, task_name: str, frame_key: str, reference_key: str, *, selection: SelectionLike = None,
+        gain: Gain = 1.0, desired: RigidTransform | None = None,
+    ) -> Task:
+        """A relative 6D task (``FeaturePoint6dRelative``): the pose of ``frame_key`` in
+        ``reference_key`` (e.g. the paper's ``featureTwofeet``); holds the initial relative pose unless ``desired``."""
+        op, ref = self.op_point(frame_key), self.op_point(reference_key)
+        if desired is None:
+            desired = self.initial_pose(reference_key).InvertAndCompose(self.initial_pose(frame_key))
+        feature = FeaturePoint6dRelative(selection=selection, name=f"feature_{task_name}", desired=desired)
+        task = self._add_task(task_name, feature, gain)
+        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        self.builder.Connect(self.dyn.GetOutputPort(ref), feature.GetInputPort("positionRef"))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + ref), feature.GetInputPort("JqRef"))
         return task
 
     def add_com_task(

@@ -53,7 +53,7 @@ from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
-from pydrake.geometry import Box, Cylinder, HalfSpace, Rgba, Shape, Sphere
+from pydrake.geometry import Box, Cylinder, Rgba, Shape, Sphere
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import (
@@ -442,12 +442,18 @@ def load_humanoid(
 
 
 def add_ground(plant: MultibodyPlant) -> None:
-    """Add the ground z = 0: a HalfSpace collision geometry with FRICTION and a
-    10 m x 10 m visual slab just below it. Needs a plant with a SceneGraph."""
+    """Add the ground z = 0: a 20 m x 20 m x 1 m collision box whose top face is z = 0,
+    with FRICTION, and a 10 m x 10 m visual slab. Needs a plant with a SceneGraph.
+
+    A box rather than a HalfSpace: with point contact the two behave the same within
+    the box, and a rigid HalfSpace makes Drake warn on every plant that it is not
+    supported for deformable contact."""
     if not plant.geometry_source_is_registered():
         raise RuntimeError("add_ground needs a MultibodyPlant registered with a SceneGraph")
     world = plant.world_body()
-    plant.RegisterCollisionGeometry(world, RigidTransform(), HalfSpace(), "ground_collision", FRICTION)
+    plant.RegisterCollisionGeometry(
+        world, RigidTransform([0.0, 0.0, -0.5]), Box(20.0, 20.0, 1.0), "ground_collision", FRICTION
+    )
     plant.RegisterVisualGeometry(
         world, RigidTransform([0.0, 0.0, -0.01]), Box(10.0, 10.0, 0.02), "ground_visual",
         Rgba(0.55, 0.60, 0.55, 1.0).rgba,
