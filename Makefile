@@ -1,41 +1,56 @@
-# The two commands of the README. Both create .venv with python3 -m venv when missing.
+# The README's two commands. Both create .venv (python3 -m venv) when it is missing.
+#   make demo   install the package, run the main scenario, write out/
+#   make test   install the test extras and the Debian packages the tests need, run pytest
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= out
+SCENARIO ?= reach
 
-.PHONY: demo test venv clean system-deps
+# Install the Debian package of each "command:package" pair whose command is missing.
+define apt_need
+	@missing=""; for pair in $(1); do command -v $${pair%%:*} >/dev/null 2>&1 || missing="$$missing $${pair##*:}"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing with apt-get:$$missing"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+	fi
+endef
 
+.PHONY: demo test venv bench clean
+
+# Debian's python3 lacks ensurepip until python3-venv is installed.
 $(BIN)/python:
-	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip
+	$(PYTHON) -m venv $(VENV) || { \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq python3-venv && \
+	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
+	$(BIN)/python -m pip install --quiet --upgrade pip
 
-# Editable install; the stamp file re-runs it when pyproject.toml changes.
+# Editable install; re-run when pyproject.toml changes.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
-	$(BIN)/pip install --quiet -e .
+	$(BIN)/python -m pip install --quiet -e .
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
-	$(BIN)/pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $@
 
 venv: $(VENV)/.installed
 
+# graphviz renders the diagram SVG.
 demo: $(VENV)/.installed
-	$(BIN)/drake-sot run reach --out $(OUT)
+	$(call apt_need,dot:graphviz)
+	$(BIN)/drake-sot run $(SCENARIO) --out $(OUT)
 
-# chromium renders the recorded replay in a test; graphviz renders the diagram.
-system-deps:
-	@if command -v dot >/dev/null && command -v chromium >/dev/null; then \
-	  echo "system packages present: graphviz, chromium"; \
-	else \
-	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
-	  $$SUDO apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq --no-install-recommends chromium graphviz; \
-	fi
-
-test: $(VENV)/.installed-test system-deps
+# chromium renders the recorded replay in a test; graphviz renders diagrams.
+test: $(VENV)/.installed-test
+	$(call apt_need,dot:graphviz chromium:chromium)
 	$(BIN)/python -m pytest
 
+bench: $(VENV)/.installed
+	$(BIN)/python benchmarks/bench_sot.py
+
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache
+	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis

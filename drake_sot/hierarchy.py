@@ -111,6 +111,9 @@ def solve_strict(
             result is the lexicographic least-squares solution closest to
             ``qdot0`` (the minimum-norm one when ``qdot0`` is None).
 
+    Rows of ``J_i`` that are exactly zero (a task component that is switched off, as
+    in an inactive joint-limit row) are skipped: they cannot change q̇.
+
     Returns:
         The joint velocity and, per level, the rank used, the final residual
         and the remaining free dimensions.  With no levels, ``qdot`` is
@@ -139,6 +142,13 @@ def solve_strict(
             ranks.append(0)
             free_dims.append(0)
             continue
+        rows = np.flatnonzero(J.any(axis=1))
+        if rows.size == 0:  # e.g. an inactive joint-limit level: nothing to solve, nothing taken
+            ranks.append(0)
+            free_dims.append(n if Z is None else Z.shape[1])
+            continue
+        if rows.size < J.shape[0]:  # zero rows constrain nothing: skip them in the SVD
+            J, edot = J[rows], edot[rows]
         A = J if Z is None else J @ Z  # (m_i, k_{i-1})
         split = SvdSplit.of(A, rank_threshold)
         u = split.solve(edot - J @ qdot, damping)  # (k_{i-1},)

@@ -336,3 +336,20 @@ def test_rank_threshold_drops_small_projected_directions():
 def test_invalid_input_names_the_level_and_shapes(levels, kwargs, message):
     with pytest.raises(ValueError, match=message):
         solve_strict(levels, **kwargs)
+
+
+def test_zero_rows_are_skipped_but_reported():
+    """A level of exactly-zero rows (an inactive joint-limit task) changes nothing and uses no rank."""
+    rng = np.random.default_rng(11)
+    J1, e1 = rng.normal(size=(2, 5)), rng.normal(size=2)
+    J2, e2 = rng.normal(size=(3, 5)), rng.normal(size=3)
+    reference = solve_strict([(J1, e1), (J2, e2)])
+    zero = np.zeros((4, 5))
+    with_zero = solve_strict([(zero, np.ones(4)), (J1, e1), (J2, e2)])
+    np.testing.assert_allclose(with_zero.qdot, reference.qdot, atol=1e-12)
+    assert with_zero.rank[0] == 0 and with_zero.free_dims[0] == 5
+    assert with_zero.residual[0] == pytest.approx(2.0)  # ||0 - 1|| over 4 rows
+    # A level with some zero rows equals the level without them.
+    mixed = np.vstack((J1[:1], np.zeros((1, 5)), J1[1:]))
+    a = solve_strict([(mixed, np.array([e1[0], 0.0, e1[1]])), (J2, e2)])
+    np.testing.assert_allclose(a.qdot, reference.qdot, atol=1e-12)

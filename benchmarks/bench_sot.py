@@ -1,0 +1,145 @@
+"""Timing of the kinematic SoT, each number beside a baseline measured in the same run.
+
+    python benchmarks/bench_sot.py            (or: make bench)
+
+1. ``solve_strict`` (null-space basis form) vs the textbook projector form of paper
+   000 eq. 8-9 (n x n projectors, same pseudo-inverse threshold), on the ``reach``
+   stack's sizes, calls interleaved so both see the same load.
+2. One full control tick of ``reach`` (kinematics, 7 features and tasks, the solve)
+   against the 5 ms control period.
+3. The ``reach`` scenario's real-time factor against the plant alone, standing on
+   constant PD set points (no controller), with the same physics settings.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+from drake_sot.hierarchy import solve_strict
+from drake_sot.linalg import pinv
+
+
+def _timeit(fn, repeat: int) -> list[float]:
+    fn()  # warm-up
+    out = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def solve_projector_form(levels, rank_threshold=1e-6):
+    """Paper 000 eq. 8-9 as written: q̇_i = q̇_{i-1} + (J_i P)^+ (ė_i - J_i q̇_{i-1}), P ← P - (J_i P)^+ J_i P."""
+    n = levels[0][0].shape[1]
+    qdot, P = np.zeros(n), np.eye(n)
+    for J, edot in levels:
+        JP = J @ P
+        JP_pinv = pinv(JP, rank_threshold)  # same absolute threshold as solve_strict
+        qdot = qdot + JP_pinv @ (edot - J @ qdot)
+        P = P - JP_pinv @ JP
+    return qdot
+
+
+def bench_solver(repeat: int = 2000) -> dict[str, float]:
+    rng = np.random.default_rng(0)
+    n = 36
+    dims = [6, 6, 2, 6, 30]  # feet, feet, CoM xy, right hand, posture (reach)
+    levels = [(rng.normal(size=(m, n)), rng.normal(size=m)) for m in dims]
+    a = solve_strict(levels).qdot
+    b = solve_projector_form(levels)
+    assert np.allclose(a, b, atol=1e-8), "the two forms disagree"
+    # Interleaved, so that both see the same machine load; the ratio is taken per pair.
+    basis, proj = [], []
+    for _ in range(repeat):
+        basis += _timeit(lambda: solve_strict(levels), 1)
+        proj += _timeit(lambda: solve_projector_form(levels), 1)
+    ratio = statistics.median(p / b for p, b in zip(proj, basis))
+    return {"basis_us": 1e6 * statistics.median(basis), "projector_us": 1e6 * statistics.median(proj), "ratio": ratio}
+
+
+def bench_tick(repeat: int = 300) -> dict[str, float]:
+    from drake_sot.diagrams import reach
+
+    setup = reach.build(None)
+    built = setup.built
+    simulator = built.create_simulator()
+    context = simulator.get_mutable_context()
+    simulator.AdvanceTo(1.0)
+    setup.commands[0].apply(context)  # the right hand is moving: every feature is non-trivial
+    sot_context = built.sot.GetMyMutableContextFromRoot(context)
+    device_context = built.device.GetMyMutableContextFromRoot(context)
+    rng = np.random.default_rng(1)
+    q_ref = built.device.GetOutputPort("q").Eval(device_context).copy()
+
+    def tick():
+        # A new q invalidates kinematics, features and tasks: the tick recomputes all of them.
+        q = q_ref.copy()
+        q[7:] += 1e-4 * rng.normal(size=q.size - 7)
+        built.device.set_configuration(device_context, q)
+        built.sot.EvalUniquePeriodicDiscreteUpdate(sot_context)
+
+    samples = _timeit(tick, repeat)
+    return {"tick_median_us": 1e6 * statistics.median(samples), "tick_p99_us": 1e6 * float(np.percentile(samples, 99))}
+
+
+def bench_realtime(duration: float = 4.0) -> dict[str, float]:
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_sot.diagrams import reach
+    from drake_sot.diagrams.run import simulate
+    from drake_sot.models import add_ground, half_sitting_configuration, load_humanoid
+
+    # Baseline: the same plant on constant set points.
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlant(
+        MultibodyPlantConfig(time_step=1e-3, discrete_contact_approximation="sap", contact_model="point"), builder
+    )
+    info = load_humanoid(plant)
+    add_ground(plant)
+    plant.Finalize()
+    q0 = half_sitting_configuration(plant, info)
+    x_des = np.concatenate(
+        [[q0[plant.GetJointByName(j).position_start()] for j in info.actuated_joints], np.zeros(len(info.actuated_joints))]
+    )
+    source = builder.AddSystem(ConstantVectorSource(x_des))
+    builder.Connect(source.get_output_port(), plant.get_desired_state_input_port(info.model_instance))
+    baseline = Simulator(builder.Build())
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(baseline.get_mutable_context()), q0)
+    baseline.Initialize()
+    t0 = time.perf_counter()
+    baseline.AdvanceTo(duration)
+    rtf_plant = duration / (time.perf_counter() - t0)
+
+    setup = reach.build(None)
+    simulator = setup.built.create_simulator()
+    result = simulate(simulator, duration, setup.commands)
+    return {"rtf_plant": rtf_plant, "rtf_reach": result.realtime_factor}
+
+
+def main() -> None:
+    solver = bench_solver()
+    tick = bench_tick()
+    rtf = bench_realtime()
+    rows = [
+        ("solve_strict, reach stack (n=36, 5 levels, 50 rows)", f"{solver['basis_us']:.0f} µs",
+         f"projector form eq. 8-9: {solver['projector_us']:.0f} µs", f"projector / basis time: {solver['ratio']:.2f}"),
+        ("full control tick of reach (median / p99)", f"{tick['tick_median_us']:.0f} / {tick['tick_p99_us']:.0f} µs",
+         "control period: 5000 µs", f"{tick['tick_median_us'] / 5000:.1%} of the period"),
+        ("reach scenario real-time factor", f"{rtf['rtf_reach']:.2f}",
+         f"plant alone on constant set points: {rtf['rtf_plant']:.2f}", f"{rtf['rtf_reach'] / rtf['rtf_plant']:.2f} of baseline"),
+    ]
+    print("| measurement | drake_sot | baseline (same run) | ratio |")
+    print("|---|---|---|---|")
+    for row in rows:
+        print("| " + " | ".join(row) + " |")
+
+
+if __name__ == "__main__":
+    main()
