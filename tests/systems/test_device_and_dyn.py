@@ -11,7 +11,7 @@ from drake_sot.statics import static_torques
 from drake_sot.systems.gravity import GravityFeedforward
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
-from conftest import random_configuration
+from feature_bench import random_configuration
 
 
 def test_integrator_integrates_on_the_manifold(control_model):

@@ -18,7 +18,7 @@ from drake_sot.systems.features import (
     FeaturePoint6dRelative,
     FeaturePosture,
 )
-from conftest import FeatureBench, random_configuration, retract
+from feature_bench import FeatureBench, random_configuration, retract
 
 EPS = 1e-6
 
