@@ -57,7 +57,7 @@ def bench_solver(repeat: int = 2000) -> dict[str, float]:
     for _ in range(repeat):
         basis += _timeit(lambda: solve_strict(levels), 1)
         proj += _timeit(lambda: solve_projector_form(levels), 1)
-    ratio = statistics.median(p / b for p, b in zip(proj, basis))
+    ratio = statistics.median(p / b for p, b in zip(proj, basis, strict=True))
     return {"basis_us": 1e6 * statistics.median(basis), "projector_us": 1e6 * statistics.median(proj), "ratio": ratio}
 
 
@@ -89,21 +89,16 @@ def bench_tick(repeat: int = 300) -> dict[str, float]:
 def bench_realtime(duration: float = 4.0) -> dict[str, float]:
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
-    from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
     from pydrake.systems.primitives import ConstantVectorSource
 
     from drake_sot.diagrams import reach
     from drake_sot.diagrams.run import simulate
-    from drake_sot.models import add_ground, half_sitting_configuration, load_humanoid
+    from drake_sot.diagrams.humanoid import add_humanoid_plant
+    from drake_sot.models import half_sitting_configuration
 
     # Baseline: the same plant on constant set points.
     builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(
-        MultibodyPlantConfig(time_step=1e-3, discrete_contact_approximation="sap", contact_model="point"), builder
-    )
-    info = load_humanoid(plant)
-    add_ground(plant)
-    plant.Finalize()
+    plant, _, info = add_humanoid_plant(builder)
     q0 = half_sitting_configuration(plant, info)
     x_des = np.concatenate(
         [[q0[plant.GetJointByName(j).position_start()] for j in info.actuated_joints], np.zeros(len(info.actuated_joints))]

@@ -62,7 +62,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         record=not args.no_record, progress=ProgressBar(),
     )
     result = output.result
-    for kind, path in output.files.items():
+    for path in output.files.values():
         print(f"wrote {path}")
     print(f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s (real-time factor {result.realtime_factor:.2f})")
     if result.interrupted:

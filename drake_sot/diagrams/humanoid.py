@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import Meshcat, MeshcatParams
+from pydrake.geometry import Meshcat, MeshcatParams, SceneGraph
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
@@ -83,6 +83,19 @@ class HumanoidSoT:
         )
 
 
+def add_humanoid_plant(
+    builder: DiagramBuilder, *, time_step: float = 1e-3
+) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
+    """The simulated world: the humanoid with PD-controlled actuators on the ground, in a
+    finalized ``MultibodyPlant`` (SAP, point contact, ``time_step`` [s]) and its ``SceneGraph``."""
+    config = MultibodyPlantConfig(time_step=time_step, discrete_contact_approximation="sap", contact_model="point")
+    plant, scene_graph = AddMultibodyPlant(config, builder)
+    info = load_humanoid(plant)
+    add_ground(plant)
+    plant.Finalize()
+    return plant, scene_graph, info
+
+
 class HumanoidSoTBuilder:
     """Adds tasks by name around the embedded humanoid, then builds the closed loop.
 
@@ -97,13 +110,7 @@ class HumanoidSoTBuilder:
         self, *, control_period: float = 0.005, time_step: float = 1e-3, meshcat: Meshcat | None = None
     ) -> None:
         self.builder = DiagramBuilder()
-        config = MultibodyPlantConfig(
-            time_step=time_step, discrete_contact_approximation="sap", contact_model="point"
-        )
-        self.plant, self.scene_graph = AddMultibodyPlant(config, self.builder)
-        self.info = load_humanoid(self.plant)
-        add_ground(self.plant)
-        self.plant.Finalize()
+        self.plant, self.scene_graph, self.info = add_humanoid_plant(self.builder, time_step=time_step)
         self.control_plant, self.control_info = make_control_model()
         self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
         self.control_period = control_period

@@ -184,7 +184,20 @@ def _check_pose(owner: LeafSystem, value) -> RigidTransform:
     return value
 
 
-class FeaturePoint6d(_Feature):
+class _PoseFeature(_Feature):
+    """A 6D feature on an operational point: inputs ``position``, ``Jq``, ``position_des``."""
+
+    def __init__(self, selection: fmath.SelectionLike, name: str | None, desired: RigidTransform | None) -> None:
+        super().__init__(6, selection, name)
+        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
+        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
+        self._declare_desired("position_des", _check_pose(self, RigidTransform() if desired is None else desired), None)
+
+    def _check_desired(self, value) -> RigidTransform:
+        return _check_pose(self, value)
+
+
+class FeaturePoint6d(_PoseFeature):
     """Pose of an operational point against a desired pose (SoT ``FeaturePoint6d``).
 
     ``e = [p - p*; log(R R*ᵀ)]`` (6,): position error [m] then the rotation vector
@@ -203,15 +216,9 @@ class FeaturePoint6d(_Feature):
         self, *, selection: fmath.SelectionLike = None, name: str | None = None,
         desired: RigidTransform | None = None,
     ) -> None:
-        super().__init__(6, selection, name)
-        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
-        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
-        self._declare_desired("position_des", _check_pose(self, RigidTransform() if desired is None else desired), None)
+        super().__init__(selection, name, desired)
         self._velocity_des = self.DeclareVectorInputPort("velocity_des", 6)
         self._declare_outputs()
-
-    def _check_desired(self, value) -> RigidTransform:
-        return _check_pose(self, value)
 
     def _compute(self, context):
         X = self._pose.Eval(context)
@@ -223,7 +230,7 @@ class FeaturePoint6d(_Feature):
         )
 
 
-class FeaturePoint6dRelative(_Feature):
+class FeaturePoint6dRelative(_PoseFeature):
     """Pose of one operational point in the frame of another (SoT ``FeaturePoint6dRelative``).
 
     E.g. one foot relative to the other. ``e = [p_ba - p*; log(R_ba R*ᵀ)]`` (6,),
@@ -242,16 +249,10 @@ class FeaturePoint6dRelative(_Feature):
         self, *, selection: fmath.SelectionLike = None, name: str | None = None,
         desired: RigidTransform | None = None,
     ) -> None:
-        super().__init__(6, selection, name)
-        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
-        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
+        super().__init__(selection, name, desired)
         self._pose_ref = self.DeclareAbstractInputPort("positionRef", AbstractValue.Make(RigidTransform()))
         self._J_ref = self.DeclareAbstractInputPort("JqRef", AbstractValue.Make(np.zeros((6, 0))))
-        self._declare_desired("position_des", _check_pose(self, RigidTransform() if desired is None else desired), None)
         self._declare_outputs()
-
-    def _check_desired(self, value) -> RigidTransform:
-        return _check_pose(self, value)
 
     def _compute(self, context):
         X_a, X_b = self._pose.Eval(context), self._pose_ref.Eval(context)

@@ -12,7 +12,6 @@ import math
 import numpy as np
 import pytest
 from pydrake.geometry import Role
-from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import (
     AddMultibodyPlant,

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 from pydrake.multibody.math import SpatialForce
-from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 
 from drake_sot.configuration import integrate
