@@ -22,6 +22,11 @@ class Integrator(LeafSystem):
     actuators. Nothing is clipped: a reference outside the joint limits is the stack's
     business (a joint-limit task), not silently altered here.
 
+    Timing: the device and ``StackOfTasks`` update at the same instants, and Drake
+    computes every update of an instant from the state before it, so the device
+    integrates the q̇ solved one tick earlier — one control period of latency, as on
+    a robot whose command computed at tick k is applied at tick k+1.
+
     Input ports:
         qdot: generalized velocity (nv,) [rad/s, m/s], e.g. ``StackOfTasks.qdot``.
     Output ports:
