@@ -1,9 +1,9 @@
-"""Quasi-static equilibrium of a floating-base robot in contact. Pure numpy.
+"""Joint torques of a floating-base robot in contact, and the ZMP of ground wrenches. Pure numpy.
 
-Equation of motion at rest: ``0 = τ_g + Sᵀ τ + J_cᵀ f`` with ``τ_g`` the generalized
-gravity forces (nv,), ``S`` the actuated-joint selection and ``J_c`` the stacked
-contact Jacobians (k, nv). The base rows (no actuation) fix the contact wrenches up
-to the internal ones; the joint rows then give the torques that hold the posture.
+Equation of motion: ``M a + C v - τ_g = Sᵀ τ + J_cᵀ f``; call the left side ``τ_id``
+(what inverse dynamics returns; ``-τ_g`` at rest), ``S`` the actuated-joint selection
+and ``J_c`` the stacked contact Jacobians (k, nv). The base rows (no actuation) fix the
+contact wrenches up to the internal ones; the joint rows then give the torques.
 """
 
 from __future__ import annotations
@@ -13,22 +13,52 @@ import numpy as np
 from drake_sot.linalg import pinv
 
 
-def static_torques(tau_g: np.ndarray, J_contacts: np.ndarray, n_base: int = 6) -> tuple[np.ndarray, np.ndarray]:
-    """Joint torques holding a floating-base robot at rest on its contacts.
+def contact_torques(
+    tau_id: np.ndarray, J_contacts: np.ndarray, n_base: int = 6, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Joint torques that produce a motion of a floating-base robot on its contacts.
 
-    The contact wrenches are the minimum-norm solution of the base equilibrium
-    ``τ_g[:n_base] + J_c[:, :n_base]ᵀ f = 0`` (no internal squeeze between contacts);
-    with no contact (``J_contacts`` of 0 rows) the base is unsupported and only the
-    joint gravity torques are returned.
+    The contact wrenches solve the base rows ``τ_id[:n_base] = J_c[:, :n_base]ᵀ f``
+    with the least weighted norm ``Σ ‖f_i‖² / w_i`` (no internal squeeze between
+    contacts; a contact of weight 0 carries nothing, and the load moves between
+    contacts as their weights do). With no loaded contact the base is unsupported and
+    the joint rows of ``τ_id`` are returned.
 
     Args:
-        tau_g: generalized gravity forces (nv,) (Drake's ``CalcGravityGeneralizedForces``).
-        J_contacts: stacked contact Jacobians (k, nv).
+        tau_id: ``M a + C v - τ_g`` (nv,), e.g. Drake's ``CalcInverseDynamics`` with
+            gravity among the applied forces; ``-τ_g`` for the robot at rest.
+        J_contacts: stacked contact Jacobians (k, nv), k = 6 per contact.
         n_base: number of unactuated base velocities (6 for a free flyer, 0 for a fixed base).
+        weights: (k / 6,) non-negative share of each contact; None for equal shares.
     Returns:
         ``(τ (nv - n_base,) [N·m], f (k,))``: joint torques and contact wrenches.
     """
-    if J_contacts.shape[0] == 0 or n_base == 0:
-        return -tau_g[n_base:], np.zeros(J_contacts.shape[0])
-    f = -pinv(J_contacts[:, :n_base].T) @ tau_g[:n_base]
-    return -(tau_g[n_base:] + J_contacts[:, n_base:].T @ f), f
+    k = J_contacts.shape[0]
+    if weights is None:
+        weights = np.ones(k // 6)
+    scale = np.repeat(np.sqrt(np.asarray(weights, dtype=float)), 6)
+    if k == 0 or n_base == 0 or not np.any(scale > 0):
+        return tau_id[n_base:].copy(), np.zeros(k)
+    # f = D g with D = diag(√w): min ‖g‖ s.t. J_bᵀ D g = τ_b  ⇔  min Σ ‖f_i‖²/w_i.
+    f = scale * (pinv(J_contacts[:, :n_base].T * scale) @ tau_id[:n_base])
+    return tau_id[n_base:] - J_contacts[:, n_base:].T @ f, f
+
+
+def zmp_from_wrenches(
+    points: np.ndarray, forces: np.ndarray, torques: np.ndarray, min_force: float = 0.0
+) -> np.ndarray:
+    """ZMP on the plane z = 0 of wrenches applied by the ground.
+
+    Args:
+        points: (k, 3) application points [m]; forces: (k, 3) [N]; torques: (k, 3) [N·m]
+            (pure moments besides the forces), all in the world frame.
+        min_force: total vertical force [N] below which the ZMP is undefined.
+    Returns:
+        ``[x, y, f_z]``: the point where the total moment has no horizontal component,
+        and the total vertical force; x = y = NaN when ``f_z < min_force``.
+    """
+    f = forces.sum(axis=0)
+    n = torques.sum(axis=0) + np.cross(points, forces).sum(axis=0)  # moment about the origin
+    if f[2] < max(min_force, 1e-9):
+        return np.array([np.nan, np.nan, f[2]])
+    return np.array([-n[1] / f[2], n[0] / f[2], f[2]])

@@ -37,7 +37,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.models import add_ground, half_sitting_configuration, load_humanoid, make_control_model
 from drake_sot.systems.features import FeatureGeneric, FeaturePoint6d, FeaturePoint6dRelative
-from drake_sot.systems.gravity import GravityFeedforward
+from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.sot import StackOfTasks
@@ -195,7 +195,7 @@ builder.Connect(featureLeftFoot.GetOutputPort("feature"), taskLeftFoot.add(featu
 # * `Integrator` (the SoT "device"): integrates q̇ into the reference configuration q,
 #   starting in half-sitting. Its `q` feeds `dyn` (the open-loop scheme of a
 #   position-controlled robot) and its `state_des` feeds the plant's PD actuators.
-# * `GravityFeedforward`: the static joint torques of the reference posture on both
+# * `TorqueFeedforward`: the static joint torques of the reference posture on both
 #   feet, added to the PD torques so the joints do not sag under the robot's weight.
 
 # %%
@@ -210,7 +210,7 @@ builder.Connect(device.GetOutputPort("q"), dyn.GetInputPort("q"))
 builder.Connect(device.GetOutputPort("state_des"), plant.get_desired_state_input_port(info.model_instance))
 
 gravity = builder.AddSystem(
-    GravityFeedforward(control_plant, control_info.actuated_joints, [left_sole, right_sole])
+    TorqueFeedforward(control_plant, control_info.actuated_joints, [left_sole, right_sole])
 )
 gravity.set_name("gravity_feedforward")
 builder.Connect(device.GetOutputPort("q"), gravity.GetInputPort("q"))

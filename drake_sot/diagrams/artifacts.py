@@ -51,6 +51,9 @@ def log_arrays(built: HumanoidSoT, root_context: Context, result: RunResult) -> 
     errors = _aligned(built.loggers["errors"].FindLog(root_context), time)
     for name, sl in built.sot.error_slices().items():
         arrays[f"error/{name}"] = errors[:, sl]
+    for name, logger in built.loggers.items():
+        if name not in ("state", "q_ref", "errors"):
+            arrays[name] = _aligned(logger.FindLog(root_context), time)
     arrays["event_time"] = np.array([t for t, _ in result.events])
     arrays["event_label"] = np.array([label for _, label in result.events], dtype=str)
     return arrays

@@ -13,7 +13,8 @@ plane with its ``SceneGraph`` and builds the controller's own copy of the robot 
 with its ``RobotKinematics`` (the paper's ``dyn``). Tasks are added by name; on
 :meth:`HumanoidSoTBuilder.build` every task is wired into one ``StackOfTasks`` and the
 loop is closed: features → tasks → ``StackOfTasks`` → ``Integrator`` (q_ref) → the
-plant's PD actuators, with a quasi-static gravity feed-forward (both feet in contact), loggers and
+plant's PD actuators, with a torque feed-forward (quasi-static, or the full inverse
+dynamics of the reference), loggers and
 (optionally) a recorded Meshcat replay.
 """
 
@@ -27,7 +28,7 @@ from pydrake.geometry import Meshcat, MeshcatParams, SceneGraph
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
 
@@ -42,7 +43,7 @@ from drake_sot.systems.features import (
     FeaturePosture,
     _Feature,
 )
-from drake_sot.systems.gravity import GravityFeedforward
+from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.sot import StackOfTasks
@@ -120,6 +121,7 @@ class HumanoidSoTBuilder:
         self.tasks: dict[str, Task] = {}
         self.features: dict[str, _Feature] = {}
         self._q_consumers: list = [self.dyn.GetInputPort("q")]
+        self._extra_logs: dict[str, OutputPort] = {}
         self._probe_context = self.control_plant.CreateDefaultContext()
         self.control_plant.SetPositions(self._probe_context, self.q0)
 
@@ -221,9 +223,28 @@ class HumanoidSoTBuilder:
         self._q_consumers.append(feature.GetInputPort("q"))
         return task
 
+    def log(self, name: str, port: OutputPort) -> None:
+        """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""
+        if name in self._extra_logs or name in ("state", "q_ref", "errors"):
+            raise ValueError(f"a log named {name!r} exists already")
+        self._extra_logs[name] = port
+
     # --- closing the loop ------------------------------------------------------------
-    def build(self, stack: Sequence[str], *, log_period: float | None = None) -> HumanoidSoT:
-        """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop."""
+    def build(
+        self, stack: Sequence[str], *, log_period: float | None = None, load: OutputPort | None = None,
+        dynamic_feedforward: bool = False,
+    ) -> HumanoidSoT:
+        """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
+
+        Args:
+            stack: the initial stack, highest priority first.
+            log_period: period of the loggers [s] (default: the control period).
+            load: a (2,) [left, right] load share of the feet for the torque feed-forward
+                (e.g. ``PatternGenerator.load``); equal shares when None.
+            dynamic_feedforward: feed forward the inverse dynamics of the reference motion
+                (velocity and acceleration of the device) rather than the static torques
+                of its posture; for dynamic motions such as walking.
+        """
         b = self.builder
         period = self.control_period
         sot = b.AddSystem(
@@ -237,10 +258,14 @@ class HumanoidSoTBuilder:
             b.Connect(device.GetOutputPort("q"), port)
         b.Connect(device.GetOutputPort("state_des"), self.plant.get_desired_state_input_port(self.info.model_instance))
         feet = [self.control_info.frames["left_foot"], self.control_info.frames["right_foot"]]
-        gravity = b.AddSystem(GravityFeedforward(self.control_plant, self.control_info.actuated_joints, feet))
-        gravity.set_name("gravity_feedforward")
-        b.Connect(device.GetOutputPort("q"), gravity.GetInputPort("q"))
-        b.Connect(gravity.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance))
+        feedforward = b.AddSystem(TorqueFeedforward(self.control_plant, self.control_info.actuated_joints, feet))
+        feedforward.set_name("torque_feedforward")
+        inputs = ("q", "v", "vdot") if dynamic_feedforward else ("q",)
+        for name in inputs:
+            b.Connect(device.GetOutputPort(name), feedforward.GetInputPort(name))
+        if load is not None:
+            b.Connect(load, feedforward.GetInputPort("load"))
+        b.Connect(feedforward.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance))
 
         log_period = log_period or period
         loggers = {
@@ -248,6 +273,8 @@ class HumanoidSoTBuilder:
             "q_ref": LogVectorOutput(device.GetOutputPort("q"), b, log_period),
             "errors": LogVectorOutput(sot.GetOutputPort("errors"), b, log_period),
         }
+        for name, port in self._extra_logs.items():
+            loggers[name] = LogVectorOutput(port, b, log_period)
         for name, logger in loggers.items():
             logger.set_name(f"log_{name}")
         visualizer = None

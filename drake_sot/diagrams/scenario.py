@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,21 +27,29 @@ class ScenarioSetup:
         commands: the timed commands of the scenario's script.
         duration: default simulated duration [s].
         targets: named target poses, for checks and plots.
+        extras: other handles a scenario exposes (e.g. its pattern generator, its footsteps).
     """
 
     built: HumanoidSoT
     commands: list[Command]
     duration: float
     targets: dict[str, RigidTransform] = field(default_factory=dict)
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+ExtraPlots = Callable[[ScenarioSetup, dict[str, np.ndarray], Path], dict[str, Path]]
+"""Writes a scenario's own plots from its setup and logs into a directory; returns name → file."""
 
 
 @dataclass(frozen=True)
 class Scenario:
-    """A scenario of the ``drake-sot`` command: a name, a one-line description, a builder."""
+    """A scenario of the ``drake-sot`` command: a name, a one-line description, a builder,
+    and optionally its own plots beside the task-error plot."""
 
     name: str
     description: str
     build: Callable[[Meshcat | None], ScenarioSetup]
+    extra_plots: ExtraPlots | None = None
 
 
 @dataclass
@@ -86,6 +95,8 @@ def run_scenario(
     files["png"] = out / f"{scenario.name}.png"
     errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
     plot_task_errors(arrays["time"], errors, result.events, files["png"], title=f"{scenario.name}: task errors")
+    if scenario.extra_plots is not None:
+        files.update(scenario.extra_plots(setup, arrays, out))
     if record:
         files["html"] = out / f"{scenario.name}.html"
         write_replay(built, files["html"])

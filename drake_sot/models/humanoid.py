@@ -173,12 +173,12 @@ _RIGHT_LINKS = (
 #: about the ankles, ~0.9 Hz, has a damping ratio of ~0.3 instead of ~0.1).
 DRIVES = {
     #                    effort vmax    kp      kd    rotor
-    "hip_yaw":     _Drive(100.0, 4.0, 1500.0, 30.0, 0.05),
-    "hip_roll":    _Drive(200.0, 4.0, 1500.0, 30.0, 0.10),
-    "hip_pitch":   _Drive(250.0, 5.0, 1500.0, 30.0, 0.10),
-    "knee":        _Drive(300.0, 6.0, 2500.0, 40.0, 0.10),
-    "ankle_pitch": _Drive(200.0, 5.0,  800.0, 60.0, 0.05),
-    "ankle_roll":  _Drive(120.0, 4.0,  800.0, 60.0, 0.05),
+    "hip_yaw":     _Drive(100.0, 4.0, 5000.0, 60.0, 0.05),
+    "hip_roll":    _Drive(200.0, 4.0, 5000.0, 60.0, 0.10),
+    "hip_pitch":   _Drive(250.0, 5.0, 5000.0, 60.0, 0.10),
+    "knee":        _Drive(300.0, 6.0, 6000.0, 80.0, 0.10),
+    "ankle_pitch": _Drive(200.0, 5.0, 5000.0, 80.0, 0.05),
+    "ankle_roll":  _Drive(120.0, 4.0, 5000.0, 80.0, 0.05),
     "chest_yaw":   _Drive(150.0, 3.0, 1000.0, 20.0, 0.05),
     "chest_pitch": _Drive(250.0, 3.0, 1000.0, 20.0, 0.10),
     "head_yaw":    _Drive( 15.0, 3.0,   50.0,  2.0, 0.005),

@@ -32,6 +32,9 @@ class Integrator(LeafSystem):
     Output ports:
         q: reference configuration (nq,).
         v: the velocity integrated at the last tick (nv,).
+        vdot: the change of that velocity over the last tick, divided by the period
+            (nv,) [rad/s², m/s²]: the reference acceleration (an impulse-like value
+            for one tick when the stack or a target changes abruptly).
         state_des: ``[q_a; v_a]`` (2·na,) of the actuated joints in actuator order, for
             ``MultibodyPlant.get_desired_state_input_port``.
 
@@ -64,14 +67,17 @@ class Integrator(LeafSystem):
         self._qa = np.array([j.position_start() for j in joints], dtype=int)
         self._va = np.array([j.velocity_start() for j in joints], dtype=int)
         self._qdot = self.DeclareVectorInputPort("qdot", nv)
-        self._state = self.DeclareDiscreteState(np.concatenate((q0, np.zeros(nv))))
+        self._state = self.DeclareDiscreteState(np.concatenate((q0, np.zeros(2 * nv))))  # [q; v; vdot]
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         ticket = {self.discrete_state_ticket(self._state)}
         self.DeclareVectorOutputPort(
             "q", nq, lambda c, out: out.SetFromVector(self._x(c)[:nq]), prerequisites_of_calc=ticket
         )
         self.DeclareVectorOutputPort(
-            "v", nv, lambda c, out: out.SetFromVector(self._x(c)[nq:]), prerequisites_of_calc=ticket
+            "v", nv, lambda c, out: out.SetFromVector(self._x(c)[nq : nq + nv]), prerequisites_of_calc=ticket
+        )
+        self.DeclareVectorOutputPort(
+            "vdot", nv, lambda c, out: out.SetFromVector(self._x(c)[nq + nv :]), prerequisites_of_calc=ticket
         )
         self.DeclareVectorOutputPort("state_des", 2 * len(joints), self._calc_state_des, prerequisites_of_calc=ticket)
 
@@ -83,15 +89,16 @@ class Integrator(LeafSystem):
         q = np.asarray(q, dtype=float)
         if q.shape != (self._nq,):
             raise ValueError(f"configuration must have {self._nq} entries, got {q.shape}")
-        own_context(self, context).SetDiscreteState(self._state, np.concatenate((q, np.zeros(self._nv))))
+        own_context(self, context).SetDiscreteState(self._state, np.concatenate((q, np.zeros(2 * self._nv))))
 
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         qdot = self._qdot.Eval(context)
         if not np.all(np.isfinite(qdot)):
             raise RuntimeError(f"{self.get_name()!r}: input 'qdot' holds NaN or Inf at t = {context.get_time():.4f} s")
-        q = self._x(context)[: self._nq]
+        x = self._x(context)
+        q, v = x[: self._nq], x[self._nq : self._nq + self._nv]
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate((integrate(q, qdot, self._period, self._floating), qdot))
+            np.concatenate((integrate(q, qdot, self._period, self._floating), qdot, (qdot - v) / self._period))
         )
 
     def _calc_state_des(self, context: Context, output: BasicVector) -> None:

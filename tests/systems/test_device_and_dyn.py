@@ -6,8 +6,8 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 
 from drake_sot.configuration import integrate
-from drake_sot.statics import static_torques
-from drake_sot.systems.gravity import GravityFeedforward
+from drake_sot.statics import contact_torques
+from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 from feature_bench import random_configuration
@@ -66,7 +66,7 @@ def test_dyn_operational_points_match_the_plant(control_model):
     np.testing.assert_allclose(dyn.GetOutputPort("com").Eval(context), plant.CalcCenterOfMassPositionInWorld(pc), atol=1e-14)
 
 
-def test_static_torques_balance_the_robot_by_inverse_dynamics(control_model):
+def test_contact_torques_at_rest_balance_the_robot_by_inverse_dynamics(control_model):
     """Drake's inverse dynamics at rest, with the computed sole wrenches applied, needs
     no base force and exactly the feed-forward joint torques."""
     plant, info, q0 = control_model
@@ -77,7 +77,7 @@ def test_static_torques_balance_the_robot_by_inverse_dynamics(control_model):
     soles = [plant.GetFrameByName(info.frames[k]) for k in ("left_foot", "right_foot")]
     world = plant.world_frame()
     J = np.vstack([plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, f, np.zeros(3), world, world) for f in soles])
-    tau, f = static_torques(plant.CalcGravityGeneralizedForces(context), J)
+    tau, f = contact_torques(-plant.CalcGravityGeneralizedForces(context), J)
     forces = MultibodyForces(plant)
     plant.CalcForceElementsContribution(context, forces)  # gravity (not included by inverse dynamics)
     for k, frame in enumerate(soles):
@@ -95,10 +95,10 @@ def test_static_torques_balance_the_robot_by_inverse_dynamics(control_model):
 
 def test_gravity_feedforward_in_actuator_order(control_model):
     plant, info, q0 = control_model
-    gravity = GravityFeedforward(plant, info.actuated_joints, [info.frames["left_foot"], info.frames["right_foot"]])
-    context = gravity.CreateDefaultContext()
-    gravity.GetInputPort("q").FixValue(context, q0)
-    tau = gravity.GetOutputPort("tau").Eval(context)
+    feedforward = TorqueFeedforward(plant, info.actuated_joints, [info.frames["left_foot"], info.frames["right_foot"]])
+    context = feedforward.CreateDefaultContext()
+    feedforward.GetInputPort("q").FixValue(context, q0)
+    tau = feedforward.GetOutputPort("tau").Eval(context)
     pc = plant.CreateDefaultContext()
     plant.SetPositions(pc, q0)
     tau_g = plant.CalcGravityGeneralizedForces(pc)

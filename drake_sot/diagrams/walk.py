@@ -1,0 +1,167 @@
+"""Scenario ``walk``: the humanoid walks in physics on pattern-generator references.
+
+Stack (highest priority first): joint limits, left foot 6D, right foot 6D (references
+and velocity feed-forward from the pattern generator), CoM xy (preview-control CoM),
+waist orientation (yaw midway between the feet), both hands held relative to the
+waist, posture. Script: at t = 0.5 s, 8 steps of 0.2 m forward, then 4 steps turning
+90° in all (π/8 each) and a closing step that sets the feet side by side; the robot
+stops in double support.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.math import RigidTransform, RollPitchYaw
+
+from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
+from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.models.humanoid import SOLE
+from drake_sot.plots import plot_walk
+from drake_sot.preview import Footstep, StepTiming
+from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
+from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.systems.zmp import ZmpEstimator
+
+TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
+START = 0.5  # [s] when the steps are given
+STACK = (
+    "taskJL", "taskLF", "taskRF", "taskCom", "taskWaist", "taskRHwaist", "taskLHwaist", "taskPosture",
+)
+
+
+def footstep(X: RigidTransform, side: str) -> Footstep:
+    """The footprint of a sole pose."""
+    return Footstep(X.translation()[0], X.translation()[1], RollPitchYaw(X.rotation()).yaw_angle(), side)
+
+
+def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: int = 8) -> list[Footstep]:
+    """8 steps of ``stride`` forward (right foot first), then 4 steps turning left by π/8
+    each and a closing step bringing the left foot beside the right one."""
+    width = math.hypot(left.x - right.x, left.y - right.y)
+    feet = {"left": left, "right": right}
+    steps: list[Footstep] = []
+
+    def step(side: str, dx: float, dyaw: float) -> None:
+        other = feet["right" if side == "left" else "left"]
+        dy = width if side == "left" else -width
+        c, s = math.cos(other.yaw), math.sin(other.yaw)
+        feet[side] = Footstep(other.x + c * dx - s * dy, other.y + s * dx + c * dy, other.yaw + dyaw, side)
+        steps.append(feet[side])
+
+    for i in range(n_forward):
+        step("right" if i % 2 == 0 else "left", stride, 0.0)
+    # Turning left: the left foot opens first, so the feet never cross.
+    for i in range(4):
+        step("left" if i % 2 == 0 else "right", 0.0, math.pi / 8)
+    step("left", 0.0, 0.0)
+    return steps
+
+
+def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
+    """Build the ``walk`` diagram and its script."""
+    b = HumanoidSoTBuilder(meshcat=meshcat)
+    left, right = footstep(b.initial_pose("left_foot"), "left"), footstep(b.initial_pose("right_foot"), "right")
+    com0 = b.initial_com()
+    pg = b.builder.AddSystem(
+        PatternGenerator(left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2])
+    )
+    b.add_joint_limits_task("taskJL")
+    for task_name, frame_key, port in (("taskLF", "left_foot", "left_foot"), ("taskRF", "right_foot", "right_foot")):
+        b.add_op_point_task(task_name, frame_key, gain=20.0)
+        feature = b.features[task_name]
+        b.builder.Connect(pg.GetOutputPort(port), feature.GetInputPort("position_des"))
+        b.builder.Connect(pg.GetOutputPort(port + "_vel"), feature.GetInputPort("velocity_des"))
+    b.add_com_task("taskCom", selection="110", gain=20.0)
+    b.builder.Connect(pg.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
+    b.builder.Connect(pg.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
+    b.add_op_point_task("taskWaist", "pelvis", selection="000111", gain=10.0)
+    b.builder.Connect(pg.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
+    b.add_relative_task("taskRHwaist", "right_hand", "pelvis", gain=5.0)
+    b.add_relative_task("taskLHwaist", "left_hand", "pelvis", gain=5.0)
+    b.add_posture_task("taskPosture", gain=1.0)
+
+    zmp = b.builder.AddSystem(ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]]))
+    zmp.set_name("zmp_estimator")
+    b.builder.Connect(b.plant.get_reaction_forces_output_port(), zmp.GetInputPort("reaction_forces"))
+    b.builder.Connect(b.plant.get_body_poses_output_port(), zmp.GetInputPort("body_poses"))
+    for name, port in (
+        ("zmp", zmp.GetOutputPort("zmp")), ("zmp_ref", pg.GetOutputPort("zmp_ref")), ("com_ref", pg.GetOutputPort("com")),
+        ("contacts", pg.GetOutputPort("contacts")), ("phase", pg.GetOutputPort("phase")),
+    ):
+        b.log(name, port)
+    built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True)
+    steps = walk_steps(left, right)
+    commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
+    duration = START + len(steps) * (TIMING.single_support + TIMING.double_support) + 2.0
+    return ScenarioSetup(
+        built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}
+    )
+
+
+@dataclass
+class WalkAnalysis:
+    """Physical outcomes of a walk, per logged sample.
+
+    Attributes:
+        soles: side → (T, 3) measured sole [x, y, yaw] of the simulated plant.
+        zmp_margin: (T,) signed distance [m] of the measured ZMP inside the support
+            polygon of the soles in contact (per the generator's contact phase); NaN
+            where the ZMP is undefined.
+        polygons: (T,) list of support polygons (k, 2).
+        com: (T, 3) CoM of the simulated plant.
+    """
+
+    soles: dict[str, np.ndarray]
+    zmp_margin: np.ndarray
+    polygons: list[np.ndarray]
+    com: np.ndarray
+
+
+def analyse(built: HumanoidSoT, arrays: dict[str, np.ndarray]) -> WalkAnalysis:
+    """Measure soles, CoM and the ZMP's place in the support polygon from the run's logs."""
+    plant, info = built.plant, built.info
+    context = plant.CreateDefaultContext()
+    frames = {side: plant.GetFrameByName(info.frames[f"{side}_foot"], info.model_instance) for side in ("left", "right")}
+    T = len(arrays["time"])
+    soles = {side: np.zeros((T, 3)) for side in frames}
+    com = np.zeros((T, 3))
+    polygons, margin = [], np.full(T, np.nan)
+    for k in range(T):
+        plant.SetPositions(context, info.model_instance, arrays["q"][k])
+        corners = []
+        for i, (side, frame) in enumerate(frames.items()):
+            X = frame.CalcPoseInWorld(context)
+            soles[side][k] = (*X.translation()[:2], RollPitchYaw(X.rotation()).yaw_angle())
+            if arrays["contacts"][k, i] > 0.5:
+                corners.append(sole_corners(*soles[side][k], SOLE))
+        com[k] = plant.CalcCenterOfMassPositionInWorld(context)
+        polygon = support_polygon(corners)
+        polygons.append(polygon)
+        if np.all(np.isfinite(arrays["zmp"][k])):
+            margin[k] = signed_distance_inside(polygon, arrays["zmp"][k])
+    return WalkAnalysis(soles=soles, zmp_margin=margin, polygons=polygons, com=com)
+
+
+def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
+    """The walking plot: ZMP reference, measured ZMP, CoM and support polygon."""
+    analysis = analyse(setup.built, arrays)
+    path = Path(out_dir) / "walk_zmp.png"
+    plot_walk(
+        arrays["time"], arrays["zmp_ref"], arrays["zmp"], arrays["com_ref"], analysis.com,
+        analysis.polygons, [sole_corners(s.x, s.y, s.yaw, SOLE) for s in setup.extras["steps"]], path,
+    )
+    return {"walk_zmp": path}
+
+
+SCENARIO = Scenario(
+    name="walk",
+    description="8 steps of 0.2 m forward, 4 steps turning 90°, stop in double support (ZMP preview control)",
+    build=build,
+    extra_plots=write_plots,
+)
