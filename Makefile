@@ -51,6 +51,7 @@ test: $(VENV)/.installed-test
 
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_sot.py
+	$(BIN)/python benchmarks/bench_walk.py
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis

@@ -93,6 +93,7 @@ def solve_strict(
     rank_threshold: float = 1e-6,
     damping: float = 0.0,
     qdot0: np.ndarray | None = None,
+    validate: bool = True,
 ) -> HierarchyResult:
     """Solve a stack of tasks in strict priority (paper 000, eq. 8-9).
 
@@ -110,6 +111,9 @@ def solve_strict(
             ``Z_L Z_L^T qdot = Z_L Z_L^T qdot0``.  With ``damping = 0`` the
             result is the lexicographic least-squares solution closest to
             ``qdot0`` (the minimum-norm one when ``qdot0`` is None).
+        validate: check shapes and finiteness (below). A caller that has checked
+            them already (``StackOfTasks`` does, naming the task) may skip it;
+            unchecked bad input gives undefined results.
 
     Rows of ``J_i`` that are exactly zero (a task component that is switched off, as
     in an inactive joint-limit row) are skipped: they cannot change q̇.
@@ -126,7 +130,10 @@ def solve_strict(
     """
     rank_threshold = _nonnegative("rank_threshold", rank_threshold)
     damping = _nonnegative("damping", damping)
-    checked, qdot0 = _validate(levels, qdot0)
+    if validate:
+        checked, qdot0 = _validate(levels, qdot0)
+    else:
+        checked = list(levels)
     if not checked:
         return HierarchyResult(
             qdot=np.zeros(0) if qdot0 is None else qdot0.copy(), rank=(), residual=(), free_dims=()

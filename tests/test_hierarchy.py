@@ -353,3 +353,12 @@ def test_zero_rows_are_skipped_but_reported():
     mixed = np.vstack((J1[:1], np.zeros((1, 5)), J1[1:]))
     a = solve_strict([(mixed, np.array([e1[0], 0.0, e1[1]])), (J2, e2)])
     np.testing.assert_allclose(a.qdot, reference.qdot, atol=1e-12)
+
+
+def test_unvalidated_fast_path_gives_the_same_result():
+    rng = np.random.default_rng(12)
+    levels = [(rng.normal(size=(m, 7)), rng.normal(size=m)) for m in (2, 3, 4)]
+    a = solve_strict(levels)
+    b = solve_strict(levels, validate=False)
+    np.testing.assert_array_equal(a.qdot, b.qdot)
+    assert a.rank == b.rank and a.residual == b.residual

@@ -49,7 +49,7 @@ class _Walk:
     last_side: str | None  # side of the last planned step
     stop_start: int  # index where the final stop segment begins
     walk_end: int  # index where the ZMP has settled between the feet
-    touchdowns: tuple[int, ...]  # sample index of each planned landing
+    landings: tuple[tuple[int, Footstep], ...]  # (sample index, footprint) of each planned landing
     velocity: tuple[float, float, float] | None
     timing: StepTiming
     controller: PreviewController
@@ -122,7 +122,7 @@ class PatternGenerator(LeafSystem):
                 _Walk(
                     samples=standing, k=0, x=x0, error_sum=controller.initial_error_sum(x0, _window(standing.zmp, 0, controller.N)),
                     feet={"left": left, "right": right},
-                    last_side=None, stop_start=0, walk_end=0, touchdowns=(), velocity=None, timing=timing,
+                    last_side=None, stop_start=0, walk_end=0, landings=(), velocity=None, timing=timing,
                     controller=controller, com_height=com_height,
                 )
             )
@@ -165,6 +165,13 @@ class PatternGenerator(LeafSystem):
     def footprints(self, context: Context) -> dict[str, Footstep]:
         """The last planned footprint of each foot (own or root context)."""
         return dict(self._state(own_context(self, context)).feet)
+
+    def planned_landings(self, context: Context) -> list[tuple[float, Footstep]]:
+        """``(time [s], footprint)`` of every landing still ahead, in order (own or root context)."""
+        context = own_context(self, context)
+        walk = self._state(context)
+        now = context.get_time()
+        return [(now + (i - walk.k) * self._dt, step) for i, step in walk.landings if i > walk.k]
 
     # --- commands -----------------------------------------------------------------------
     def add_steps(self, context: Context, steps: Sequence[Footstep]) -> None:
@@ -288,15 +295,15 @@ class PatternGenerator(LeafSystem):
         if len(samples) < cut:
             samples = samples.concatenate(stand_segment(feet["left"], feet["right"], (cut - len(samples)) * self._dt, self._dt))
         zmp = samples.zmp[-1]
-        touchdowns = [t for t in walk.touchdowns if t < cut]
+        landings = [landing for landing in walk.landings if landing[0] < cut]
         dt = self._dt
         for step in steps:
             segment = step_segment(feet["left"], feet["right"], zmp, step, walk.timing, dt)
             samples = samples.concatenate(segment)
-            touchdowns.append(len(samples))
+            landings.append((len(samples) - 1, step))  # the touch-down sample
             feet[step.side] = step
             zmp = segment.zmp[-1]
-        return self._close(replace(walk, feet=feet, last_side=steps[-1].side, touchdowns=tuple(touchdowns)), samples, zmp)
+        return self._close(replace(walk, feet=feet, last_side=steps[-1].side, landings=tuple(landings)), samples, zmp)
 
     def _close(self, walk: _Walk, samples: Segment, zmp: np.ndarray) -> _Walk:
         stop = stop_segment(walk.feet["left"], walk.feet["right"], zmp, walk.timing, self._dt, hold=0.0)
@@ -323,7 +330,7 @@ class PatternGenerator(LeafSystem):
         """In velocity mode, plan footprints until FOOTPRINTS_AHEAD landings lie ahead."""
         if walk.velocity is None:
             return walk
-        ahead = sum(1 for t in walk.touchdowns if t > walk.k)
+        ahead = sum(1 for i, _ in walk.landings if i > walk.k)
         steps = []
         trial = walk
         for _ in range(FOOTPRINTS_AHEAD - ahead):
@@ -338,7 +345,7 @@ class PatternGenerator(LeafSystem):
         c = walk.controller
         x, error_sum, _ = c.step(walk.x, walk.error_sum, _window(walk.samples.zmp, walk.k, c.N))
         walk = replace(walk, k=walk.k + 1, x=x, error_sum=error_sum)
-        if walk.velocity is not None and walk.k in walk.touchdowns:
+        if walk.velocity is not None and any(i == walk.k for i, _ in walk.landings[-FOOTPRINTS_AHEAD - 1 :]):
             walk = self._fill_ahead(walk)
         if walk.k > 4000 and walk.k >= walk.stop_start:  # drop what was executed long ago
             walk = _drop_before(walk, walk.k)
@@ -410,5 +417,5 @@ def _drop_before(walk: _Walk, k: int) -> _Walk:
     samples = Segment(**{f: getattr(walk.samples, f)[k:] for f in walk.samples.__dataclass_fields__})
     return replace(
         walk, samples=samples, k=0, stop_start=walk.stop_start - k, walk_end=max(walk.walk_end - k, 0),
-        touchdowns=tuple(t - k for t in walk.touchdowns if t > k),
+        landings=tuple((i - k, step) for i, step in walk.landings if i > k),
     )

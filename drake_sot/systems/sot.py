@@ -186,7 +186,8 @@ class StackOfTasks(LeafSystem):
                 raise RuntimeError(f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s")
             errors[self._slices[task_name]] = signal.error
             levels.append((signal.jacobian, signal.edot_des))
-        result = solve_strict(levels, rank_threshold=self._rank_threshold, damping=self._damping)
+        # Shapes and finiteness were checked above, with the task's name.
+        result = solve_strict(levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False)
         qdot = result.qdot if levels else np.zeros(self._nv)
         discrete_state.get_mutable_vector(self._qdot).SetFromVector(qdot)
         discrete_state.get_mutable_vector(self._errors).SetFromVector(errors)

@@ -1,0 +1,150 @@
+"""PatternGenerator: commands, limits, the frozen preview window, steering, references."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from drake_sot.preview import Footstep, StepLimits, StepTiming
+from drake_sot.systems.pattern_generator import FOOTPRINTS_AHEAD, PatternGenerator
+
+LEFT, RIGHT = Footstep(0.0, 0.095, 0.0, "left"), Footstep(0.0, -0.095, 0.0, "right")
+TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
+HORIZON = 1.6
+
+
+def _pg():
+    pg = PatternGenerator(LEFT, RIGHT, com_height=0.81, timing=TIMING, horizon=HORIZON)
+    simulator = Simulator(pg)
+    simulator.Initialize()
+    return pg, simulator, simulator.get_mutable_context()
+
+
+def _out(pg, context, name):
+    return pg.GetOutputPort(name).Eval(context)
+
+
+def test_standing_outputs_hold_the_initial_stance():
+    pg, sim, context = _pg()
+    sim.AdvanceTo(1.0)
+    np.testing.assert_allclose(_out(pg, context, "com")[:2], [0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(_out(pg, context, "com")[2], 0.81)
+    np.testing.assert_allclose(_out(pg, context, "left_foot").translation(), [0.0, 0.095, 0.0], atol=1e-12)
+    assert _out(pg, context, "phase")[0] == 0 and _out(pg, context, "in_process")[0] == 0
+    np.testing.assert_allclose(_out(pg, context, "load"), [0.5, 0.5])
+
+
+def test_steps_follow_the_plan_and_never_enter_the_preview_window():
+    pg, sim, context = _pg()
+    sim.AdvanceTo(0.5)
+    steps = [Footstep(0.2, -0.095, 0.0, "right"), Footstep(0.4, 0.095, 0.0, "left")]
+    pg.add_steps(context, steps)
+    landings = pg.planned_landings(context)
+    assert [s for _, s in landings] == steps
+    first_landing = landings[0][0]
+    # The first step (double support + single support, landing on its last sample) starts
+    # no earlier than one horizon from now.
+    step_start = first_landing + 0.005 - (TIMING.single_support + TIMING.double_support)
+    assert step_start >= 0.5 + HORIZON - 1e-9
+    assert _out(pg, context, "in_process")[0] == 1
+    # Follow the walk. Mid-swing: the ZMP reference is on the stance sole, the swing foot
+    # lifted; at each landing the swinging foot is on its footprint, on the ground.
+    for t, step in landings:
+        stance = "left" if step.side == "right" else "right"
+        sim.AdvanceTo(t - TIMING.single_support / 2)
+        assert _out(pg, context, "phase")[0] == (1 if stance == "left" else 2)
+        stance_sole = _out(pg, context, f"{stance}_foot").translation()
+        np.testing.assert_allclose(_out(pg, context, "zmp_ref"), stance_sole[:2], atol=1e-9)
+        assert _out(pg, context, f"{step.side}_foot").translation()[2] == pytest.approx(TIMING.step_height, rel=1e-3)
+        np.testing.assert_array_equal(_out(pg, context, "contacts"), [stance == "left", stance == "right"])
+        sim.AdvanceTo(t + 1e-9)
+        X = _out(pg, context, f"{step.side}_foot")
+        np.testing.assert_allclose(X.translation(), [step.x, step.y, 0.0], atol=1e-9)
+    sim.AdvanceTo(landings[-1][0] + 3.0)
+    # Stopped: the CoM of the cart-table model settles over the middle of the last stance.
+    np.testing.assert_allclose(_out(pg, context, "com")[:2], [0.3, 0.0], atol=2e-3)
+    assert _out(pg, context, "in_process")[0] == 0
+
+
+def test_stepseq_is_relative_to_the_other_foot():
+    pg, sim, context = _pg()
+    pg.parsecmd(context, ":stepseq 0.2 -0.19 0.0  0.2 0.19 0.3")
+    landings = [s for _, s in pg.planned_landings(context)]
+    assert landings[0] == Footstep(0.2, -0.095, 0.0, "right")
+    # Left foot: 0.2 ahead and 0.19 to the left of the right footprint, turned by 0.3 rad.
+    assert (landings[1].x, landings[1].y, landings[1].yaw, landings[1].side) == pytest.approx((0.4, 0.095, 0.3, "left"))
+
+
+def test_parsecmd_timing_and_model_verbs():
+    pg, sim, context = _pg()
+    pg.parsecmd(context, ":singlesupporttime 0.78")
+    pg.parsecmd(context, ":doublesupporttime 0.12")
+    pg.parsecmd(context, ":stepheight 0.04")
+    pg.parsecmd(context, ":comheight 0.8")
+    pg.parsecmd(context, ":previewcontroltime 1.2")
+    sim.AdvanceTo(0.1)
+    assert _out(pg, context, "com")[2] == pytest.approx(0.8)
+    pg.parsecmd(context, ":stepseq 0.1 -0.19 0")
+    (t_land, _), = pg.planned_landings(context)
+    # One horizon (1.2 s) of standing, then 0.12 s double support and 0.78 s single support.
+    assert t_land == pytest.approx(0.1 + 1.2 + 0.12 + 0.78 - 0.005, abs=0.011)
+    with pytest.raises(ValueError, match="only while standing"):
+        pg.parsecmd(context, ":comheight 0.7")
+
+
+def test_bad_commands_and_steps_are_refused_by_name():
+    pg, sim, context = _pg()
+    with pytest.raises(ValueError, match="unknown command ':walkfast'; known: :stepseq, :singlesupporttime"):
+        pg.parsecmd(context, ":walkfast 1")
+    with pytest.raises(ValueError, match=":stepseq takes x y yaw triples"):
+        pg.parsecmd(context, ":stepseq 0.1 0.2")
+    with pytest.raises(ValueError, match="must be numbers"):
+        pg.parsecmd(context, ":stepheight high")
+    before = pg.footprints(context)
+    crossing = Footstep(0.1, 0.05, 0.0, "right")  # right foot to the left of the left foot
+    with pytest.raises(ValueError, match="min_width"):
+        pg.add_steps(context, [Footstep(0.1, -0.095, 0.0, "right"), crossing])
+    with pytest.raises(ValueError, match="max_stride"):
+        pg.add_steps(context, [Footstep(0.6, -0.095, 0.0, "right")])
+    assert pg.footprints(context) == before  # nothing of a refused batch is planned
+    with pytest.raises(ValueError, match="max_stride"):
+        pg.set_velocity(context, 1.0, 0.0, 0.0)  # 0.8 m per step
+
+
+def test_velocity_mode_keeps_four_footprints_ahead_and_steers():
+    pg, sim, context = _pg()
+    pg.set_velocity(context, 0.2, 0.0, 0.0)
+    ahead = []
+    t = 0.0
+    while t < 6.0:
+        t += 0.05
+        sim.AdvanceTo(t)
+        ahead.append(len(pg.planned_landings(context)))
+    assert min(ahead) >= FOOTPRINTS_AHEAD - 1 and max(ahead) >= FOOTPRINTS_AHEAD
+    straight = pg.footprints(context)
+    assert all(abs(s.yaw) < 1e-12 for s in straight.values())
+    already_planned = [s for _, s in pg.planned_landings(context)]
+    pg.set_velocity(context, 0.0, 0.0, 0.3)
+    # Footprints already planned are kept: the planner does not change its window.
+    assert [s for _, s in pg.planned_landings(context)][: len(already_planned)] == already_planned
+    sim.AdvanceTo(16.0)
+    feet = pg.footprints(context)
+    assert min(f.yaw for f in feet.values()) > 1.0  # it turned (0.3 rad/s, 0.24 rad per step)
+    # The waist reference turns with the feet.
+    yaw = math.atan2(_out(pg, context, "waist").rotation().matrix()[1, 0], _out(pg, context, "waist").rotation().matrix()[0, 0])
+    assert yaw > 0.5
+    pg.set_velocity(context, 0.0, 0.0, 0.0)
+    last = pg.planned_landings(context)[-1][0]
+    sim.AdvanceTo(last + 3.0)
+    assert _out(pg, context, "in_process")[0] == 0
+    left, right = pg.footprints(context)["left"], pg.footprints(context)["right"]
+    assert left.yaw == pytest.approx(right.yaw)  # stopped with the feet side by side
+
+
+def test_limits_object_is_used(monkeypatch):
+    tight = StepLimits(max_stride=0.1)
+    pg = PatternGenerator(LEFT, RIGHT, com_height=0.81, limits=tight)
+    context = pg.CreateDefaultContext()
+    with pytest.raises(ValueError, match="max_stride 0.1"):
+        pg.add_steps(context, [Footstep(0.15, -0.095, 0.0, "right")])
