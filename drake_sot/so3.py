@@ -8,6 +8,8 @@ Pure numpy; no Drake.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _SMALL = 1e-8
@@ -37,9 +39,10 @@ def log(R: np.ndarray) -> np.ndarray:
     Accurate near the identity and near π (where the axis is taken from the
     symmetric part of R).
     """
-    v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    vx, vy, vz = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
     # atan2 keeps full precision at both ends, where arccos of the trace does not.
-    theta = float(np.arctan2(0.5 * np.linalg.norm(v), 0.5 * (np.trace(R) - 1.0)))
+    theta = math.atan2(0.5 * math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0))
+    v = np.array([vx, vy, vz])
     if theta < 1e-6:
         return 0.5 * v
     if np.pi - theta < 1e-4:
@@ -51,18 +54,26 @@ def log(R: np.ndarray) -> np.ndarray:
         if axis @ v < 0.0:  # the antisymmetric part, 2 sinθ a, fixes the sign
             axis = -axis
         return theta * axis
-    return theta / (2.0 * np.sin(theta)) * v
+    return theta / (2.0 * math.sin(theta)) * v
 
 
 def left_jacobian_inverse(w: np.ndarray) -> np.ndarray:
     """``J_l^{-1}(w)`` (3, 3): maps a world angular velocity to ``d/dt log(X)``, ``X = exp(w)``."""
-    theta = float(np.linalg.norm(w))
-    W = hat(w)
-    if theta < 1e-6:
-        return np.eye(3) - 0.5 * W + W @ W / 12.0
-    half = 0.5 * theta
-    coef = (1.0 - half / np.tan(half)) / theta**2
-    return np.eye(3) - 0.5 * W + coef * W @ W
+    x, y, z = float(w[0]), float(w[1]), float(w[2])
+    theta2 = x * x + y * y + z * z
+    if theta2 < 1e-12:
+        coef = 1.0 / 12.0
+    else:
+        theta = math.sqrt(theta2)
+        coef = (1.0 - 0.5 * theta / math.tan(0.5 * theta)) / theta2
+    # I - W/2 + coef W², with W² = w wᵀ - θ² I written out.
+    return np.array(
+        [
+            [1.0 + coef * (x * x - theta2), 0.5 * z + coef * x * y, -0.5 * y + coef * x * z],
+            [-0.5 * z + coef * x * y, 1.0 + coef * (y * y - theta2), 0.5 * x + coef * y * z],
+            [0.5 * y + coef * x * z, -0.5 * x + coef * y * z, 1.0 + coef * (z * z - theta2)],
+        ]
+    )
 
 
 def right_jacobian_inverse(w: np.ndarray) -> np.ndarray:

@@ -77,8 +77,11 @@ class _Feature(LeafSystem):
         )
 
     def desired(self, context: Context):
-        """``s*`` now: the input port's value when connected, else the parameter."""
-        context = own_context(self, context)
+        """``s*`` now: the input port's value when connected, else the parameter (own or root context)."""
+        return self._desired(own_context(self, context))
+
+    def _desired(self, context: Context):
+        """``desired`` for this system's own context (the per-tick path)."""
         if self._desired_port.HasValue(context):
             return self._desired_port.Eval(context)
         return context.get_abstract_parameter(self._desired_param).get_value()
@@ -150,7 +153,7 @@ class FeatureGeneric(_Feature):
             raise ValueError(
                 f"{self.get_name()!r}: {self._jacobian_port} has shape {J.shape}, expected ({self._size}, nv)"
             )
-        e = self._s.Eval(context) - np.asarray(self.desired(context))
+        e = self._s.Eval(context) - np.asarray(self._desired(context))
         ff = self._sdes_dot.Eval(context) if self._sdes_dot.HasValue(context) else np.zeros(self._size)
         return e, J, ff
 
@@ -222,7 +225,7 @@ class FeaturePoint6d(_PoseFeature):
 
     def _compute(self, context):
         X = self._pose.Eval(context)
-        X_des = self.desired(context)
+        X_des = self._desired(context)
         velocity_des = self._velocity_des.Eval(context) if self._velocity_des.HasValue(context) else None
         return fmath.point6d(
             X.rotation().matrix(), X.translation(), self._J.Eval(context),
@@ -256,7 +259,7 @@ class FeaturePoint6dRelative(_PoseFeature):
 
     def _compute(self, context):
         X_a, X_b = self._pose.Eval(context), self._pose_ref.Eval(context)
-        X_des = self.desired(context)
+        X_des = self._desired(context)
         e, J = fmath.point6d_relative(
             X_a.rotation().matrix(), X_a.translation(), self._J.Eval(context),
             X_b.rotation().matrix(), X_b.translation(), self._J_ref.Eval(context),
@@ -314,7 +317,7 @@ class FeaturePosture(_Feature):
 
     def _compute(self, context):
         q = self._q.Eval(context)
-        q_des = np.asarray(self.desired(context))
+        q_des = np.asarray(self._desired(context))
         return q[self._q_index] - q_des[self._q_index], self._J_full, np.zeros(self._size)
 
 

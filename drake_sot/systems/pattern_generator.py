@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from pydrake.common.value import AbstractValue, Value
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
+from pydrake.systems.framework import Context, LeafSystem, State
 
 from drake_sot.preview import (
     Footstep,
