@@ -81,7 +81,7 @@ def plot_walk(
     top.set_xlabel("x [m]")
     top.set_ylabel("y [m]")
     top.set_title("top view: planned footprints in grey")
-    top.legend(loc="best", fontsize=8)
+    top.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=2, fontsize=8)
     low = np.array([p.min(axis=0) for p in polygons])
     high = np.array([p.max(axis=0) for p in polygons])
     for axis, name in ((0, "x"), (1, "y")):
