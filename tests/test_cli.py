@@ -1,6 +1,5 @@
 """The ``drake-sot`` command and the artefacts of a run: replay, diagram, plot, logs."""
 
-import shutil
 import signal
 import subprocess
 import sys
@@ -13,6 +12,7 @@ from drake_sot import cli
 from drake_sot.diagrams import reach
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, run_scenario
+from headless import chromium, screenshot
 
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 
@@ -66,20 +66,9 @@ def test_replay_is_standalone_and_renders(recorded_run, tmp_path):
     out, _ = recorded_run
     html = (out / "reach.html").read_text()
     assert "<script src=\"http" not in html and "<link" not in html  # no external resources
-    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    if chromium is None:
+    if chromium() is None:
         pytest.skip("chromium is not installed (make test installs it with apt)")
-    shot = tmp_path / "shot.png"
-    subprocess.run(
-        [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
-         f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={shot}", "--window-size=800,600",
-         "--virtual-time-budget=5000", (out / "reach.html").resolve().as_uri()],
-        capture_output=True, timeout=120, check=True,
-    )
-    import matplotlib.image
-
-    pixels = matplotlib.image.imread(shot)[..., :3].reshape(-1, 3)
+    pixels = screenshot(out / "reach.html", tmp_path / "shot.png").reshape(-1, 3)
     colours = np.unique(np.round(pixels * 255).astype(int), axis=0)
     assert len(colours) > 50, "the replay rendered as a blank page"
 
