@@ -54,6 +54,9 @@ def log_arrays(built: HumanoidSoT, root_context: Context, result: RunResult) -> 
     for name, logger in built.loggers.items():
         if name not in ("state", "q_ref", "errors"):
             arrays[name] = _aligned(logger.FindLog(root_context), time)
+    history = built.stack_history.history(root_context)
+    arrays["stack_time"] = np.array([t for t, _ in history])
+    arrays["stack"] = np.array([" > ".join(stack) for _, stack in history], dtype=str)
     arrays["event_time"] = np.array([t for t, _ in result.events])
     arrays["event_label"] = np.array([label for _, label in result.events], dtype=str)
     return arrays

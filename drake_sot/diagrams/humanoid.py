@@ -47,6 +47,7 @@ from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.sot import StackOfTasks
+from drake_sot.systems.stack_history import StackHistory
 from drake_sot.systems.task import Task
 
 @dataclass
@@ -63,6 +64,7 @@ class HumanoidSoT:
     tasks: dict[str, Task]
     features: dict[str, _Feature]
     loggers: dict[str, VectorLogSink]
+    stack_history: StackHistory
     q0: np.ndarray
     meshcat: Meshcat | None
     visualizer: MeshcatVisualizer | None
@@ -267,6 +269,9 @@ class HumanoidSoTBuilder:
             b.Connect(load, feedforward.GetInputPort("load"))
         b.Connect(feedforward.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance))
 
+        history = b.AddSystem(StackHistory(period=period))
+        b.Connect(sot.GetOutputPort("stack"), history.GetInputPort("stack"))
+
         log_period = log_period or period
         loggers = {
             "state": LogVectorOutput(self.plant.get_state_output_port(self.info.model_instance), b, log_period),
@@ -287,7 +292,7 @@ class HumanoidSoTBuilder:
         return HumanoidSoT(
             diagram=diagram, plant=self.plant, info=self.info, control_plant=self.control_plant, dyn=self.dyn,
             sot=sot, device=device, tasks=dict(self.tasks), features=dict(self.features), loggers=loggers,
-            q0=self.q0, meshcat=self.meshcat, visualizer=visualizer,
+            stack_history=history, q0=self.q0, meshcat=self.meshcat, visualizer=visualizer,
         )
 
 

@@ -16,6 +16,7 @@ from drake_sot.diagrams.artifacts import log_arrays, write_npz, write_replay, wr
 from drake_sot.diagrams.humanoid import HumanoidSoT, loopback_meshcat
 from drake_sot.diagrams.run import Command, Progress, RunResult, simulate
 from drake_sot.plots import plot_task_errors
+from drake_sot.systems.stack_history import stack_changes
 
 
 @dataclass
@@ -94,7 +95,11 @@ def run_scenario(
     write_npz(arrays, files["npz"])
     files["png"] = out / f"{scenario.name}.png"
     errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
-    plot_task_errors(arrays["time"], errors, result.events, files["png"], title=f"{scenario.name}: task errors")
+    command_times = {round(t, 6) for t, _ in result.events}
+    marks = result.events + [
+        (t, label) for t, label in stack_changes(built.stack_history.history(context)) if round(t, 6) not in command_times
+    ]
+    plot_task_errors(arrays["time"], errors, marks, files["png"], title=f"{scenario.name}: task errors")
     if scenario.extra_plots is not None:
         files.update(scenario.extra_plots(setup, arrays, out))
     if record:

@@ -61,3 +61,7 @@ def test_left_hand_task_pushed_then_removed(reach_run):
     assert np.all(np.isnan(e_lh[t > 5.01]))  # out again after rm
     labels = list(reach_run.arrays["event_label"])
     assert labels.index("push taskLH") < labels.index("up taskLH") < labels.index("rm taskLH")
+    # The logged stack: taskLH enters above the posture at 3 s and leaves at 5 s.
+    stacks = dict(zip(np.round(reach_run.arrays["stack_time"], 3), reach_run.arrays["stack"], strict=True))
+    assert stacks[3.0].split(" > ")[-2:] == ["taskLH", "taskPosture"]
+    assert "taskLH" not in stacks[5.0] and "taskLH" not in stacks[0.0]

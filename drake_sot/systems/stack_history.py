@@ -1,0 +1,52 @@
+"""``StackHistory``: every change of a stack of tasks, with its time, for logs and plots."""
+
+from __future__ import annotations
+
+from pydrake.common.value import AbstractValue, Value
+from pydrake.systems.framework import Context, LeafSystem, State
+
+from drake_sot.systems._context import own_context
+
+
+class StackHistory(LeafSystem):
+    """Records the stack each time it changes (checked at ``period``).
+
+    Input ports:
+        stack: abstract ``tuple[str, ...]`` (``StackOfTasks.stack``).
+    Output ports:
+        history: abstract ``tuple[tuple[float, tuple[str, ...]], ...]``: (time [s],
+            stack) of the initial stack and of every change.
+    """
+
+    def __init__(self, *, period: float = 0.005, name: str = "stack_history") -> None:
+        super().__init__()
+        self.set_name(name)
+        self._stack = self.DeclareAbstractInputPort("stack", AbstractValue.Make(()))
+        self._history = self.DeclareAbstractState(Value[object](()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
+        self.DeclareAbstractOutputPort(
+            "history", lambda: Value[object](()),
+            lambda context, value: value.set_value(context.get_abstract_state(self._history).get_value()),
+            prerequisites_of_calc={self.abstract_state_ticket(self._history)},
+        )
+
+    def history(self, context: Context) -> tuple[tuple[float, tuple[str, ...]], ...]:
+        """The recorded history (this system's context or the root's)."""
+        return own_context(self, context).get_abstract_state(self._history).get_value()
+
+    def _update(self, context: Context, state: State) -> None:
+        history = context.get_abstract_state(self._history).get_value()
+        stack = tuple(self._stack.Eval(context))
+        if not history or history[-1][1] != stack:
+            state.get_mutable_abstract_state(self._history).set_value(history + ((context.get_time(), stack),))
+
+
+def stack_changes(history) -> list[tuple[float, str]]:
+    """``(time, label)`` of each change after the first stack; the label lists the tasks
+    added (+) and removed (−), or says ``reordered``."""
+    changes = []
+    for (_, before), (t, after) in zip(history, history[1:]):
+        added = [f"+{task}" for task in after if task not in before]
+        removed = [f"−{task}" for task in before if task not in after]
+        changes.append((t, " ".join(added + removed) or "reordered"))
+    return changes
