@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= out
-SCENARIO ?= walk
+SCENARIO ?= walk_then_interact
 
 # Install the Debian package of each "command:package" pair whose command is missing.
 define apt_need

@@ -27,6 +27,7 @@ import numpy as np
 from pydrake.geometry import Meshcat, MeshcatParams, SceneGraph
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.tree import BodyIndex, JointIndex
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
@@ -35,6 +36,7 @@ from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, add_ground, half_sitting_configuration, load_humanoid, make_control_model
+from drake_sot.systems.admittance import AdmittanceController
 from drake_sot.systems.features import (
     FeatureCoM,
     FeatureJointLimits,
@@ -44,6 +46,7 @@ from drake_sot.systems.features import (
     _Feature,
 )
 from drake_sot.systems.feedforward import TorqueFeedforward
+from drake_sot.systems.force_sensor import ForceSensor
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.sot import StackOfTasks
@@ -142,11 +145,17 @@ class HumanoidSoTBuilder:
         return self.control_plant.GetFrameByName(self.control_info.frames[frame_key])
 
     # --- tasks -----------------------------------------------------------------------
-    def op_point(self, frame_key: str) -> str:
-        """Create (once) the operational point of a humanoid frame on ``dyn``; returns its name."""
+    def op_point(self, frame_key: str, frame_name: str | None = None) -> str:
+        """Create (once) an operational point on ``dyn``; returns its name.
+
+        ``frame_key`` is a humanoid frame's logical name (``"right_hand"``), or any new
+        name when ``frame_name`` gives the model's frame.
+        """
         if frame_key not in self.dyn.operational_points:
-            self._frame(frame_key)
-            self.dyn.add_operational_point(frame_key, self.control_info.frames[frame_key])
+            if frame_name is None:
+                self._frame(frame_key)
+                frame_name = self.control_info.frames[frame_key]
+            self.dyn.add_operational_point(frame_key, frame_name)
         return frame_key
 
     def _add_task(self, task_name: str, feature: _Feature, gain: Gain) -> Task:
@@ -216,6 +225,48 @@ class HumanoidSoTBuilder:
         self._q_consumers.append(feature.GetInputPort("q"))
         return task
 
+    def add_admittance_task(
+        self, task_name: str, side: str, *, mass: float | Sequence[float], damping: float | Sequence[float],
+        stiffness: float | Sequence[float] = 0.0, gain: Gain = 5.0, max_velocity=(0.5, 1.0),
+    ) -> AdmittanceController:
+        """A force-based hand task (paper 000 IV-C): the hand's wrist sensor drives an
+        ``AdmittanceController`` whose reference pose and velocity feed a 6D hand task.
+
+        Args:
+            task_name: the task (e.g. the paper's ``taskForce``).
+            side: ``"right"`` or ``"left"``.
+            mass, damping, stiffness: the virtual mass [kg, kg·m²], damping [N·s/m,
+                N·m·s/rad] and stiffness of the admittance, per axis or one value.
+            gain: the hand task's gain [1/s]; max_velocity: saturation (linear, angular).
+        Returns:
+            the controller, whose ``active``, ``wrench_ref`` inputs are left for the
+            scenario to drive (active and zero when unconnected).
+        """
+        if side not in ("right", "left"):
+            raise ValueError(f"side {side!r} must be 'right' or 'left'")
+        sensor_joint = self.info.force_sensors[f"{side}_wrist"]
+        sensor = self.builder.AddSystem(ForceSensor(self.plant, sensor_joint))
+        sensor.set_name(f"{side}_wrist_sensor")
+        self.builder.Connect(self.plant.get_reaction_forces_output_port(), sensor.GetInputPort("reaction_forces"))
+        joint = self.control_plant.GetJointByName(sensor_joint)
+        sensor_op = self.op_point(f"{side}_wrist_sensor", joint.frame_on_child().name())
+        hand_mass, hand_com = _mass_below(self.control_plant, self._probe_context, joint)
+        admittance = self.builder.AddSystem(
+            AdmittanceController(
+                mass=mass, damping=damping, stiffness=stiffness, hand_mass=hand_mass, hand_com=hand_com,
+                period=self.control_period, max_velocity=max_velocity, name=f"admittance_{task_name}",
+            )
+        )
+        hand = self.op_point(f"{side}_hand")
+        self.builder.Connect(sensor.GetOutputPort("wrench"), admittance.GetInputPort("wrench"))
+        self.builder.Connect(self.dyn.GetOutputPort(sensor_op), admittance.GetInputPort("sensor_pose"))
+        self.builder.Connect(self.dyn.GetOutputPort(hand), admittance.GetInputPort("hand_pose"))
+        self.add_op_point_task(task_name, f"{side}_hand", gain=gain)
+        feature = self.features[task_name]
+        self.builder.Connect(admittance.GetOutputPort("pose_des"), feature.GetInputPort("position_des"))
+        self.builder.Connect(admittance.GetOutputPort("velocity_des"), feature.GetInputPort("velocity_des"))
+        return admittance
+
     def add_joint_limits_task(self, task_name: str, *, margin: float = 0.02, gain: Gain = 5.0) -> Task:
         """A joint-limit task (``FeatureJointLimits``) on every actuated joint; put it at the top of the stack."""
         feature = FeatureJointLimits(
@@ -234,7 +285,7 @@ class HumanoidSoTBuilder:
     # --- closing the loop ------------------------------------------------------------
     def build(
         self, stack: Sequence[str], *, log_period: float | None = None, load: OutputPort | None = None,
-        dynamic_feedforward: bool = False,
+        dynamic_feedforward: bool = False, stack_source: OutputPort | None = None,
     ) -> HumanoidSoT:
         """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
 
@@ -246,6 +297,9 @@ class HumanoidSoTBuilder:
             dynamic_feedforward: feed forward the inverse dynamics of the reference motion
                 (velocity and acceleration of the device) rather than the static torques
                 of its posture; for dynamic motions such as walking.
+            stack_source: an abstract ``tuple[str, ...]`` output that drives the stack
+                (e.g. ``TaskSequencer.stack``); then ``stack`` is only the stack's name list
+                for validation and the context commands are refused.
         """
         b = self.builder
         period = self.control_period
@@ -254,6 +308,8 @@ class HumanoidSoTBuilder:
         )
         for task_name, task in self.tasks.items():
             b.Connect(task.GetOutputPort("task"), sot.GetInputPort(task_name))
+        if stack_source is not None:
+            b.Connect(stack_source, sot.GetInputPort("stack"))
         device = b.AddSystem(Integrator(self.control_plant, self.control_info.actuated_joints, self.q0, period=period))
         b.Connect(sot.GetOutputPort("qdot"), device.GetInputPort("qdot"))
         for port in self._q_consumers:
@@ -294,6 +350,28 @@ class HumanoidSoTBuilder:
             sot=sot, device=device, tasks=dict(self.tasks), features=dict(self.features), loggers=loggers,
             stack_history=history, q0=self.q0, meshcat=self.meshcat, visualizer=visualizer,
         )
+
+
+def _mass_below(plant: MultibodyPlant, context, joint) -> tuple[float, np.ndarray]:
+    """Mass [kg] and centre of mass (in the joint's child frame) of every body outboard of ``joint``."""
+    parent = {}
+    for i in range(plant.num_joints()):
+        j = plant.get_joint(JointIndex(i))
+        parent[j.child_body().index()] = j.parent_body().index()
+    root = joint.child_body().index()
+
+    def below(b) -> bool:
+        while b != root and b in parent:
+            b = parent[b]
+        return b == root
+
+    bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies()) if below(BodyIndex(i))]
+    mass = sum(body.default_mass() for body in bodies)
+    p_WCm = sum(
+        body.default_mass() * body.EvalPoseInWorld(context).multiply(body.default_spatial_inertia().get_com())
+        for body in bodies
+    ) / mass
+    return mass, joint.frame_on_child().CalcPoseInWorld(context).inverse().multiply(p_WCm)
 
 
 def loopback_meshcat() -> Meshcat:

@@ -40,10 +40,9 @@ def footstep(X: RigidTransform, side: str) -> Footstep:
     return Footstep(X.translation()[0], X.translation()[1], RollPitchYaw(X.rotation()).yaw_angle(), side)
 
 
-def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: int = 8) -> list[Footstep]:
-    """8 steps of ``stride`` forward (right foot first), then 4 steps turning left by π/8
-    each and a closing step bringing the left foot beside the right one."""
-    width = math.hypot(left.x - right.x, left.y - right.y)
+def _stepper(left: Footstep, right: Footstep, width: float):
+    """A function appending, to a list it returns, steps made relative to the other foot,
+    ``width`` [m] to its side."""
     feet = {"left": left, "right": right}
     steps: list[Footstep] = []
 
@@ -54,13 +53,32 @@ def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: 
         feet[side] = Footstep(other.x + c * dx - s * dy, other.y + s * dx + c * dy, other.yaw + dyaw, side)
         steps.append(feet[side])
 
-    for i in range(n_forward):
+    return step, steps
+
+
+def _width(left: Footstep, right: Footstep) -> float:
+    return math.hypot(left.x - right.x, left.y - right.y)
+
+
+def forward_steps(left: Footstep, right: Footstep, n: int, stride: float) -> list[Footstep]:
+    """``n`` steps of ``stride`` [m] forward, right foot first, each relative to the other foot."""
+    step, steps = _stepper(left, right, _width(left, right))
+    for i in range(n):
         step("right" if i % 2 == 0 else "left", stride, 0.0)
+    return steps
+
+
+def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: int = 8) -> list[Footstep]:
+    """``n_forward`` steps of ``stride`` forward (right foot first), then 4 steps turning
+    left by π/8 each and a closing step bringing the left foot beside the right one."""
+    forward = forward_steps(left, right, n_forward, stride)
+    last = {s.side: s for s in [left, right, *forward]}
+    step, steps = _stepper(last["left"], last["right"], _width(left, right))
     # Turning left: the left foot opens first, so the feet never cross.
     for i in range(4):
         step("left" if i % 2 == 0 else "right", 0.0, math.pi / 8)
     step("left", 0.0, 0.0)
-    return steps
+    return forward + steps
 
 
 def build(meshcat: Meshcat | None = None) -> ScenarioSetup:

@@ -11,6 +11,9 @@ from drake_sot.systems._context import own_context
 class StackHistory(LeafSystem):
     """Records the stack each time it changes (checked at ``period``).
 
+    A change made by another system's event at a tick is recorded at the next tick (all
+    events of one instant read the state before it), so times are at most one period late.
+
     Input ports:
         stack: abstract ``tuple[str, ...]`` (``StackOfTasks.stack``).
     Output ports:

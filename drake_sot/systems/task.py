@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.common.value import AbstractValue, Value
 from pydrake.systems.framework import Context, InputPort, LeafSystem
@@ -11,6 +13,9 @@ from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.systems._context import own_context
 from drake_sot.systems.features import _Feature
 
+#: Name of the optional input port that drives λ.
+GAIN_PORT = "gain"
+
 
 class Task(LeafSystem):
     """A task: the concatenation of one or more features and a gain.
@@ -18,9 +23,15 @@ class Task(LeafSystem):
     ``e = [e_1; e_2; ...]`` (paper 000 eq. 10), ``J = [J_1; J_2; ...]`` and the desired
     error rate ``ė* = -λ e + feedforward`` (eq. 3, plus the feed-forward of moving
     references). λ is a constant or an :class:`~drake_sot.gains.AdaptiveGain` of ‖e‖,
-    held in a parameter that :meth:`set_gain` changes at run time.
+    held in a parameter that :meth:`set_gain` changes at run time, unless the ``gain``
+    input port is connected: λ then comes from that port (e.g. a
+    :class:`~drake_sot.systems.sequencer.TaskSequencer` output) and :meth:`set_gain` is
+    refused, not ignored.
 
     Input ports:
+        gain: optional (1,), λ [1/s]; when connected it must be finite and > 0 (else a
+            RuntimeError naming the task when the task is evaluated). "gain" is
+            therefore not a valid feature name.
         <feature name>: one per feature added with :meth:`add`, abstract
             :class:`~drake_sot.signals.FeatureSignal` (plug the feature's ``feature`` output).
     Output ports:
@@ -38,6 +49,7 @@ class Task(LeafSystem):
         self._features: list[tuple[InputPort, int]] = []
         # Value[object]: the parameter holds a float or an AdaptiveGain.
         self._gain = self.DeclareAbstractParameter(Value[object](validate_gain(gain, name=name)))
+        self._gain_input = self.DeclareVectorInputPort(GAIN_PORT, 1)
         self.DeclareAbstractOutputPort(
             "task",
             lambda: AbstractValue.Make(TaskSignal(name, np.zeros(0), np.zeros((0, 0)), np.zeros(0))),
@@ -53,6 +65,10 @@ class Task(LeafSystem):
     def add(self, feature: _Feature) -> InputPort:
         """Add a feature (the paper's ``task.add feature``) and return the input port to plug it into."""
         name = feature.get_name()
+        if name == GAIN_PORT:
+            raise ValueError(
+                f"task {self.get_name()!r}: a feature cannot be named {GAIN_PORT!r} (the name of the gain input port)"
+            )
         if self.HasInputPort(name):
             raise ValueError(f"task {self.get_name()!r} already has a feature named {name!r}")
         port = self.DeclareAbstractInputPort(
@@ -62,10 +78,27 @@ class Task(LeafSystem):
         return port
 
     def set_gain(self, context: Context, gain: Gain) -> None:
-        """Change λ at run time (own or root context)."""
-        own_context(self, context).get_mutable_abstract_parameter(self._gain).set_value(
-            validate_gain(gain, name=self.get_name())
-        )
+        """Change λ at run time (own or root context); refused when the ``gain`` input is connected."""
+        context = own_context(self, context)
+        if self._gain_input.HasValue(context):
+            raise ValueError(
+                f"task {self.get_name()!r}: the gain comes from input port {GAIN_PORT!r}; change its source instead"
+            )
+        context.get_mutable_abstract_parameter(self._gain).set_value(validate_gain(gain, name=self.get_name()))
+
+    def gain(self, context: Context) -> Gain:
+        """λ now: the ``gain`` input's value when connected, else the parameter (own or root context)."""
+        return self._current_gain(own_context(self, context))
+
+    def _current_gain(self, context: Context) -> Gain:
+        if self._gain_input.HasValue(context):
+            value = float(self._gain_input.Eval(context)[0])
+            if not (math.isfinite(value) and value > 0.0):
+                raise RuntimeError(
+                    f"task {self.get_name()!r}: gain {value} on input port {GAIN_PORT!r} must be finite and > 0"
+                )
+            return value
+        return context.get_abstract_parameter(self._gain).get_value()
 
     def _calc_task(self, context: Context, value: AbstractValue) -> None:
         if not self._features:
@@ -77,5 +110,5 @@ class Task(LeafSystem):
             e = np.concatenate([s.error for s in signals])
             J = np.vstack([s.jacobian for s in signals])
             ff = np.concatenate([s.feedforward for s in signals])
-        gain = evaluate_gain(context.get_abstract_parameter(self._gain).get_value(), float(np.linalg.norm(e)))
+        gain = evaluate_gain(self._current_gain(context), float(np.linalg.norm(e)))
         value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))

@@ -125,7 +125,7 @@ def test_control_law_is_the_strict_hierarchy_of_the_stack():
 
 def test_bad_task_signals_name_the_task():
     rng = np.random.default_rng(4)
-    sot, context, signals = _sot_with_fixed_tasks(rng, {"a": 2, "b": 1}, stack=("a", "b"))
+    sot, context, _ = _sot_with_fixed_tasks(rng, {"a": 2, "b": 1}, stack=("a", "b"))
     bad = TaskSignal("b", np.zeros(1), np.full((1, NV), np.nan), np.zeros(1))
     sot.GetInputPort("b").FixValue(context, bad)
     with pytest.raises(RuntimeError, match="task 'b': NaN or Inf"):
@@ -161,3 +161,64 @@ def test_tasks_outside_the_stack_are_not_evaluated():
     simulator.AdvanceTo(0.1)
     assert sources["used"].calls >= 10
     assert sources["idle"].calls == 0
+
+
+def test_stack_input_drives_the_stack_and_is_validated():
+    rng = np.random.default_rng(5)
+    dims = {"a": 1, "b": 2, "c": 1}
+    sot, context, signals = _sot_with_fixed_tasks(rng, dims, stack=("a",))
+    assert not sot.is_driven(context)
+    assert sot.GetOutputPort("stack").Eval(context) == ("a",)
+    sot.GetInputPort("stack").FixValue(context, ("c", "b"))
+    assert sot.is_driven(context)
+    # The output follows the input (the cache knows it depends on it), and so does the tick.
+    assert sot.GetOutputPort("stack").Eval(context) == ("c", "b")
+    assert sot.list(context) == ("c", "b")
+    qdot, errors = _tick(sot, context)
+    expected = solve_strict([(signals[n].jacobian, signals[n].edot_des) for n in ("c", "b")]).qdot
+    np.testing.assert_allclose(qdot, expected, atol=1e-12)
+    assert np.isnan(errors[sot.error_slices()["a"]]).all()
+    sot.GetInputPort("stack").FixValue(context, ("b",))
+    assert sot.GetOutputPort("stack").Eval(context) == ("b",)
+    # Commands are refused, not silently overridden.
+    with pytest.raises(ValueError, match="'sot': cannot push: the stack is driven by input port 'stack'"):
+        sot.push(context, "a")
+    with pytest.raises(ValueError, match="cannot clear"):
+        sot.clear(context)
+    # Bad stacks on the input name the culprits and list the known tasks.
+    sot.GetInputPort("stack").FixValue(context, ("a", "zz", "b", "a"))
+    with pytest.raises(RuntimeError, match=r"unknown task\(s\) 'zz' and task\(s\) listed twice 'a'; known tasks: a, b, c"):
+        _tick(sot, context)
+    with pytest.raises(RuntimeError, match="unknown task"):
+        sot.GetOutputPort("stack").Eval(context)
+    sot.GetInputPort("stack").FixValue(context, "ab")
+    with pytest.raises(RuntimeError, match="must carry a tuple of task names"):
+        _tick(sot, context)
+
+
+def test_stack_is_not_a_task_name():
+    with pytest.raises(ValueError, match="'stack' cannot be a task name"):
+        StackOfTasks(NV, {"a": 1, "stack": 1})
+
+
+def test_task_gain_input():
+    rng = np.random.default_rng(6)
+    feature = FeatureGeneric(2, name="f")
+    task = Task("t", gain=3.0)
+    task.add(feature)
+    context = task.CreateDefaultContext()
+    signal = _feature_signal(rng, 2)
+    task.GetInputPort("f").FixValue(context, signal)
+    assert task.gain(context) == 3.0
+    np.testing.assert_allclose(task.GetOutputPort("task").Eval(context).edot_des, -3.0 * signal.error)
+    task.GetInputPort("gain").FixValue(context, [7.0])
+    assert task.gain(context) == 7.0
+    np.testing.assert_allclose(task.GetOutputPort("task").Eval(context).edot_des, -7.0 * signal.error)
+    with pytest.raises(ValueError, match="task 't': the gain comes from input port 'gain'"):
+        task.set_gain(context, 2.0)
+    for bad in (0.0, -1.0, np.nan, np.inf):
+        task.GetInputPort("gain").FixValue(context, [bad])
+        with pytest.raises(RuntimeError, match="task 't': gain .* on input port 'gain' must be finite and > 0"):
+            task.GetOutputPort("task").Eval(context)
+    with pytest.raises(ValueError, match="cannot be named 'gain'"):
+        task.add(FeatureGeneric(1, name="gain"))

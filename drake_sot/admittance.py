@@ -1,0 +1,222 @@
+"""Admittance control: a virtual mass-damper(-spring) driven by forces (pure numpy/scipy).
+
+On a position-controlled robot a force task is made from a *reference* that obeys
+the dynamics of a virtual mechanical system driven by the measured forces (paper
+000, IV-C, eq. 11; paper 001, III-B, eq. 4, and the master side's eq. 8 with a
+spring)::
+
+    M r̈ + B ṙ + K (r - r_rest) = f
+
+:class:`MassDamperSpring` integrates it exactly for a force held constant over a
+step (zero-order hold), one independent second-order system per axis (diagonal M,
+B, K), as the controller of a 6D point does at its control period.
+
+:func:`joint_acceleration` and :func:`apparent_inertia` are the weighted
+pseudo-inverse form of the same law (paper 000, eq. 12-14): with the joint weight
+W = A (the robot's inertia matrix) and M = Λ = (J A⁻¹ Jᵀ)⁻¹ (the apparent inertia
+of the end effector), the kinematic inverse of the admittance reference gives the
+joint motion ``A q̈ = Jᵀ f - Jᵀ B J q̇`` of a gravity-compensated compliant robot.
+
+No Drake here: the Drake adapter is :class:`drake_sot.systems.admittance.AdmittanceController`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from drake_sot.linalg import weighted_pinv
+
+__all__ = ["MassDamperSpring", "apparent_inertia", "joint_acceleration"]
+
+ArrayLike = float | np.ndarray | list | tuple
+
+
+def _per_axis(name: str, value: ArrayLike, n: int | None) -> np.ndarray:
+    """``value`` as a finite float array (n,); a scalar is broadcast to n."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0:
+        if n is None:
+            raise ValueError(f"{name} is a scalar: give the number of axes n")
+        a = np.full(n, float(a))
+    if a.ndim != 1 or (n is not None and a.shape != (n,)):
+        raise ValueError(f"{name} must be a scalar or have shape ({n if n is not None else 'n'},), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got {a}")
+    return a
+
+
+class MassDamperSpring:
+    """``M r̈ + B ṙ + K (r - r_rest) = f`` per axis, integrated exactly under a zero-order hold.
+
+    Each axis i is the linear system ``d/dt [y; v] = [[0, 1], [-K/M, -B/M]] [y; v]
+    + [0; 1/M] f`` with ``y = r - r_rest``. For f constant over a step of ``dt``,
+    ``[y; v](t + dt) = Φ [y; v](t) + Γ f`` exactly, with Φ and Γ read from the
+    matrix exponential of the augmented system, computed once here for every axis.
+    There is no stability condition on ``dt``.
+
+    Args:
+        mass: virtual mass per axis [kg, or kg m² for a rotation axis], > 0.
+        damping: virtual damping per axis [N s/m, N m s/rad], >= 0.
+        stiffness: virtual stiffness per axis [N/m, N m/rad], >= 0 (default 0: a
+            mass-damper, the reference drifts at f/B under a constant force).
+        dt: the step [s], > 0.
+        n: number of axes; needed when every one of mass, damping, stiffness is a
+            scalar, otherwise inferred from the array-like ones (6 for a 6D point:
+            3 translation then 3 rotation axes).
+
+    Raises:
+        ValueError: naming the offending argument and its value (non-finite,
+            mass <= 0, damping or stiffness < 0, dt <= 0, mismatched lengths).
+    """
+
+    def __init__(
+        self, mass: ArrayLike, damping: ArrayLike, stiffness: ArrayLike = 0.0, dt: float | None = None,
+        *, n: int | None = None,
+    ) -> None:
+        if dt is None:
+            raise ValueError("dt (the step [s]) is required")
+        dt = float(dt)
+        if not (np.isfinite(dt) and dt > 0.0):
+            raise ValueError(f"dt must be a finite value > 0, got {dt!r}")
+        if n is None:
+            sizes = {np.size(v) for v in (mass, damping, stiffness) if np.ndim(v) > 0}
+            if len(sizes) > 1:
+                raise ValueError(f"mass, damping and stiffness have different lengths {sorted(sizes)}")
+            n = sizes.pop() if sizes else None
+        elif n < 1:
+            raise ValueError(f"n must be >= 1, got {n}")
+        self.mass = _per_axis("mass", mass, n)
+        self.damping = _per_axis("damping", damping, n)
+        self.stiffness = _per_axis("stiffness", stiffness, n)
+        if np.any(self.mass <= 0.0):
+            raise ValueError(f"mass must be > 0 on every axis, got {self.mass}")
+        if np.any(self.damping < 0.0):
+            raise ValueError(f"damping must be >= 0 on every axis, got {self.damping}")
+        if np.any(self.stiffness < 0.0):
+            raise ValueError(f"stiffness must be >= 0 on every axis, got {self.stiffness}")
+        self.n = self.mass.size
+        self.dt = dt
+        # Augmented per-axis system [y, v, f]: d/dt = [[0, 1, 0], [-K/M, -B/M, 1/M], [0, 0, 0]].
+        self._phi = np.empty((self.n, 2, 2))
+        self._gamma = np.empty((self.n, 2))
+        for i, (m, b, k) in enumerate(zip(self.mass, self.damping, self.stiffness, strict=True)):
+            F = np.array([[0.0, 1.0, 0.0], [-k / m, -b / m, 1.0 / m], [0.0, 0.0, 0.0]])
+            E = scipy.linalg.expm(F * dt)
+            self._phi[i] = E[:2, :2]
+            self._gamma[i] = E[:2, 2]
+
+    def _vector(self, name: str, value) -> np.ndarray:
+        a = np.asarray(value, dtype=float)
+        if a.shape != (self.n,):
+            raise ValueError(f"{name} must have shape ({self.n},), got {a.shape}")
+        return a
+
+    def step(
+        self, x: np.ndarray, v: np.ndarray, f: np.ndarray, rest: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, v)`` after one step of ``dt`` under the force ``f`` held constant, all (n,).
+
+        ``rest`` (n,) is the spring's rest position (default zero; unused on axes
+        with K = 0).
+        """
+        x = self._vector("x", x)
+        v = self._vector("v", v)
+        f = self._vector("f", f)
+        r = np.zeros(self.n) if rest is None else self._vector("rest", rest)
+        y = x - r
+        phi, gamma = self._phi, self._gamma
+        y_next = phi[:, 0, 0] * y + phi[:, 0, 1] * v + gamma[:, 0] * f
+        v_next = phi[:, 1, 0] * y + phi[:, 1, 1] * v + gamma[:, 1] * f
+        return y_next + r, v_next
+
+    def steady_velocity(self, f: np.ndarray) -> np.ndarray:
+        """Velocity (n,) reached under a constant force ``f`` (n,): f / B where K = 0,
+        0 where K > 0 (a spring comes to rest), ±inf where K = B = 0 (0 if f = 0 there)."""
+        f = self._vector("f", f)
+        out = np.zeros(self.n)
+        drift = self.stiffness == 0.0
+        damped = drift & (self.damping > 0.0)
+        out[damped] = f[damped] / self.damping[damped]
+        free = drift & ~damped
+        out[free] = np.where(f[free] != 0.0, np.copysign(np.inf, f[free]), 0.0)
+        return out
+
+    def equilibrium(self, f: np.ndarray, rest: np.ndarray | None = None) -> np.ndarray:
+        """Position (n,) where a constant force ``f`` is balanced by the spring:
+        rest + f / K where K > 0; NaN on axes without a spring (no equilibrium)."""
+        f = self._vector("f", f)
+        r = np.zeros(self.n) if rest is None else self._vector("rest", rest)
+        out = np.full(self.n, np.nan)
+        spring = self.stiffness > 0.0
+        out[spring] = r[spring] + f[spring] / self.stiffness[spring]
+        return out
+
+
+def _square(name: str, value, m: int) -> np.ndarray:
+    """An (m, m) matrix from a matrix or from its diagonal (m,)."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 1:
+        a = np.diag(a)
+    if a.shape != (m, m) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite with shape ({m}, {m}) (or its diagonal ({m},)), got shape {a.shape}")
+    return a
+
+
+def _full_row_rank(J: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validated (J, A, L) with A = L Lᵀ; J (m, n) must have full row rank."""
+    J = np.asarray(J, dtype=float)
+    if J.ndim != 2 or not np.all(np.isfinite(J)):
+        raise ValueError(f"J must be a finite (m, n) matrix, got shape {J.shape}")
+    A = np.asarray(A, dtype=float)
+    if A.shape != (J.shape[1], J.shape[1]) or not np.all(np.isfinite(A)):
+        raise ValueError(f"A must be finite with shape ({J.shape[1]}, {J.shape[1]}) to match J {J.shape}, got {A.shape}")
+    try:
+        L = scipy.linalg.cholesky(A, lower=True)
+    except np.linalg.LinAlgError as err:
+        raise ValueError(f"A must be symmetric positive definite: Cholesky failed ({err})") from None
+    G = scipy.linalg.solve_triangular(L, J.T, lower=True).T  # J L^-T
+    s = np.linalg.svd(G, compute_uv=False)
+    if J.shape[0] > J.shape[1] or s[-1] <= 1e-12 * max(s[0], 1.0):
+        raise ValueError(f"J {J.shape} must have full row rank (singular values of J A^-1/2: {s})")
+    return J, A, G
+
+
+def apparent_inertia(J: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """Λ = (J A⁻¹ Jᵀ)⁻¹ (m, m): the inertia of the robot seen at the task point (paper 000, IV-C).
+
+    Args:
+        J: (m, n) task Jacobian, full row rank.
+        A: (n, n) joint-space inertia matrix, symmetric positive definite.
+    """
+    _, _, G = _full_row_rank(J, A)
+    Lam = np.linalg.inv(G @ G.T)
+    return 0.5 * (Lam + Lam.T)
+
+
+def joint_acceleration(
+    J: np.ndarray, A: np.ndarray, M: np.ndarray, B: np.ndarray, f: np.ndarray, rdot: np.ndarray
+) -> np.ndarray:
+    """q̈ = A⁻¹Jᵀ(J A⁻¹ Jᵀ)⁻¹ M⁻¹ (f − B ṙ) (n,): paper 000 eq. 13 with the weight W = A.
+
+    The joint acceleration that realises the admittance ``M r̈ + B ṙ = f`` (eq. 11)
+    through the A-weighted pseudo-inverse of J (eq. 12), the least-inertia-weighted
+    solution of ``J q̈ = r̈``. With ``M = apparent_inertia(J, A)`` it satisfies
+    ``A q̈ = Jᵀ f − Jᵀ B J q̇`` when ``ṙ = J q̇`` (eq. 14).
+
+    Args:
+        J: (m, n) task Jacobian, full row rank.
+        A: (n, n) symmetric positive definite joint weight (the inertia matrix).
+        M, B: (m, m) virtual mass and damping (or their diagonals (m,)); M invertible.
+        f: (m,) force on the task point. rdot: (m,) its velocity ṙ.
+    """
+    J, A, _ = _full_row_rank(J, A)
+    m = J.shape[0]
+    M = _square("M", M, m)
+    B = _square("B", B, m)
+    f = np.asarray(f, dtype=float)
+    rdot = np.asarray(rdot, dtype=float)
+    if f.shape != (m,) or rdot.shape != (m,):
+        raise ValueError(f"f and rdot must have shape ({m},), got {f.shape} and {rdot.shape}")
+    rddot = np.linalg.solve(M, f - B @ rdot)
+    return weighted_pinv(J, A, rank_threshold=0.0) @ rddot

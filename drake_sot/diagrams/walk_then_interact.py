@@ -1,0 +1,148 @@
+"""Scenario ``walk_then_interact``: the case study of paper 000 (IV-B, IV-D).
+
+The robot walks 4 steps to a meeting point under the walking tasks (feet, CoM and
+waist references from the pattern generator, hands carried in the waist frame).
+A ``TaskSequencer`` plays the paper's DecisionServer: every 1 s it checks whether the
+pattern generator still provides references (its ``in_process`` flag); once the walk
+is over it removes the walking hand tasks and pushes ``taskForce`` and ``taskForceLH``
+(admittance-controlled hands, raised above the posture). A partner then takes both
+hands and pulls and pushes them (forward, back, sideways) for several seconds; the
+hands comply.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Meshcat
+
+from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.walk import TIMING, footstep, forward_steps
+from drake_sot.plots import plot_interaction
+from drake_sot.systems.partner import Hold, Partner
+from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.systems.sequencer import Above, Below, Push, Rm, SetValue, State, TaskSequencer, Transition, Up
+
+WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
+FORCE_TASKS = ("taskForce", "taskForceLH")
+STACK = ("taskJL", "taskLF", "taskRF", "taskCom", "taskWaist", "taskRHwaist", "taskLHwaist", "taskPosture")
+#: The partner's grip offsets from where it takes each hand: (time from grip [s], offset [m]).
+PULL_PUSH = ((0.0, (0.0, 0.0, 0.0)), (1.0, (0.08, 0.0, 0.0)), (2.0, (0.08, 0.0, 0.0)), (3.5, (-0.05, 0.0, 0.0)),
+             (4.5, (-0.05, 0.0, 0.0)), (5.5, (0.0, 0.06, 0.0)), (6.5, (0.0, 0.06, 0.0)))
+GRIP_AT = 7.0  # [s] the partner takes the hands (the walk ends near 5 s, the switch at the next 1 s check)
+RELEASE_AT = GRIP_AT + 7.0
+ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (60.0, 60.0, 60.0, 4.0, 4.0, 4.0)}
+
+
+def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
+    """Build the ``walk_then_interact`` diagram and its script."""
+    b = HumanoidSoTBuilder(meshcat=meshcat)
+    left, right = footstep(b.initial_pose("left_foot"), "left"), footstep(b.initial_pose("right_foot"), "right")
+    com0 = b.initial_com()
+    pg = b.builder.AddSystem(
+        PatternGenerator(left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2])
+    )
+    b.add_joint_limits_task("taskJL")
+    for task_name, side in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
+        b.add_op_point_task(task_name, side, gain=20.0)
+        b.builder.Connect(pg.GetOutputPort(side), b.features[task_name].GetInputPort("position_des"))
+        b.builder.Connect(pg.GetOutputPort(side + "_vel"), b.features[task_name].GetInputPort("velocity_des"))
+    b.add_com_task("taskCom", selection="110", gain=20.0)
+    b.builder.Connect(pg.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
+    b.builder.Connect(pg.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
+    b.add_op_point_task("taskWaist", "pelvis", selection="000111", gain=10.0)
+    b.builder.Connect(pg.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
+    b.add_relative_task("taskRHwaist", "right_hand", "pelvis", gain=5.0)
+    b.add_relative_task("taskLHwaist", "left_hand", "pelvis", gain=5.0)
+    admittances = {
+        "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
+        "taskForceLH": b.add_admittance_task("taskForceLH", "left", **ADMITTANCE),
+    }
+    b.add_posture_task("taskPosture", gain=1.0)
+
+    # The DecisionServer: every 1 s, is the pattern generator still walking?
+    switch = (Rm("taskRHwaist"), Rm("taskLHwaist"), Push("taskForce"), Up("taskForce"),
+              Push("taskForceLH"), Up("taskForceLH"), SetValue("force_active", np.ones(1)))
+    sequencer = b.builder.AddSystem(
+        TaskSequencer(
+            [
+                State("standing", transitions=(Transition(Above("in_process", 0.5), "walking"),)),
+                State("walking", transitions=(Transition(Below("in_process", 0.5), "interacting"),)),
+                State("interacting", entry=switch),
+            ],
+            "standing", tasks=list(b.tasks), stack=STACK, period=1.0, values={"force_active": np.zeros(1)},
+            name="decision_server",
+        )
+    )
+    b.builder.Connect(pg.GetOutputPort("in_process"), sequencer.GetInputPort("in_process"))
+    for admittance in admittances.values():
+        b.builder.Connect(sequencer.GetOutputPort("force_active"), admittance.GetInputPort("active"))
+
+    # The partner holds the bodies below the wrist sensors (the hands).
+    hands = [b.plant.GetJointByName(b.info.force_sensors[f"{side}_wrist"]).child_body().name() for side in ("right", "left")]
+    partner = b.builder.AddSystem(Partner(b.plant, {hand: [Hold(GRIP_AT, RELEASE_AT, PULL_PUSH)] for hand in hands}))
+    partner.set_name("partner")
+    b.builder.Connect(b.plant.get_body_poses_output_port(), partner.GetInputPort("body_poses"))
+    b.builder.Connect(b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities"))
+    b.builder.Connect(partner.GetOutputPort("spatial_forces"), b.plant.get_applied_spatial_force_input_port())
+
+    b.log("partner_forces", partner.GetOutputPort("forces"))
+    for task_name, admittance in admittances.items():
+        b.log(f"wrench/{task_name}", admittance.GetOutputPort("wrench_external"))
+        b.log(f"fault/{task_name}", admittance.GetOutputPort("fault"))
+    b.log("in_process", pg.GetOutputPort("in_process"))
+    b.log("transitions", sequencer.GetOutputPort("transitions"))
+    built = b.build(
+        stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, stack_source=sequencer.GetOutputPort("stack")
+    )
+    steps = forward_steps(left, right, n=4, stride=0.15)
+    return ScenarioSetup(
+        built=built,
+        commands=[Command(0.0, f"walk {len(steps)} steps", lambda c: pg.add_steps(c, steps))],
+        duration=RELEASE_AT + 1.0,
+        extras={"pattern_generator": pg, "sequencer": sequencer, "admittances": admittances, "steps": steps,
+                "hands": hands},
+    )
+
+
+def hand_positions(setup: ScenarioSetup, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """side → (T, 3) position of each hand frame in the simulated plant."""
+    built = setup.built
+    plant, info = built.plant, built.info
+    context = plant.CreateDefaultContext()
+    frames = {side: plant.GetFrameByName(info.frames[f"{side}_hand"], info.model_instance) for side in ("right", "left")}
+    out = {side: np.zeros((len(arrays["time"]), 3)) for side in frames}
+    for k, q in enumerate(arrays["q"]):
+        plant.SetPositions(context, info.model_instance, q)
+        for side, frame in frames.items():
+            out[side][k] = frame.CalcPoseInWorld(context).translation()
+    return out
+
+
+def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
+    """Hand forces (measured by the wrist sensors, applied by the partner) and hand displacements."""
+    hands = hand_positions(setup, arrays)
+    t = arrays["time"]
+    grip = int(np.searchsorted(t, GRIP_AT))
+    window = slice(int(np.searchsorted(t, GRIP_AT - 1.0)), None)  # the interaction, after the walk
+    path = Path(out_dir) / "walk_then_interact_hands.png"
+    plot_interaction(
+        t[window],
+        {"right": arrays["wrench/taskForce"][window, 3:], "left": arrays["wrench/taskForceLH"][window, 3:]},
+        {"right": arrays["partner_forces"][window, :3], "left": arrays["partner_forces"][window, 3:]},
+        {side: (p - p[grip])[window] for side, p in hands.items()},
+        [(GRIP_AT, "partner takes the hands"), (RELEASE_AT, "release")],
+        path,
+    )
+    return {"hands": path}
+
+
+SCENARIO = Scenario(
+    name="walk_then_interact",
+    description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
+    build=build,
+    extra_plots=write_plots,
+)
