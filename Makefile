@@ -52,6 +52,7 @@ test: $(VENV)/.installed-test
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_sot.py
 	$(BIN)/python benchmarks/bench_walk.py
+	$(BIN)/python benchmarks/bench_generalized.py
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis

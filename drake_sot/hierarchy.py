@@ -1,4 +1,5 @@
-"""Strict-priority solver of the Stack of Tasks (paper 000, eq. 8-9).
+"""Strict-priority solver of the Stack of Tasks (paper 000, eq. 8-9) and the
+generalized projector of soft priorities (paper 004, eq. 4 and 8).
 
 The recursion of eq. (8),
 
@@ -13,6 +14,12 @@ Each level costs one SVD of the small matrix ``J_i Z_{i-1}`` (m_i, k_{i-1}),
 which gives at once the pseudo-inverse and the basis of what remains free:
 ``Z_i = Z_{i-1} V_i[:, r_i:]``.  The free space shrinks level by level and the
 solver stops doing work once it is empty.
+
+The generalized projector (:func:`generalized_projector`, paper 004 section 3.2)
+replaces the strict order by a priority matrix ``A_i = diag(alpha_ij I_mj)``
+per task i (eq. 4): ``P_i(A_i) = I - B_i^T A^s_{i,r} B_i`` (eq. 8) projects
+task i completely (alpha = 1), partially (0 < alpha < 1) or not at all
+(alpha = 0) out of the directions of each task j.
 """
 
 from __future__ import annotations
@@ -21,10 +28,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg.lapack
 
 from drake_sot.linalg import SvdSplit, _nonnegative
 
-__all__ = ["HierarchyResult", "solve_strict"]
+__all__ = [
+    "HierarchyResult",
+    "generalized_projector",
+    "generalized_projectors",
+    "priority_matrix",
+    "solve_strict",
+]
 
 
 @dataclass(frozen=True)
@@ -167,3 +181,281 @@ def solve_strict(
 
     residuals = tuple(float(np.linalg.norm(J @ qdot - edot)) for J, edot in checked)
     return HierarchyResult(qdot=qdot, rank=tuple(ranks), residual=residuals, free_dims=tuple(free_dims))
+
+
+# --------------------------------------------------------------------------------------
+# Generalized projector (paper 004, section 3.2)
+# --------------------------------------------------------------------------------------
+
+_GEQP3 = scipy.linalg.lapack.dgeqp3  # column-pivoted Householder QR
+_ORGQR = scipy.linalg.lapack.dorgqr  # its orthonormal factor Q
+
+
+def _alphas(alpha_row: Sequence[float] | np.ndarray, name: str = "alpha_row") -> np.ndarray:
+    """Return ``alpha_row`` as a float vector with every value finite and in [0, 1], or raise ValueError."""
+    a = np.asarray(alpha_row, dtype=float)
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be a vector of priorities, got shape {a.shape}")
+    bad = np.flatnonzero(~((a >= 0.0) & (a <= 1.0)))  # also catches NaN
+    if bad.size:
+        j = int(bad[0])
+        raise ValueError(f"{name}[{j}] = {float(a[j])!r}: every alpha must be finite and in [0, 1]")
+    return a
+
+
+def priority_matrix(alpha_row: Sequence[float] | np.ndarray, dims: Sequence[int]) -> np.ndarray:
+    """Priority matrix ``A_i = diag(alpha_i1 I_m1, ..., alpha_in I_mn)`` of task i (paper 004, eq. 4).
+
+    Args:
+        alpha_row: (n,) priorities ``alpha_ij`` in [0, 1] of each task j with
+            respect to task i (``alpha_ij = 1``: j is strictly above i;
+            ``alpha_ij = 0``: i is not restricted by j; ``alpha_ii`` is the
+            activation of i itself, 1 meaning deactivated).
+        dims: (n,) task dimensions ``m_j`` (non-negative integers).
+
+    Returns:
+        The (m, m) diagonal matrix, ``m = sum(dims)``.
+
+    Raises:
+        ValueError: an alpha outside [0, 1] or not finite (named by index), a
+            negative or non-integer dimension, or lengths that differ.
+    """
+    a = _alphas(alpha_row)
+    d = np.asarray(dims)
+    if d.shape != a.shape:
+        raise ValueError(f"dims has shape {d.shape} but alpha_row has shape {a.shape}; one dimension per task")
+    for j, m in enumerate(dims):
+        if isinstance(m, bool) or int(m) != m or m < 0:
+            raise ValueError(f"dims[{j}] = {m!r}: a task dimension must be an integer >= 0")
+    return np.diag(np.repeat(a, d.astype(int)))
+
+
+def _jacobians(jacobians: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Return the task Jacobians as finite 2-D float arrays with one column count, or raise ValueError."""
+    checked: list[np.ndarray] = []
+    for j, J in enumerate(jacobians):
+        J = np.asarray(J, dtype=float)
+        if J.ndim != 2:
+            raise ValueError(f"jacobians[{j}] must be a 2-D matrix (m_{j}, nv), got shape {J.shape}")
+        if checked and J.shape[1] != checked[0].shape[1]:
+            raise ValueError(
+                f"jacobians[{j}] has shape {J.shape} but jacobians[0] has shape {checked[0].shape}; "
+                "all tasks need the same number nv of columns"
+            )
+        checked.append(J)
+    if not checked:
+        raise ValueError("jacobians is empty: the generalized projector needs at least one task to know nv")
+    if not np.isfinite(np.vstack(checked)).all():  # one check for all; find the culprit only on failure
+        j = next(j for j, J in enumerate(checked) if not np.isfinite(J).all())
+        raise ValueError(f"jacobians[{j}] of shape {checked[j].shape} contains NaN or Inf")
+    return checked
+
+
+def _unit_rows(jacobians: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per task, its rows scaled to unit length, exactly-zero rows removed: (m'_j, nv) each."""
+    blocks = []
+    for J in jacobians:
+        norms = np.sqrt(np.einsum("ij,ij->i", J, J))
+        nonzero = norms > 0.0  # a zero row (a switched-off component) constrains nothing
+        blocks.append(J / norms[:, None] if nonzero.all() else J[nonzero] / norms[nonzero, None])
+    return blocks
+
+
+def _sorted_rows(
+    jacobians: Sequence[np.ndarray], alpha: list[float], normalise: bool
+) -> tuple[np.ndarray | None, list[tuple[int, float]]]:
+    """The rows of the tasks with alpha > 0, stacked by decreasing alpha (stable), and their groups.
+
+    Returns ``(rows, groups)``: ``rows`` (m, nv) with unit rows (normalised
+    here if ``normalise``, exactly-zero rows removed) or None when no row is
+    left, and ``groups`` the ``(end, alpha)`` of each run of equal alpha:
+    rows ``[previous end, end)`` have priority ``alpha``.
+    """
+    order = sorted((j for j, a in enumerate(alpha) if a > 0.0 and jacobians[j].shape[0]), key=lambda j: -alpha[j])
+    if not order:
+        return None, []
+    groups: list[tuple[int, float]] = []
+    end = 0
+    for j in order:
+        end += jacobians[j].shape[0]
+        if groups and groups[-1][1] == alpha[j]:
+            groups[-1] = (end, alpha[j])
+        else:
+            groups.append((end, alpha[j]))
+    rows = jacobians[order[0]] if len(order) == 1 else np.vstack([jacobians[j] for j in order])
+    if normalise:
+        norms = np.sqrt(np.einsum("ij,ij->i", rows, rows))
+        if norms.min() > 0.0:
+            rows = rows / norms[:, None]
+        else:  # some switched-off component (zero row): it constrains nothing
+            nonzero = norms > 0.0
+            kept = np.concatenate([[0], np.cumsum(nonzero)])
+            groups = [(int(kept[e]), a) for e, a in groups]
+            rows = rows[nonzero] / norms[nonzero, None]
+            if not rows.shape[0]:
+                return None, []
+    return rows, groups
+
+
+def _projector(rows: np.ndarray | None, groups: list[tuple[int, float]], nv: int, tol: float) -> np.ndarray:
+    """Eq. 8 from the unit ``rows`` and ``groups`` made by :func:`_sorted_rows`.
+
+    The rows are taken one group of equal alpha at a time, in decreasing
+    alpha.  Each group's rows are made orthogonal to the basis ``B`` already
+    built and a column-pivoted QR of what remains gives the new basis vectors:
+    those with ``|R_kk| > tol``.  Within a group every basis of the new
+    directions gives the same ``alpha sum b b^T``, so pivoting there is
+    allowed; the order between groups, which matters, is kept.  A vector
+    coming from a small ``|R_kk|`` carries rounding errors ~eps/|R_kk| along
+    ``B``: it is projected once more (Gram-Schmidt's "twice is enough").
+    """
+    if rows is None:
+        return np.eye(nv)
+    B = np.empty((nv, nv))  # columns 0..r-1: orthonormal basis built so far
+    weights = np.empty(nv)  # alpha of the origin row of each basis vector
+    r = 0
+    begin = 0
+    for end, a in groups:
+        if r == nv:
+            break
+        group = rows[begin:end]
+        begin = end
+        if not group.shape[0]:
+            continue
+        Br = B[:, :r]
+        if r:
+            group = group - (group @ Br) @ Br.T
+        if group.shape[0] == 1:  # one row: a Gram-Schmidt step, no factorisation
+            v = group[0]
+            norm = float(np.sqrt(v @ v))
+            if norm <= tol:
+                continue
+            q = (v / norm)[:, None]
+            smallest = norm
+        else:
+            qr, _, tau, _, info = _GEQP3(group.T, overwrite_a=r > 0)  # group^T Pi = Q R, |R_kk| decreasing
+            if info != 0:  # pragma: no cover - LAPACK argument error, impossible with checked input
+                raise RuntimeError(f"LAPACK dgeqp3 failed with info = {info}")
+            d = np.abs(qr.diagonal())
+            k = min(int(np.count_nonzero(d > tol)), nv - r)
+            if k == 0:
+                continue
+            q, _, info = _ORGQR(qr[:, :k], tau[:k])
+            if info != 0:  # pragma: no cover
+                raise RuntimeError(f"LAPACK dorgqr failed with info = {info}")
+            smallest = d[k - 1]
+        if r and smallest < 1e-4:
+            q = q - Br @ (Br.T @ q)
+        k = q.shape[1]
+        B[:, r : r + k] = q
+        weights[r : r + k] = a
+        r += k
+    Br = B[:, :r]
+    P = (Br * -weights[:r]) @ Br.T
+    P.flat[:: nv + 1] += 1.0
+    return P
+
+
+def generalized_projector(
+    jacobians: Sequence[np.ndarray],
+    alpha_row: Sequence[float] | np.ndarray,
+    *,
+    rank_threshold: float = 1e-9,
+    validate: bool = True,
+) -> np.ndarray:
+    """Generalized projector ``P_i(A_i) = I - B_i^T A^s_{i,r} B_i`` of task i (paper 004, eq. 8).
+
+    The rows of the augmented Jacobian ``J = (J_1; ...; J_n)`` are sorted by
+    decreasing alpha (the diagonal of eq. 4's ``A_i``; stable for equal
+    alphas), an orthonormal basis ``B_i`` of the row space is built in that
+    order from the rows independent of those already taken (the ``origin``
+    rows), and each basis vector is weighted by the alpha of its origin row.
+    Equivalently, with ``a_1 > a_2 > ... > a_G > 0`` the distinct positive
+    alphas (``a_{G+1} = 0``), ``S_g`` the span of the rows whose alpha is
+    >= ``a_g`` and ``Pi_S`` the orthogonal projector onto S,
+
+        P = I - sum_g (a_g - a_{g+1}) Pi_{S_g},
+
+    which is how it is computed: one column-pivoted QR per distinct alpha
+    value (zero alphas cost nothing).
+
+    Consequences (tested): ``P`` is symmetric with eigenvalues in
+    ``{1} ∪ {1 - alpha_ij}``, hence in [0, 1]; a direction shared by several
+    tasks is removed with the largest of their alphas; the result does not
+    depend on the order of the tasks (ties included), and it is continuous
+    in alpha: ``||P(a) - P(a')||_2 <= ||a - a'||_1``.  In particular
+    ``alpha_ij = 1`` for every j != i with ``alpha_ii = 0`` gives the
+    null-space projector of the other tasks, all alphas 0 give the identity,
+    and ``alpha_ii = 1`` cancels task i: ``J_i P = 0`` (more generally
+    ``J_j P = (1 - a_1) J_j`` for every task j at the largest alpha ``a_1``).
+
+    The rank decisions are scale-free: exactly-zero rows are skipped and the
+    others normalised to unit length, and a row counts as independent of the
+    rows above it when the distance from its unit vector to their span
+    exceeds ``rank_threshold``.  When a row crosses that threshold the
+    projector jumps (the rank changes), as any projector does.
+
+    Args:
+        jacobians: the n task Jacobians ``J_j`` (m_j, nv), in task order.
+        alpha_row: (n,) the priorities ``alpha_i1 .. alpha_in`` of task i, each in [0, 1].
+        rank_threshold: relative independence threshold (see above), >= 0.
+        validate: check shapes, finiteness and ranges. A caller that has done
+            so may skip it; unchecked bad input gives undefined results.
+            :func:`generalized_projectors` validates and prepares the rows
+            once for all the tasks.
+
+    Returns:
+        The (nv, nv) matrix ``P_i(A_i)``.
+
+    Raises:
+        ValueError: an alpha outside [0, 1] or not finite, ``len(alpha_row) !=
+            len(jacobians)``, no task, Jacobians that are not 2-D, not finite or
+            with different column counts (messages name the task index and
+            shapes), or a negative ``rank_threshold``.
+    """
+    tol = _nonnegative("rank_threshold", rank_threshold)
+    if validate:
+        jacobians = _jacobians(jacobians)
+        alpha = _alphas(alpha_row)
+        if alpha.size != len(jacobians):
+            raise ValueError(
+                f"alpha_row has {alpha.size} values but there are {len(jacobians)} Jacobians; "
+                "one alpha per task"
+            )
+    else:
+        alpha = np.asarray(alpha_row, dtype=float)
+    rows, groups = _sorted_rows(jacobians, alpha.tolist(), normalise=True)
+    return _projector(rows, groups, jacobians[0].shape[1], tol)
+
+
+def generalized_projectors(
+    jacobians: Sequence[np.ndarray], alpha: np.ndarray, *, rank_threshold: float = 1e-9
+) -> np.ndarray:
+    """Generalized projectors of all the tasks at once (paper 004, eq. 8).
+
+    Same result as ``[generalized_projector(jacobians, alpha[i]) for i in
+    range(n)]``, but the input is checked and the rows normalised once.
+
+    Args:
+        jacobians: the n task Jacobians ``J_j`` (m_j, nv).
+        alpha: (n, n) priority parameters; row i is ``alpha_row`` of task i
+            in :func:`generalized_projector`.
+        rank_threshold: as in :func:`generalized_projector`.
+
+    Returns:
+        (n, nv, nv): ``P[i]`` is the projector of task i.
+
+    Raises:
+        ValueError: as :func:`generalized_projector`, or ``alpha`` not (n, n).
+    """
+    tol = _nonnegative("rank_threshold", rank_threshold)
+    jacobians = _jacobians(jacobians)
+    a = np.asarray(alpha, dtype=float)
+    n = len(jacobians)
+    if a.shape != (n, n):
+        raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
+    for i in range(n):
+        _alphas(a[i], name=f"alpha[{i}]")
+    nv = jacobians[0].shape[1]
+    blocks = _unit_rows(jacobians)
+    return np.stack([_projector(*_sorted_rows(blocks, a[i].tolist(), normalise=False), nv, tol) for i in range(n)])

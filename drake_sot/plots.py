@@ -140,3 +140,43 @@ def plot_interaction(
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def plot_priority_switch(
+    time: np.ndarray, alphas: Mapping[str, np.ndarray], errors: Mapping[str, np.ndarray], path: str | Path
+) -> None:
+    """Priority parameters (top) and task error norms (bottom) over time (paper 004 fig. 10)."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), dpi=110, sharex=True)
+    for name, values in alphas.items():
+        top.plot(time, values, label=name)
+    top.set_ylabel("α")
+    top.set_ylim(-0.05, 1.05)
+    top.legend(loc="center right", fontsize=8)
+    for name, values in errors.items():
+        bottom.plot(time, 100 * values, label=name)
+    bottom.set_ylabel("task error ‖e‖ [cm]")
+    bottom.set_xlabel("time [s]")
+    bottom.legend(loc="upper right", fontsize=8)
+    for ax in (top, bottom):
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def plot_alpha_sweep(grid: np.ndarray, head: np.ndarray, lh: np.ndarray, path: str | Path) -> None:
+    """Heat maps of the steady head and left-hand errors over (α_lh,head rows, α_head,lh columns)."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), dpi=110)
+    for ax, values, title in ((axes[0], head, "head task error [cm]"), (axes[1], lh, "left-hand task error [cm]")):
+        image = ax.imshow(100 * values, origin="lower", cmap="viridis", aspect="auto",
+                          extent=(grid[0] - 0.1, grid[-1] + 0.1, grid[0] - 0.1, grid[-1] + 0.1))
+        for i, a in enumerate(grid):
+            for j, b in enumerate(grid):
+                ax.text(b, a, f"{100 * values[i, j]:.1f}", ha="center", va="center", fontsize=7, color="w")
+        ax.set_xlabel("α_head,lh")
+        ax.set_ylabel("α_lh,head")
+        ax.set_title(title)
+        fig.colorbar(image, ax=ax)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

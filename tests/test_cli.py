@@ -19,7 +19,8 @@ DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 
 def test_list_names_the_scenarios():
     out = subprocess.run([*DRAKE_SOT, "list"], capture_output=True, text=True, check=True).stdout
-    assert out.split()[0] == "reach"
+    listed = [line.split()[0] for line in out.splitlines()]
+    assert listed == ["priority_switching", "reach", "walk", "walk_then_interact", "alpha_sweep"]
 
 
 def test_bad_arguments_are_refused(capsys):

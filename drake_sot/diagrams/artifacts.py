@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.systems.framework import Context, Diagram
 
-from drake_sot.diagrams.humanoid import HumanoidSoT
+from drake_sot.diagrams.humanoid import BuiltHumanoid
 from drake_sot.diagrams.run import RunResult
 
 
@@ -31,11 +31,11 @@ def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None
     subprocess.run([dot, "-Tsvg", "-o", str(path)], input=source.encode(), check=True)
 
 
-def log_arrays(built: HumanoidSoT, root_context: Context, result: RunResult) -> dict[str, np.ndarray]:
+def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -> dict[str, np.ndarray]:
     """The run's logs as named arrays.
 
     Keys: ``time`` (T,) [s]; ``q`` (T, nq) and ``v`` (T, nv) of the simulated plant;
-    ``q_ref`` (T, nq) the SoT's reference configuration; ``error/<task>`` (T, m) each
+    ``q_ref`` (T, nq) the SoT's reference configuration (kinematic SoT only); ``error/<task>`` (T, m) each
     task's error (NaN while out of the stack); ``event_time`` and ``event_label``, the
     commands applied.
     """
@@ -46,17 +46,17 @@ def log_arrays(built: HumanoidSoT, root_context: Context, result: RunResult) -> 
         "time": time,
         "q": state.data()[:nq].T.copy(),
         "v": state.data()[nq:].T.copy(),
-        "q_ref": _aligned(built.loggers["q_ref"].FindLog(root_context), time),
     }
     errors = _aligned(built.loggers["errors"].FindLog(root_context), time)
-    for name, sl in built.sot.error_slices().items():
+    for name, sl in built.error_slices().items():
         arrays[f"error/{name}"] = errors[:, sl]
     for name, logger in built.loggers.items():
-        if name not in ("state", "q_ref", "errors"):
+        if name not in ("state", "errors"):
             arrays[name] = _aligned(logger.FindLog(root_context), time)
-    history = built.stack_history.history(root_context)
-    arrays["stack_time"] = np.array([t for t, _ in history])
-    arrays["stack"] = np.array([" > ".join(stack) for _, stack in history], dtype=str)
+    if built.stack_history is not None:
+        history = built.stack_history.history(root_context)
+        arrays["stack_time"] = np.array([t for t, _ in history])
+        arrays["stack"] = np.array([" > ".join(stack) for _, stack in history], dtype=str)
     arrays["event_time"] = np.array([t for t, _ in result.events])
     arrays["event_label"] = np.array([label for _, label in result.events], dtype=str)
     return arrays
@@ -76,7 +76,7 @@ def write_npz(arrays: dict[str, np.ndarray], path: str | Path) -> None:
     np.savez_compressed(path, **arrays)
 
 
-def write_replay(built: HumanoidSoT, path: str | Path) -> None:
+def write_replay(built: BuiltHumanoid, path: str | Path) -> None:
     """Publish the Meshcat recording and save the standalone HTML page."""
     if built.visualizer is None or built.meshcat is None:
         raise ValueError("this diagram was built without Meshcat: nothing to replay")

@@ -30,13 +30,27 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, Multibody
 from pydrake.multibody.tree import BodyIndex, JointIndex
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
-from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
+from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
 from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
 
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
-from drake_sot.models import HumanoidInfo, add_ground, half_sitting_configuration, load_humanoid, make_control_model
+from drake_sot.models import (
+    HumanoidInfo,
+    add_ground,
+    half_sitting_configuration,
+    load_humanoid,
+    make_control_model,
+    sole_corner_points,
+    weld_base,
+)
 from drake_sot.systems.admittance import AdmittanceController
+from drake_sot.systems.generalized_controller import (
+    ContactPoints,
+    ForceTask,
+    GeneralizedHierarchyController,
+    MotionTask,
+)
 from drake_sot.systems.features import (
     FeatureCoM,
     FeatureJointLimits,
@@ -54,7 +68,7 @@ from drake_sot.systems.stack_history import StackHistory
 from drake_sot.systems.task import Task
 
 @dataclass
-class HumanoidSoT:
+class BuiltHumanoid:
     """A built diagram and handles on the parts a scenario, a test or a user needs."""
 
     diagram: Diagram
@@ -62,12 +76,9 @@ class HumanoidSoT:
     info: HumanoidInfo
     control_plant: MultibodyPlant
     dyn: RobotKinematics
-    sot: StackOfTasks
-    device: Integrator
     tasks: dict[str, Task]
     features: dict[str, _Feature]
     loggers: dict[str, VectorLogSink]
-    stack_history: StackHistory
     q0: np.ndarray
     meshcat: Meshcat | None
     visualizer: MeshcatVisualizer | None
@@ -88,16 +99,53 @@ class HumanoidSoT:
             plant_context
         )
 
+    def error_slices(self) -> dict[str, slice]:
+        """Where each task's error lies in the logged ``errors``."""
+        raise NotImplementedError
+
+
+@dataclass
+class HumanoidSoT(BuiltHumanoid):
+    """The kinematic SoT around a position-controlled humanoid."""
+
+    sot: StackOfTasks | None = None
+    device: Integrator | None = None
+    stack_history: StackHistory | None = None
+
+    def error_slices(self) -> dict[str, slice]:
+        return self.sot.error_slices()
+
+
+@dataclass
+class HumanoidTorqueControl(BuiltHumanoid):
+    """The generalized hierarchical controller around a torque-controlled humanoid."""
+
+    controller: GeneralizedHierarchyController | None = None
+    stack_history: None = None
+
+    def error_slices(self) -> dict[str, slice]:
+        out, start = {}, 0
+        for name, task in self.tasks.items():
+            if name in self.controller.task_names:
+                out[name] = slice(start, start + task.dimension)
+                start += task.dimension
+        return out
+
 
 def add_humanoid_plant(
-    builder: DiagramBuilder, *, time_step: float = 1e-3
+    builder: DiagramBuilder, *, time_step: float = 1e-3, pd_gains: bool = True, fixed_base: bool = False
 ) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
-    """The simulated world: the humanoid with PD-controlled actuators on the ground, in a
-    finalized ``MultibodyPlant`` (SAP, point contact, ``time_step`` [s]) and its ``SceneGraph``."""
+    """The simulated world in a finalized ``MultibodyPlant`` (SAP, point contact,
+    ``time_step`` [s]) and its ``SceneGraph``: the humanoid with PD-controlled actuators
+    (or torque-controlled ones, ``pd_gains=False``) on the ground, or with its pelvis
+    welded in the air (``fixed_base``, no ground)."""
     config = MultibodyPlantConfig(time_step=time_step, discrete_contact_approximation="sap", contact_model="point")
     plant, scene_graph = AddMultibodyPlant(config, builder)
-    info = load_humanoid(plant)
-    add_ground(plant)
+    info = load_humanoid(plant, pd_gains=pd_gains)
+    if fixed_base:
+        weld_base(plant, info)
+    else:
+        add_ground(plant)
     plant.Finalize()
     return plant, scene_graph, info
 
@@ -110,14 +158,25 @@ class HumanoidSoTBuilder:
         time_step: physics step of the plant [s].
         meshcat: a Meshcat to draw in; None for no visualisation. Use
             :func:`loopback_meshcat` for a headless recorder bound to localhost.
+        actuation: ``"pd"``: position-controlled robot, closed with :meth:`build` (the
+            kinematic SoT); ``"torque"``: torque-controlled robot, closed with
+            :meth:`build_generalized` (paper 004). The tasks are added the same way.
+        fixed_base: weld the pelvis in the air (no ground), as the paper's real iCub.
     """
 
     def __init__(
-        self, *, control_period: float = 0.005, time_step: float = 1e-3, meshcat: Meshcat | None = None
+        self, *, control_period: float = 0.005, time_step: float = 1e-3, meshcat: Meshcat | None = None,
+        actuation: str = "pd", fixed_base: bool = False,
     ) -> None:
+        if actuation not in ("pd", "torque"):
+            raise ValueError(f"actuation {actuation!r} must be 'pd' (kinematic SoT) or 'torque' (generalized hierarchy)")
+        self.actuation = actuation
+        self.fixed_base = fixed_base
         self.builder = DiagramBuilder()
-        self.plant, self.scene_graph, self.info = add_humanoid_plant(self.builder, time_step=time_step)
-        self.control_plant, self.control_info = make_control_model()
+        self.plant, self.scene_graph, self.info = add_humanoid_plant(
+            self.builder, time_step=time_step, pd_gains=actuation == "pd", fixed_base=fixed_base
+        )
+        self.control_plant, self.control_info = make_control_model(fixed_base=fixed_base)
         self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
         self.control_period = control_period
         self.meshcat = meshcat
@@ -267,10 +326,14 @@ class HumanoidSoTBuilder:
         self.builder.Connect(admittance.GetOutputPort("velocity_des"), feature.GetInputPort("velocity_des"))
         return admittance
 
-    def add_joint_limits_task(self, task_name: str, *, margin: float = 0.02, gain: Gain = 5.0) -> Task:
-        """A joint-limit task (``FeatureJointLimits``) on every actuated joint; put it at the top of the stack."""
+    def add_joint_limits_task(
+        self, task_name: str, *, margin: float = 0.02, gain: Gain = 5.0, joints: Sequence[str] | None = None
+    ) -> Task:
+        """A joint-limit task (``FeatureJointLimits``) on ``joints`` (every actuated joint by
+        default); put it at the top of the stack."""
         feature = FeatureJointLimits(
-            self.control_plant, list(self.control_info.actuated_joints), margin=margin, name=f"feature_{task_name}"
+            self.control_plant, list(joints) if joints is not None else list(self.control_info.actuated_joints),
+            margin=margin, name=f"feature_{task_name}",
         )
         task = self._add_task(task_name, feature, gain)
         self._q_consumers.append(feature.GetInputPort("q"))
@@ -278,7 +341,7 @@ class HumanoidSoTBuilder:
 
     def log(self, name: str, port: OutputPort) -> None:
         """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""
-        if name in self._extra_logs or name in ("state", "q_ref", "errors"):
+        if name in self._extra_logs or name in ("state", "q_ref", "errors", "wrenches", "tau", "status", "contact_forces"):
             raise ValueError(f"a log named {name!r} exists already")
         self._extra_logs[name] = port
 
@@ -301,6 +364,8 @@ class HumanoidSoTBuilder:
                 (e.g. ``TaskSequencer.stack``); then ``stack`` is only the stack's name list
                 for validation and the context commands are refused.
         """
+        if self.actuation != "pd":
+            raise ValueError("build() closes the kinematic SoT on a position-controlled robot; use build_generalized()")
         b = self.builder
         period = self.control_period
         sot = b.AddSystem(
@@ -328,14 +393,80 @@ class HumanoidSoTBuilder:
         history = b.AddSystem(StackHistory(period=period))
         b.Connect(sot.GetOutputPort("stack"), history.GetInputPort("stack"))
 
-        log_period = log_period or period
-        loggers = {
-            "state": LogVectorOutput(self.plant.get_state_output_port(self.info.model_instance), b, log_period),
-            "q_ref": LogVectorOutput(device.GetOutputPort("q"), b, log_period),
-            "errors": LogVectorOutput(sot.GetOutputPort("errors"), b, log_period),
-        }
-        for name, port in self._extra_logs.items():
-            loggers[name] = LogVectorOutput(port, b, log_period)
+        diagram, loggers, visualizer = self._finish(
+            {"q_ref": device.GetOutputPort("q"), "errors": sot.GetOutputPort("errors")}, log_period
+        )
+        return HumanoidSoT(
+            diagram=diagram, plant=self.plant, info=self.info, control_plant=self.control_plant, dyn=self.dyn,
+            sot=sot, device=device, tasks=dict(self.tasks), features=dict(self.features), loggers=loggers,
+            stack_history=history, q0=self.q0, meshcat=self.meshcat, visualizer=visualizer,
+        )
+
+    def build_generalized(
+        self,
+        *,
+        motion: Sequence[tuple[str, float, float]],
+        alpha: OutputPort,
+        force: Sequence[tuple[str, float, float]] = (),
+        weighted: bool = False,
+        weights: dict[str, float] | None = None,
+        mu: float = 0.8,
+        log_period: float | None = None,
+    ) -> HumanoidTorqueControl:
+        """Close the loop with a ``GeneralizedHierarchyController`` (paper 004) on the
+        torque-controlled robot; the features read the *measured* configuration.
+
+        Args:
+            motion: ``(task name, kp, kd)`` of each motion task (eq. 2).
+            alpha: the priority matrix signal (e.g. ``PrioritySchedule.alpha``), over the
+                motion tasks then the force tasks, in the order given here.
+            force: ``(task name, kp, ki)`` of each force task (eq. 3); their
+                ``<name>_desired`` and ``<name>_measured`` inputs are left for the scenario.
+            weighted: the weighted baseline (eq. 5-7) with ``weights`` instead.
+            mu: friction coefficient of the sole-corner contact points (none on a fixed base).
+        """
+        if self.actuation != "torque":
+            raise ValueError("build_generalized() needs HumanoidSoTBuilder(actuation='torque')")
+        b = self.builder
+        contacts = [] if self.fixed_base else [
+            ContactPoints(self.control_info.frames[foot], sole_corner_points(), mu=mu) for foot in ("left_foot", "right_foot")
+        ]
+        controller = b.AddSystem(
+            GeneralizedHierarchyController(
+                self.control_plant, self.control_info.actuated_joints,
+                motion_tasks=[MotionTask(self.tasks[n], kp, kd) for n, kp, kd in motion],
+                force_tasks=[ForceTask(self.tasks[n], kp, ki) for n, kp, ki in force],
+                contacts=contacts, q_posture=self.q0, period=self.control_period, weighted=weighted, weights=weights,
+            )
+        )
+        for name in controller.task_names:
+            b.Connect(self.tasks[name].GetOutputPort("task"), controller.GetInputPort(name))
+        state = self.plant.get_state_output_port(self.info.model_instance)
+        b.Connect(state, controller.GetInputPort("state"))
+        b.Connect(alpha, controller.GetInputPort("alpha"))
+        b.Connect(controller.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance))
+        nq, nv = self.control_plant.num_positions(), self.control_plant.num_velocities()
+        split = b.AddSystem(Demultiplexer([nq, nv]))
+        split.set_name("measured_q_v")
+        b.Connect(state, split.get_input_port())
+        for port in self._q_consumers:
+            b.Connect(split.get_output_port(0), port)
+        diagram, loggers, visualizer = self._finish(
+            {name: controller.GetOutputPort(name) for name in ("errors", "wrenches", "tau", "status", "contact_forces")},
+            log_period,
+        )
+        return HumanoidTorqueControl(
+            diagram=diagram, plant=self.plant, info=self.info, control_plant=self.control_plant, dyn=self.dyn,
+            tasks=dict(self.tasks), features=dict(self.features), loggers=loggers, q0=self.q0,
+            meshcat=self.meshcat, visualizer=visualizer, controller=controller,
+        )
+
+    def _finish(self, logs: dict[str, OutputPort], log_period: float | None):
+        """Loggers (plant state, ``logs``, the extra ones), the visualizer, and the diagram."""
+        b = self.builder
+        log_period = log_period or self.control_period
+        ports = {"state": self.plant.get_state_output_port(self.info.model_instance), **logs, **self._extra_logs}
+        loggers = {name: LogVectorOutput(port, b, log_period) for name, port in ports.items()}
         for name, logger in loggers.items():
             logger.set_name(f"log_{name}")
         visualizer = None
@@ -345,11 +476,7 @@ class HumanoidSoTBuilder:
             )
         diagram = b.Build()
         diagram.set_name("drake_sot")
-        return HumanoidSoT(
-            diagram=diagram, plant=self.plant, info=self.info, control_plant=self.control_plant, dyn=self.dyn,
-            sot=sot, device=device, tasks=dict(self.tasks), features=dict(self.features), loggers=loggers,
-            stack_history=history, q0=self.q0, meshcat=self.meshcat, visualizer=visualizer,
-        )
+        return diagram, loggers, visualizer
 
 
 def _mass_below(plant: MultibodyPlant, context, joint) -> tuple[float, np.ndarray]:

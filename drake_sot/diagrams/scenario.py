@@ -13,7 +13,7 @@ from pydrake.math import RigidTransform
 from pydrake.systems.framework import Context
 
 from drake_sot.diagrams.artifacts import log_arrays, write_npz, write_replay, write_svg
-from drake_sot.diagrams.humanoid import HumanoidSoT, loopback_meshcat
+from drake_sot.diagrams.humanoid import BuiltHumanoid, loopback_meshcat
 from drake_sot.diagrams.run import Command, Progress, RunResult, simulate
 from drake_sot.plots import plot_task_errors
 from drake_sot.systems.stack_history import stack_changes
@@ -31,7 +31,7 @@ class ScenarioSetup:
         extras: other handles a scenario exposes (e.g. its pattern generator, its footsteps).
     """
 
-    built: HumanoidSoT
+    built: BuiltHumanoid
     commands: list[Command]
     duration: float
     targets: dict[str, RigidTransform] = field(default_factory=dict)
@@ -96,9 +96,8 @@ def run_scenario(
     files["png"] = out / f"{scenario.name}.png"
     errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
     command_times = {round(t, 6) for t, _ in result.events}
-    marks = result.events + [
-        (t, label) for t, label in stack_changes(built.stack_history.history(context)) if round(t, 6) not in command_times
-    ]
+    changes = stack_changes(built.stack_history.history(context)) if built.stack_history is not None else []
+    marks = result.events + [(t, label) for t, label in changes if round(t, 6) not in command_times]
     plot_task_errors(arrays["time"], errors, marks, files["png"], title=f"{scenario.name}: task errors")
     if scenario.extra_plots is not None:
         files.update(scenario.extra_plots(setup, arrays, out))

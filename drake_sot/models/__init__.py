@@ -6,6 +6,8 @@ from drake_sot.models.humanoid import (
     half_sitting_configuration,
     load_humanoid,
     make_control_model,
+    sole_corner_points,
+    weld_base,
 )
 
 __all__ = [
@@ -14,4 +16,6 @@ __all__ = [
     "half_sitting_configuration",
     "load_humanoid",
     "make_control_model",
+    "sole_corner_points",
+    "weld_base",
 ]

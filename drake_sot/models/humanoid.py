@@ -469,6 +469,8 @@ def half_sitting_configuration(plant: MultibodyPlant, info: HumanoidInfo) -> np.
     for joint, angle in info.half_sitting.items():
         plant.GetJointByName(joint, info.model_instance).set_angle(context, angle)
     pelvis = plant.GetBodyByName(info.base_body, info.model_instance)
+    if not pelvis.is_floating_base_body():  # welded by weld_base: the joints are all there is
+        return plant.GetPositions(context)
     plant.SetFloatingBaseBodyPoseInWorldFrame(context, pelvis, RigidTransform())
     sole_heights = [
         plant.GetFrameByName(info.frames[foot], info.model_instance).CalcPoseInWorld(context).translation()[2]
@@ -478,11 +480,30 @@ def half_sitting_configuration(plant: MultibodyPlant, info: HumanoidInfo) -> np.
     return plant.GetPositions(context)
 
 
-def make_control_model() -> tuple[MultibodyPlant, HumanoidInfo]:
+def sole_corner_points() -> np.ndarray:
+    """The 4 corners (4, 3) [m] of a sole in its sole frame (on the sole plane z = 0)."""
+    half_length, half_width = SOLE[0] / 2, SOLE[1] / 2
+    return np.array([[sx * half_length, sy * half_width, 0.0] for sx in (1, -1) for sy in (1, -1)])
+
+
+def weld_base(plant: MultibodyPlant, info: HumanoidInfo) -> None:
+    """Weld the pelvis to the world where half-sitting puts it (soles on z = 0): the
+    fixed-base robot of the paper's real-iCub experiments. Call before ``Finalize``."""
+    plant.WeldFrames(
+        plant.world_frame(),
+        plant.GetBodyByName(info.base_body, info.model_instance).body_frame(),
+        RigidTransform([0.0, 0.0, _half_sitting_pelvis_height()]),
+    )
+
+
+def make_control_model(*, fixed_base: bool = False) -> tuple[MultibodyPlant, HumanoidInfo]:
     """The controller's kinematic and dynamic model (the SoT "dyn" entity's model):
     a finalized continuous (time_step = 0) MultibodyPlant holding only the humanoid,
-    without SceneGraph (so no geometry) and without PD gains."""
+    without SceneGraph (so no geometry) and without PD gains; with ``fixed_base`` the
+    pelvis is welded as by :func:`weld_base`."""
     plant = MultibodyPlant(time_step=0.0)
     info = load_humanoid(plant, pd_gains=False, collision=False)
+    if fixed_base:
+        weld_base(plant, info)
     plant.Finalize()
     return plant, info

@@ -1,0 +1,88 @@
+"""Study ``alpha_sweep`` (paper 004 fig. 11): steady-state errors of the head and left-hand
+tasks of ``priority_switching`` over a grid of constant (α_lh,head, α_head,lh).
+
+Each grid point is one simulation of the fixed-base robot with constant priorities; the
+points run in parallel worker processes.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from drake_sot.diagrams import priority_switching as ps
+from drake_sot.diagrams.run import simulate
+from drake_sot.plots import plot_alpha_sweep
+from drake_sot.transitions import AlphaSchedule
+
+GRID = tuple(np.round(np.linspace(0.0, 1.0, 6), 3))  # {0, 0.2, ..., 1}
+SETTLE = 4.0  # [s] simulated per point; errors averaged over the last second
+
+
+def steady_errors(alpha_lh_head: float, alpha_head_lh: float, duration: float = SETTLE) -> tuple[float, float]:
+    """(head, left-hand) mean error norm [m] over the last second of a run with constant α."""
+    setup = ps.build_with(AlphaSchedule(list(ps.TASKS), ps.initial_alpha(alpha_lh_head, alpha_head_lh)), duration=duration)
+    simulator = setup.built.create_simulator()
+    result = simulate(simulator, duration)
+    if not result.completed:
+        raise RuntimeError(f"α = ({alpha_lh_head}, {alpha_head_lh}): {result.failure}")
+    log = setup.built.loggers["errors"].FindLog(simulator.get_context())
+    slices = setup.built.error_slices()
+    window = log.sample_times() >= duration - 1.0
+    data = log.data()[:, window]
+    return tuple(float(np.mean(np.linalg.norm(data[slices[name]], axis=0))) for name in ("taskHead", "taskLH"))
+
+
+def _point(args: tuple[float, float, float]) -> tuple[float, float, float, float]:
+    a, b, duration = args
+    return (a, b, *steady_errors(a, b, duration))
+
+
+@dataclass(frozen=True)
+class Study:
+    """A named batch of simulations of the ``drake-sot`` command."""
+
+    name: str
+    description: str
+    run: Callable[..., dict[str, Path]]
+
+
+def run(
+    out_dir: str | Path,
+    *,
+    grid: Sequence[float] = GRID,
+    duration: float = SETTLE,
+    workers: int = 2,
+    progress: Callable[[float, float, float], None] | None = None,
+) -> dict[str, Path]:
+    """Run the sweep in ``workers`` processes; write ``alpha_sweep.npz`` and ``alpha_sweep.png``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    points = [(a, b, duration) for a in grid for b in grid]
+    head = np.full((len(grid), len(grid)), np.nan)
+    lh = np.full_like(head, np.nan)
+    index = {value: k for k, value in enumerate(grid)}
+    start = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(_point, p) for p in points]
+        for done, future in enumerate(as_completed(futures), start=1):
+            a, b, e_head, e_lh = future.result()
+            head[index[a], index[b]], lh[index[a], index[b]] = e_head, e_lh
+            if progress:
+                progress(done, len(points), time.perf_counter() - start)
+    files = {"npz": out / "alpha_sweep.npz", "png": out / "alpha_sweep.png"}
+    np.savez_compressed(files["npz"], alpha_lh_head=np.array(grid), alpha_head_lh=np.array(grid), head_error=head, lh_error=lh)
+    plot_alpha_sweep(np.array(grid), head, lh, files["png"])
+    return files
+
+
+STUDY = Study(
+    name="alpha_sweep",
+    description="steady head and left-hand errors over a 6x6 grid of priorities, in parallel (paper 004 fig. 11)",
+    run=run,
+)

@@ -1,0 +1,100 @@
+"""Scenario ``priority_switching`` (paper 004, 4.2): a head task and a left-hand task in
+conflict on the fixed-base, torque-controlled humanoid, their priority swapped smoothly.
+
+Tasks (generalized hierarchy, torque level): joint limits (restricts everybody), head
+position (keep the head where it is), left-hand position (a target in front on the
+right, reachable only by leaning the upper body — and the head — forward), posture
+(lowest). At first the left hand has priority over the head (α_head,lh = 1,
+α_lh,head = 0); from ``SWITCH_AT`` the two swap with the profile of eq. 12 over
+``SWITCH_DURATION`` (α_lh,head 0 → 1, α_head,lh 1 → 0).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.math import RigidTransform
+
+from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.plots import plot_priority_switch
+from drake_sot.systems.priority_schedule import PrioritySchedule
+from drake_sot.transitions import AlphaSchedule
+
+TASKS = ("taskJL", "taskHead", "taskLH", "taskPosture")
+SWITCH_AT, SWITCH_DURATION = 4.0, 2.0  # [s]
+DURATION = 9.0
+LH_OFFSET = np.array([0.58, -0.15, 0.15])  # [m] from the initial left hand: in front, beyond the arm's reach
+#: (kp [1/s²], kd [1/s]) per task: stiffness and damping per unit of task-space inertia.
+GAINS = {"taskJL": (400.0, 40.0), "taskHead": (100.0, 20.0), "taskLH": (100.0, 20.0), "taskPosture": (16.0, 8.0)}
+
+
+def initial_alpha(alpha_lh_head: float = 0.0, alpha_head_lh: float = 1.0) -> np.ndarray:
+    """α over TASKS: joint limits restrict everybody, the posture is restricted by everybody."""
+    n = len(TASKS)
+    index = {name: k for k, name in enumerate(TASKS)}
+    alpha = np.zeros((n, n))
+    for name in TASKS:
+        if name != "taskJL":
+            alpha[index[name], index["taskJL"]] = 1.0
+        if name != "taskPosture":
+            alpha[index["taskPosture"], index[name]] = 1.0
+    alpha[index["taskLH"], index["taskHead"]] = alpha_lh_head
+    alpha[index["taskHead"], index["taskLH"]] = alpha_head_lh
+    return alpha
+
+
+def build_with(alpha: AlphaSchedule, meshcat: Meshcat | None = None, duration: float = DURATION) -> ScenarioSetup:
+    """The scenario's diagram with a given α schedule (the sweep reuses it with constant α)."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, actuation="torque", fixed_base=True)
+    arm_and_body = [j for j in b.control_info.actuated_joints if not j.endswith("gripper")]
+    b.add_joint_limits_task("taskJL", margin=0.05, joints=arm_and_body)
+    X_head = b.initial_pose("head")
+    b.add_op_point_task("taskHead", "head", selection="111000", desired=X_head)
+    X_lh = b.initial_pose("left_hand")
+    target = RigidTransform(X_lh.rotation(), X_lh.translation() + LH_OFFSET)
+    b.add_op_point_task("taskLH", "left_hand", selection="111000", desired=target)
+    b.add_posture_task("taskPosture")
+    schedule = b.builder.AddSystem(PrioritySchedule(alpha))
+    b.log("alpha", schedule.GetOutputPort("alpha"))
+    built = b.build_generalized(
+        motion=[(name, *GAINS[name]) for name in TASKS], alpha=schedule.GetOutputPort("alpha"),
+    )
+    return ScenarioSetup(
+        built=built, commands=[], duration=duration,
+        targets={"head": X_head, "left_hand": target}, extras={"schedule": schedule},
+    )
+
+
+def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
+    """The priority switch of the paper's figure 10."""
+    alpha = AlphaSchedule(list(TASKS), initial_alpha())
+    alpha.switch("taskHead", "taskLH", start=SWITCH_AT, duration=SWITCH_DURATION)
+    return build_with(alpha, meshcat)
+
+
+def task_errors(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """(T,) error norm [m] of the head and left-hand position tasks."""
+    return {name: np.linalg.norm(arrays[f"error/{name}"], axis=1) for name in ("taskHead", "taskLH")}
+
+
+def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
+    """Figure 10: the two α and the two task errors over time."""
+    n = len(TASKS)
+    alpha = arrays["alpha"].reshape(-1, n, n)
+    head, lh = TASKS.index("taskHead"), TASKS.index("taskLH")
+    path = Path(out_dir) / "priority_switching_errors.png"
+    plot_priority_switch(
+        arrays["time"], {"α_lh,head": alpha[:, lh, head], "α_head,lh": alpha[:, head, lh]}, task_errors(arrays), path
+    )
+    return {"figure10": path}
+
+
+SCENARIO = Scenario(
+    name="priority_switching",
+    description="fixed base, torque control: head vs left-hand priority swapped smoothly (paper 004 fig. 10)",
+    build=build,
+    extra_plots=write_plots,
+)
