@@ -50,6 +50,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
     run.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
     run.add_argument("--workers", type=int, default=2, metavar="N", help="worker processes of a study (default 2)")
+    run.add_argument("--transition", type=float, default=None, metavar="S",
+                     help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)")
     return parser
 
 
@@ -73,9 +75,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         for path in files.values():
             print(f"wrote {path}")
         return 0
+    parameters = {}
+    if args.transition is not None:
+        if args.transition < 0:
+            print(f"drake-sot: --transition must be >= 0, got {args.transition}", file=sys.stderr)
+            return 2
+        parameters["transition"] = args.transition
+    scenario = SCENARIOS[args.scenario]
+    if set(parameters) - set(scenario.parameters):
+        print(f"drake-sot: {args.scenario} takes no --transition", file=sys.stderr)
+        return 2
     output = run_scenario(
-        SCENARIOS[args.scenario], args.out, duration=args.duration,
-        record=not args.no_record, progress=ProgressBar(),
+        scenario, args.out, duration=args.duration, record=not args.no_record, progress=ProgressBar(),
+        parameters=parameters,
     )
     result = output.result
     for path in output.files.values():

@@ -180,3 +180,38 @@ def plot_alpha_sweep(grid: np.ndarray, head: np.ndarray, lh: np.ndarray, path: s
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def plot_table_pounding(
+    time: np.ndarray,
+    alphas: Mapping[str, np.ndarray],
+    force_target: float,
+    force: np.ndarray,
+    errors: Mapping[str, np.ndarray],
+    tau_squared: np.ndarray,
+    transition: float,
+    path: str | Path,
+) -> None:
+    """Paper 004 figures 4-7 in one page: α (top), desired and measured hand force, CoM and
+    hand position errors, and the squared sum of joint torques τᵀτ."""
+    fig, axes = plt.subplots(4, 1, figsize=(10, 10), dpi=110, sharex=True)
+    for name, values in alphas.items():
+        axes[0].plot(time, values, label=name)
+    axes[0].set_ylabel("α")
+    axes[0].set_title(f"priority rearrangement period {transition:g} s")
+    axes[1].plot(time, force, label="measured (spring displacement)")
+    axes[1].axhline(force_target, color="k", linestyle="--", linewidth=0.8, label="desired")
+    axes[1].set_ylabel("hand force on the table [N]")
+    for name, values in errors.items():
+        axes[2].plot(time, 100 * values, label=name)
+    axes[2].set_ylabel("task error [cm]")
+    axes[3].plot(time, tau_squared)
+    axes[3].set_ylabel("τᵀτ [N²·m²]")
+    axes[3].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper right", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

@@ -20,7 +20,7 @@ DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 def test_list_names_the_scenarios():
     out = subprocess.run([*DRAKE_SOT, "list"], capture_output=True, text=True, check=True).stdout
     listed = [line.split()[0] for line in out.splitlines()]
-    assert listed == ["priority_switching", "reach", "walk", "walk_then_interact", "alpha_sweep"]
+    assert listed == ["priority_switching", "reach", "table_pounding", "walk", "walk_then_interact", "alpha_sweep"]
 
 
 def test_bad_arguments_are_refused(capsys):
@@ -29,6 +29,8 @@ def test_bad_arguments_are_refused(capsys):
     assert "invalid choice: 'no_such_scenario'" in capsys.readouterr().err
     assert cli.main(["run", "reach", "--duration", "-1"]) == 2
     assert "--duration must be > 0, got -1.0" in capsys.readouterr().err
+    assert cli.main(["run", "reach", "--transition", "0.6"]) == 2
+    assert "reach takes no --transition" in capsys.readouterr().err
 
 
 @pytest.fixture(scope="module")

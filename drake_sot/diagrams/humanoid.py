@@ -20,7 +20,7 @@ dynamics of the reference), loggers and
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -133,12 +133,14 @@ class HumanoidTorqueControl(BuiltHumanoid):
 
 
 def add_humanoid_plant(
-    builder: DiagramBuilder, *, time_step: float = 1e-3, pd_gains: bool = True, fixed_base: bool = False
+    builder: DiagramBuilder, *, time_step: float = 1e-3, pd_gains: bool = True, fixed_base: bool = False,
+    before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
 ) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
     """The simulated world in a finalized ``MultibodyPlant`` (SAP, point contact,
     ``time_step`` [s]) and its ``SceneGraph``: the humanoid with PD-controlled actuators
     (or torque-controlled ones, ``pd_gains=False``) on the ground, or with its pelvis
-    welded in the air (``fixed_base``, no ground)."""
+    welded in the air (``fixed_base``, no ground). ``before_finalize`` may add to the
+    world (a table, collision shapes on the hands) before the plant is finalized."""
     config = MultibodyPlantConfig(time_step=time_step, discrete_contact_approximation="sap", contact_model="point")
     plant, scene_graph = AddMultibodyPlant(config, builder)
     info = load_humanoid(plant, pd_gains=pd_gains)
@@ -146,6 +148,8 @@ def add_humanoid_plant(
         weld_base(plant, info)
     else:
         add_ground(plant)
+    if before_finalize is not None:
+        before_finalize(plant, info)
     plant.Finalize()
     return plant, scene_graph, info
 
@@ -162,11 +166,14 @@ class HumanoidSoTBuilder:
             kinematic SoT); ``"torque"``: torque-controlled robot, closed with
             :meth:`build_generalized` (paper 004). The tasks are added the same way.
         fixed_base: weld the pelvis in the air (no ground), as the paper's real iCub.
+        before_finalize: adds to the simulated world before it is finalized (see
+            :func:`add_humanoid_plant`).
     """
 
     def __init__(
         self, *, control_period: float = 0.005, time_step: float = 1e-3, meshcat: Meshcat | None = None,
         actuation: str = "pd", fixed_base: bool = False,
+        before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
     ) -> None:
         if actuation not in ("pd", "torque"):
             raise ValueError(f"actuation {actuation!r} must be 'pd' (kinematic SoT) or 'torque' (generalized hierarchy)")
@@ -174,7 +181,8 @@ class HumanoidSoTBuilder:
         self.fixed_base = fixed_base
         self.builder = DiagramBuilder()
         self.plant, self.scene_graph, self.info = add_humanoid_plant(
-            self.builder, time_step=time_step, pd_gains=actuation == "pd", fixed_base=fixed_base
+            self.builder, time_step=time_step, pd_gains=actuation == "pd", fixed_base=fixed_base,
+            before_finalize=before_finalize,
         )
         self.control_plant, self.control_info = make_control_model(fixed_base=fixed_base)
         self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
@@ -408,6 +416,7 @@ class HumanoidSoTBuilder:
         motion: Sequence[tuple[str, float, float]],
         alpha: OutputPort,
         force: Sequence[tuple[str, float, float]] = (),
+        force_inputs: dict[str, tuple[OutputPort, OutputPort]] | None = None,
         weighted: bool = False,
         weights: dict[str, float] | None = None,
         mu: float = 0.8,
@@ -420,8 +429,9 @@ class HumanoidSoTBuilder:
             motion: ``(task name, kp, kd)`` of each motion task (eq. 2).
             alpha: the priority matrix signal (e.g. ``PrioritySchedule.alpha``), over the
                 motion tasks then the force tasks, in the order given here.
-            force: ``(task name, kp, ki)`` of each force task (eq. 3); their
-                ``<name>_desired`` and ``<name>_measured`` inputs are left for the scenario.
+            force: ``(task name, kp, ki)`` of each force task (eq. 3).
+            force_inputs: force task name → (desired, measured) wrench output ports, for
+                the controller's ``<name>_desired`` and ``<name>_measured`` inputs.
             weighted: the weighted baseline (eq. 5-7) with ``weights`` instead.
             mu: friction coefficient of the sole-corner contact points (none on a fixed base).
         """
@@ -441,6 +451,9 @@ class HumanoidSoTBuilder:
         )
         for name in controller.task_names:
             b.Connect(self.tasks[name].GetOutputPort("task"), controller.GetInputPort(name))
+        for name, (desired, measured) in (force_inputs or {}).items():
+            b.Connect(desired, controller.GetInputPort(f"{name}_desired"))
+            b.Connect(measured, controller.GetInputPort(f"{name}_measured"))
         state = self.plant.get_state_output_port(self.info.model_instance)
         b.Connect(state, controller.GetInputPort("state"))
         b.Connect(alpha, controller.GetInputPort("alpha"))

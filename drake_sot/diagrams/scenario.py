@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import Context
 
@@ -49,8 +48,9 @@ class Scenario:
 
     name: str
     description: str
-    build: Callable[[Meshcat | None], ScenarioSetup]
+    build: Callable[..., ScenarioSetup]
     extra_plots: ExtraPlots | None = None
+    parameters: tuple[str, ...] = ()  # keyword arguments ``build`` accepts besides the Meshcat
 
 
 @dataclass
@@ -72,16 +72,21 @@ def run_scenario(
     duration: float | None = None,
     record: bool = True,
     progress: Progress | None = None,
+    parameters: dict[str, Any] | None = None,
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.html`` (replay, when ``record``), ``<name>.svg``
     (diagram), ``<name>.png`` (task errors) and ``<name>.npz`` (logs) into ``out_dir``.
 
     Artefacts are written even when the run is interrupted (Ctrl-C) or fails, covering
-    what was simulated; ``result`` says how it ended.
+    what was simulated; ``result`` says how it ended. ``parameters`` go to the scenario's
+    ``build`` (only those it declares).
     """
+    unknown = sorted(set(parameters or {}) - set(scenario.parameters))
+    if unknown:
+        raise ValueError(f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    setup = scenario.build(loopback_meshcat() if record else None)
+    setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}))
     built = setup.built
     files = {"svg": out / f"{scenario.name}.svg"}
     write_svg(built.diagram, files["svg"])

@@ -86,7 +86,8 @@ class GeneralizedHierarchyController(LeafSystem):
         tau: joint torques (na,) [N·m], actuator order (the plant's actuation input).
         wrenches: the goal-directed tasks' optimal wrenches w*, concatenated (Σ m_i,).
         errors: the goal-directed tasks' errors, concatenated: e = s − s* for motion
-            tasks [m, rad], w* − w_measured for force tasks [N].
+            tasks [m, rad], w* − w_measured for force tasks [N] (their PI integral grows
+            in proportion to 1 − α_ii: a deactivated force task does not wind up).
         contact_forces: (3·k,) [N] ground forces on the robot at the contact points, world.
         status: (1,) 0 optimal, 1 infeasible → fallback, 2 solver failure → fallback.
 
@@ -208,11 +209,13 @@ class GeneralizedHierarchyController(LeafSystem):
             desired.append(task_inertia @ (-self._kp[k] * s.error - self._kd[k] * (J @ v)))  # eq. 2
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
         offset = 0
-        for t, (des_port, meas_port) in zip(self._force, self._force_ports, strict=True):
+        for k, (t, (des_port, meas_port)) in enumerate(zip(self._force, self._force_ports, strict=True)):
             m = t.task.dimension
             w_star, w_meas = des_port.Eval(context), meas_port.Eval(context)
             e_w = w_star - w_meas
-            integral[offset : offset + m] += e_w * self._period
+            # A task projected into its own null space (α_ii = 1) does not act: no wind-up.
+            i = len(self._motion) + k
+            integral[offset : offset + m] += (1.0 - alpha[i, i]) * e_w * self._period
             desired.append(w_star + t.kp * e_w + t.ki * integral[offset : offset + m])  # eq. 3
             errors.append(e_w)
             offset += m

@@ -1,0 +1,235 @@
+"""Scenario ``table_pounding`` (paper 004, 4.1): the torque-controlled humanoid stands and
+presses a spring-mounted table with one hand, then the other, with smooth priority changes.
+
+The table top slides vertically on a spring of 2000 N/m and a damper of 89 N·s/m; the
+hand force is measured from the spring's displacement, as in the paper. The 18 tasks of
+the paper adapted to the model: CoM xy (strictly highest), right/left hand position (3-D
+each) and orientation (3-D each), right/left hand force (1-D, vertical), head
+orientation (1-D, yaw), back posture (chest, 2-D), whole-body posture (30-D, lowest), and
+the four 3-D contact forces of each foot. A scripted state machine — idle, rh-reaching,
+rh-contact, rh-release, lh-reaching, lh-contact, lh-release — moves the hand targets and,
+on entering a contact state, activates the hand's force task and raises it over the
+hand's position task over ``transition`` seconds (eq. 12); on release it does the reverse.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Box, Sphere
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
+from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, PrismaticSpring, SpatialInertia
+from pydrake.systems.framework import LeafSystem
+from pydrake.systems.primitives import ConstantVectorSource
+
+from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.models import HumanoidInfo
+from drake_sot.plots import plot_table_pounding
+from drake_sot.systems.priority_schedule import PrioritySchedule
+from drake_sot.transitions import AlphaSchedule
+
+STIFFNESS, DAMPING = 2000.0, 89.0  # [N/m], [N·s/m] (the paper's table)
+FORCE = 30.0  # [N] to press on the table
+SURFACE = 0.65  # [m] table surface height at rest
+TABLE_X = (0.25, 0.55)  # [m] front and back edges
+TABLE_MASS = 1.0  # [kg]
+THICKNESS = 0.04  # [m]
+HAND_RADIUS = 0.03  # [m] collision sphere at each hand tool point
+HAND_X, HAND_Y = 0.40, 0.30  # [m] where each hand presses (y mirrored)
+MOTION = ("taskCom", "taskRH", "taskLH", "taskRHo", "taskLHo", "taskHead", "taskBack", "taskPosture")
+FORCES = ("taskRHF", "taskLHF")
+TASKS = MOTION + FORCES
+#: (kp [1/s²], kd [1/s]) per motion task, per unit of task-space inertia.
+GAINS = {"taskCom": (100.0, 20.0), "taskRH": (100.0, 20.0), "taskLH": (100.0, 20.0), "taskRHo": (50.0, 14.0),
+         "taskLHo": (50.0, 14.0), "taskHead": (50.0, 14.0), "taskBack": (25.0, 10.0), "taskPosture": (16.0, 8.0)}
+FORCE_PI = (0.5, 4.0)  # (kp, ki) of eq. 3
+
+
+@dataclass(frozen=True)
+class Phase:
+    """A state of the machine: when it starts [s], its name, the hand that acts."""
+
+    start: float
+    name: str
+    hand: str | None
+
+
+#: The state machine's script: reaching 1.5 s (over the table, then down), contact 2 s, release 1 s.
+PHASES = (
+    Phase(0.0, "idle", None),
+    Phase(1.0, "rh-reaching", "right"), Phase(2.5, "rh-contact", "right"), Phase(4.5, "rh-release", "right"),
+    Phase(5.5, "lh-reaching", "left"), Phase(7.0, "lh-contact", "left"), Phase(9.0, "lh-release", "left"),
+)
+DURATION = 10.5
+REST = -TABLE_MASS * 9.81 / STIFFNESS  # [m] the slide's rest position under the table's weight
+
+
+def _add_table(plant: MultibodyPlant, info: HumanoidInfo) -> None:
+    """The spring-mounted table top (its own model instance) and spheres on the hand tool points."""
+    table = plant.AddModelInstance("table")
+    depth, width = TABLE_X[1] - TABLE_X[0], 0.9
+    top = plant.AddRigidBody("table_top", table, SpatialInertia.SolidBoxWithMass(TABLE_MASS, depth, width, THICKNESS))
+    base = plant.AddFrame(FixedOffsetFrame(
+        "table_base", plant.world_frame(), RigidTransform([0.5 * sum(TABLE_X), 0.0, SURFACE - THICKNESS / 2])
+    ))
+    slide = plant.AddJoint(PrismaticJoint("table_slide", base, top.body_frame(), [0.0, 0.0, 1.0], damping=DAMPING))
+    slide.set_default_translation(REST)  # every context starts with the table at rest on its spring
+    plant.AddForceElement(PrismaticSpring(slide, 0.0, STIFFNESS))
+    box = Box(depth, width, THICKNESS)
+    plant.RegisterVisualGeometry(top, RigidTransform(), box, "table_visual", [0.55, 0.42, 0.30, 1.0])
+    plant.RegisterCollisionGeometry(top, RigidTransform(), box, "table_collision", CoulombFriction(0.8, 0.6))
+    for side in ("right", "left"):
+        frame = plant.GetFrameByName(info.frames[f"{side}_hand"], info.model_instance)
+        plant.RegisterCollisionGeometry(
+            frame.body(), frame.GetFixedPoseInBodyFrame(), Sphere(HAND_RADIUS), f"{side}_hand_collision",
+            CoulombFriction(0.8, 0.6),
+        )
+
+
+class TableForce(LeafSystem):
+    """The force on the table from its spring's displacement, as in the paper.
+
+    Input ports:
+        table_state: ``[q; v]`` (2,) of the table's slide [m, m/s].
+    Output ports:
+        force: (1,) [N] downward force on the table top (k·(rest − q): positive when pressed).
+        applied: (1,) [N] the same as the vertical wrench the pressing hand applies (−force),
+            for a force task's ``<name>_measured`` input.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        state = self.DeclareVectorInputPort("table_state", 2)
+        ticket = {self.input_port_ticket(state.get_index())}
+        force = lambda c: STIFFNESS * (REST - state.Eval(c)[0])  # noqa: E731
+        self.DeclareVectorOutputPort("force", 1, lambda c, out: out.SetFromVector([force(c)]), prerequisites_of_calc=ticket)
+        self.DeclareVectorOutputPort("applied", 1, lambda c, out: out.SetFromVector([-force(c)]), prerequisites_of_calc=ticket)
+
+
+def initial_alpha() -> np.ndarray:
+    """α over TASKS (row i: how task i is restricted by each task), as in the paper's 4.1."""
+    n = len(TASKS)
+    k = {name: i for i, name in enumerate(TASKS)}
+    alpha = np.zeros((n, n))
+    for name in TASKS:
+        if name != "taskCom":
+            alpha[k[name], k["taskCom"]] = 1.0  # the CoM is strictly above everything
+        if name != "taskPosture":
+            alpha[k["taskPosture"], k[name]] = 1.0  # the posture strictly below
+    for lower in ("taskRHo", "taskLHo", "taskBack", "taskHead"):  # below hand position and force tasks
+        for upper in ("taskRH", "taskLH", "taskRHF", "taskLHF"):
+            alpha[k[lower], k[upper]] = 1.0
+    for force, hand in (("taskRHF", "taskRH"), ("taskLHF", "taskLH")):
+        alpha[k[force], k[force]] = 1.0  # deactivated
+        alpha[k[force], k[hand]] = 1.0  # strictly below the hand's position task
+    return alpha
+
+
+def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
+    """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, actuation="torque", before_finalize=_add_table)
+    X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
+    b.add_com_task("taskCom", selection="110")
+    b.add_op_point_task("taskRH", "right_hand", selection="111000", desired=X["right"])
+    b.add_op_point_task("taskLH", "left_hand", selection="111000", desired=X["left"])
+    b.add_op_point_task("taskRHo", "right_hand", selection="000111", desired=X["right"])
+    b.add_op_point_task("taskLHo", "left_hand", selection="000111", desired=X["left"])
+    b.add_op_point_task("taskHead", "head", selection="000001")
+    b.add_posture_task("taskBack", ["chest_yaw", "chest_pitch"])
+    b.add_posture_task("taskPosture")
+    b.add_op_point_task("taskRHF", "right_hand", selection="001000")  # force tasks: only their Jacobian row is used
+    b.add_op_point_task("taskLHF", "left_hand", selection="001000")
+    schedule = b.builder.AddSystem(PrioritySchedule(AlphaSchedule(list(TASKS), initial_alpha())))
+    table = b.plant.GetModelInstanceByName("table")
+    force = b.builder.AddSystem(TableForce())
+    force.set_name("table_force")
+    b.builder.Connect(b.plant.get_state_output_port(table), force.GetInputPort("table_state"))
+    desired = b.builder.AddSystem(ConstantVectorSource([-FORCE]))  # the hand pushes down
+    b.log("alpha", schedule.GetOutputPort("alpha"))
+    b.log("table_force", force.GetOutputPort("force"))
+    built = b.build_generalized(
+        motion=[(name, *GAINS[name]) for name in MOTION], force=[(name, *FORCE_PI) for name in FORCES],
+        force_inputs={name: (desired.get_output_port(), force.GetOutputPort("applied")) for name in FORCES},
+        alpha=schedule.GetOutputPort("alpha"),
+    )
+    return ScenarioSetup(
+        built=built, commands=_script(built, schedule, X, transition), duration=DURATION,
+        extras={"schedule": schedule, "transition": transition},
+    )
+
+
+def _script(built, schedule, X, transition: float) -> list[Command]:
+    """The state machine as timed commands: hand targets and priority rearrangements."""
+    k = {name: i for i, name in enumerate(TASKS)}
+
+    def target(side: str, height: float) -> RigidTransform:
+        y = -HAND_Y if side == "right" else HAND_Y
+        return RigidTransform(X[side].rotation(), [HAND_X, y, SURFACE + HAND_RADIUS + height])
+
+    def move(side: str, height: float):
+        task = "taskRH" if side == "right" else "taskLH"
+        return lambda c: built.features[task].set_desired(c, target(side, height))
+
+    def priorities(side: str, contact: bool):
+        hand, force = ("taskRH", "taskRHF") if side == "right" else ("taskLH", "taskLHF")
+        on, off = (0.0, 1.0) if contact else (1.0, 0.0)
+
+        def apply(c):
+            schedule.set(c, k[force], k[force], on, duration=transition)  # activate / deactivate
+            schedule.set(c, k[hand], k[force], off, duration=transition)  # the force over the position
+            schedule.set(c, k[force], k[hand], on, duration=transition)
+        return apply
+
+    commands = []
+    for phase in PHASES:
+        side = phase.hand
+        if phase.name.endswith("reaching"):
+            commands += [Command(phase.start, f"{phase.name}: over the table", move(side, 0.08)),
+                         Command(phase.start + 0.8, f"{phase.name}: down", move(side, 0.0))]
+        elif phase.name.endswith("contact"):
+            commands.append(Command(phase.start, phase.name, priorities(side, True)))
+        elif phase.name.endswith("release"):
+            commands += [Command(phase.start, phase.name, priorities(side, False)),
+                         Command(phase.start, f"{phase.name}: up", move(side, 0.08))]
+    return commands
+
+
+def contact_windows(settle: float = 1.0) -> dict[str, tuple[float, float]]:
+    """For each hand, the last part of its contact phase, where the force should have settled [s]."""
+    out = {}
+    for phase, after in zip(PHASES, PHASES[1:]):
+        if phase.name.endswith("contact"):
+            out[phase.hand] = (after.start - settle, after.start)
+    return out
+
+
+def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
+    """Figures 4-7: α, desired and real hand forces, CoM and hand position errors, τᵀτ."""
+    n = len(TASKS)
+    k = {name: i for i, name in enumerate(TASKS)}
+    alpha = arrays["alpha"].reshape(-1, n, n)
+    alphas = {
+        "α_rhf,rhf": alpha[:, k["taskRHF"], k["taskRHF"]], "α_rh,rhf": alpha[:, k["taskRH"], k["taskRHF"]],
+        "α_lhf,lhf": alpha[:, k["taskLHF"], k["taskLHF"]], "α_lh,lhf": alpha[:, k["taskLH"], k["taskLHF"]],
+    }
+    errors = {name: np.linalg.norm(arrays[f"error/{name}"], axis=1) for name in ("taskCom", "taskRH", "taskLH")}
+    path = Path(out_dir) / "table_pounding_figures.png"
+    plot_table_pounding(
+        arrays["time"], alphas, FORCE, arrays["table_force"][:, 0], errors, np.sum(arrays["tau"] ** 2, axis=1),
+        setup.extras["transition"], path,
+    )
+    return {"figures": path}
+
+
+SCENARIO = Scenario(
+    name="table_pounding",
+    description="torque control: press a spring table with each hand in turn, 18 tasks, smooth priority changes (paper 004 4.1)",
+    build=build,
+    extra_plots=write_plots,
+    parameters=("transition",),
+)
