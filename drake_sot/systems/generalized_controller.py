@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from scipy.linalg import cho_factor, cho_solve
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
@@ -59,6 +60,26 @@ class ContactPoints:
     mu: float = 0.8
     facets: int = 4
     min_normal_force: float = 0.0  # [N] per point
+
+
+def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np.ndarray:
+    """Λ = (J M⁻¹ Jᵀ)⁺ (m, m); rows of J that are zero (an inactive joint-limit row) get zero.
+
+    By Cholesky on the non-zero rows (fast and exact when they are independent), by the
+    pseudo-inverse when they are not.
+    """
+    rows = np.flatnonzero(J.any(axis=1))
+    task_inertia = np.zeros((J.shape[0], J.shape[0]))
+    if rows.size:
+        Jr = J[rows]
+        A = Jr @ M_inv @ Jr.T
+        try:
+            factor = cho_factor(A)
+            block = cho_solve(factor, np.eye(rows.size))
+        except np.linalg.LinAlgError:
+            block = pinv(A, rank_threshold)
+        task_inertia[np.ix_(rows, rows)] = block
+    return task_inertia
 
 
 class GeneralizedHierarchyController(LeafSystem):
@@ -146,6 +167,7 @@ class GeneralizedHierarchyController(LeafSystem):
         self._kd = [t.kd for t in self._motion]
         self._contacts = list(contacts)
         self._contact_frames = [plant.GetFrameByName(c.frame) for c in self._contacts]
+        self._cones = [FrictionCone(mu=c.mu, facets=c.facets, min_normal_force=c.min_normal_force) for c in self._contacts]
         self._weights = dict(weights or {})
         unknown = sorted(set(self._weights) - set(self._names))
         if unknown:
@@ -204,7 +226,7 @@ class GeneralizedHierarchyController(LeafSystem):
         errors, desired = [], []
         for k, s in enumerate(signals[: len(self._motion)]):
             J = s.jacobian
-            task_inertia = pinv(J @ M_inv @ J.T, self._rank_threshold)  # Λ; zero rows stay zero
+            task_inertia = _task_inertia(J, M_inv, self._rank_threshold)
             errors.append(s.error)
             desired.append(task_inertia @ (-self._kp[k] * s.error - self._kd[k] * (J @ v)))  # eq. 2
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
@@ -227,8 +249,7 @@ class GeneralizedHierarchyController(LeafSystem):
         contact_jacobians = self._contact_jacobians()
         for k, (c, J) in enumerate(zip(self._contacts, contact_jacobians, strict=True)):
             for p, Jp in enumerate(J):
-                cone = FrictionCone(mu=c.mu, facets=c.facets, min_normal_force=c.min_normal_force)
-                tasks.append(QsTask(f"contact{k}_{p}", Jp, weight=self._regularization, friction=cone))
+                tasks.append(QsTask(f"contact{k}_{p}", Jp, weight=self._regularization, friction=self._cones[k]))
         solution = self._qp.solve(tasks, g, weighted=self._weighted)
         if solution.status == "optimal":
             tau_v = solution.tau
