@@ -7,6 +7,7 @@ points run in parallel worker processes.
 
 from __future__ import annotations
 
+import multiprocessing
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -68,7 +69,8 @@ def run(
     lh = np.full_like(head, np.nan)
     index = {value: k for k, value in enumerate(grid)}
     start = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    # spawn, not fork: the caller may already run Drake or Meshcat threads.
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = [pool.submit(_point, p) for p in points]
         for done, future in enumerate(as_completed(futures), start=1):
             a, b, e_head, e_lh = future.result()
