@@ -434,7 +434,8 @@ def generalized_projectors(
     """Generalized projectors of all the tasks at once (paper 004, eq. 8).
 
     Same result as ``[generalized_projector(jacobians, alpha[i]) for i in
-    range(n)]``, but the input is checked and the rows normalised once.
+    range(n)]``, but the input is checked and the rows normalised once, and
+    tasks with equal α rows share one computation.
 
     Args:
         jacobians: the n task Jacobians ``J_j`` (m_j, nv).
@@ -458,4 +459,13 @@ def generalized_projectors(
         _alphas(a[i], name=f"alpha[{i}]")
     nv = jacobians[0].shape[1]
     blocks = _unit_rows(jacobians)
-    return np.stack([_projector(*_sorted_rows(blocks, a[i].tolist(), normalise=False), nv, tol) for i in range(n)])
+    # Tasks with the same α row have the same projector (e.g. both hands' orientation
+    # tasks in a symmetric hierarchy): compute each distinct row once.
+    distinct: dict[bytes, np.ndarray] = {}
+    out = np.empty((n, nv, nv))
+    for i in range(n):
+        key = a[i].tobytes()
+        if key not in distinct:
+            distinct[key] = _projector(*_sorted_rows(blocks, a[i].tolist(), normalise=False), nv, tol)
+        out[i] = distinct[key]
+    return out

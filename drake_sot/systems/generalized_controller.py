@@ -8,7 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from scipy.linalg import cho_factor, cho_solve
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
@@ -65,8 +64,8 @@ class ContactPoints:
 def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np.ndarray:
     """Λ = (J M⁻¹ Jᵀ)⁺ (m, m); rows of J that are zero (an inactive joint-limit row) get zero.
 
-    By Cholesky on the non-zero rows (fast and exact when they are independent), by the
-    pseudo-inverse when they are not.
+    By a direct inverse of the non-zero rows' block (fast when they are independent: the
+    block is then symmetric positive definite), by the pseudo-inverse when they are not.
     """
     rows = np.flatnonzero(J.any(axis=1))
     task_inertia = np.zeros((J.shape[0], J.shape[0]))
@@ -74,8 +73,8 @@ def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np
         Jr = J[rows]
         A = Jr @ M_inv @ Jr.T
         try:
-            factor = cho_factor(A)
-            block = cho_solve(factor, np.eye(rows.size))
+            np.linalg.cholesky(A)  # raises when the rows are dependent (A singular)
+            block = np.linalg.inv(A)
         except np.linalg.LinAlgError:
             block = pinv(A, rank_threshold)
         task_inertia[np.ix_(rows, rows)] = block
