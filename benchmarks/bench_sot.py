@@ -136,6 +136,11 @@ def main() -> None:
         ("reach scenario real-time factor", f"{rtf['rtf_scenario']:.2f}",
          f"plant alone on constant set points: {rtf['rtf_plant']:.2f}", f"{rtf['rtf_scenario'] / rtf['rtf_plant']:.2f} of baseline"),
     ]
+    print_table(rows)
+
+
+def print_table(rows) -> None:
+    """A markdown table of (measurement, drake_sot, baseline, ratio) rows."""
     print("| measurement | drake_sot | baseline (same run) | ratio |")
     print("|---|---|---|---|")
     for row in rows:

@@ -27,7 +27,7 @@ from drake_sot.preview import Footstep, PreviewController
 from drake_sot.systems.pattern_generator import PatternGenerator
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_sot import bench_realtime  # noqa: E402  (same baseline as the SoT benchmark)
+from bench_sot import bench_realtime, print_table  # noqa: E402  (same baseline as the SoT benchmark)
 
 DT = 0.005
 
@@ -86,10 +86,7 @@ def main() -> None:
         ("walk scenario real-time factor", f"{rtf['rtf_scenario']:.2f}",
          f"plant alone on constant set points: {rtf['rtf_plant']:.2f}", f"{rtf['rtf_scenario'] / rtf['rtf_plant']:.2f} of baseline"),
     ]
-    print("| measurement | drake_sot | baseline (same run) | ratio |")
-    print("|---|---|---|---|")
-    for row in rows:
-        print("| " + " | ".join(row) + " |")
+    print_table(rows)
 
 
 if __name__ == "__main__":

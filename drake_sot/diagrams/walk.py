@@ -81,20 +81,21 @@ def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: 
     return forward + steps
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """Build the ``walk`` diagram and its script."""
-    b = HumanoidSoTBuilder(meshcat=meshcat)
+def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:
+    """The pattern generator and the walking tasks: joint limits, left and right foot 6D
+    and CoM xy (references and velocity feed-forward from the generator), waist
+    orientation, both hands held relative to the waist. Returns the generator and the
+    initial footprints."""
     left, right = footstep(b.initial_pose("left_foot"), "left"), footstep(b.initial_pose("right_foot"), "right")
     com0 = b.initial_com()
     pg = b.builder.AddSystem(
         PatternGenerator(left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2])
     )
     b.add_joint_limits_task("taskJL")
-    for task_name, frame_key, port in (("taskLF", "left_foot", "left_foot"), ("taskRF", "right_foot", "right_foot")):
-        b.add_op_point_task(task_name, frame_key, gain=20.0)
-        feature = b.features[task_name]
-        b.builder.Connect(pg.GetOutputPort(port), feature.GetInputPort("position_des"))
-        b.builder.Connect(pg.GetOutputPort(port + "_vel"), feature.GetInputPort("velocity_des"))
+    for task_name, foot in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
+        b.add_op_point_task(task_name, foot, gain=20.0)
+        b.builder.Connect(pg.GetOutputPort(foot), b.features[task_name].GetInputPort("position_des"))
+        b.builder.Connect(pg.GetOutputPort(foot + "_vel"), b.features[task_name].GetInputPort("velocity_des"))
     b.add_com_task("taskCom", selection="110", gain=20.0)
     b.builder.Connect(pg.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
     b.builder.Connect(pg.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
@@ -102,6 +103,13 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     b.builder.Connect(pg.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
     b.add_relative_task("taskRHwaist", "right_hand", "pelvis", gain=5.0)
     b.add_relative_task("taskLHwaist", "left_hand", "pelvis", gain=5.0)
+    return pg, left, right
+
+
+def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
+    """Build the ``walk`` diagram and its script."""
+    b = HumanoidSoTBuilder(meshcat=meshcat)
+    pg, left, right = add_walking(b)
     b.add_posture_task("taskPosture", gain=1.0)
 
     zmp = b.builder.AddSystem(ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]]))

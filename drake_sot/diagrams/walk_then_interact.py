@@ -20,10 +20,9 @@ from pydrake.geometry import Meshcat
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
-from drake_sot.diagrams.walk import TIMING, footstep, forward_steps
+from drake_sot.diagrams.walk import add_walking, forward_steps
 from drake_sot.plots import plot_interaction
 from drake_sot.systems.partner import Hold, Partner
-from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.sequencer import Above, Below, Push, Rm, SetValue, State, TaskSequencer, Transition, Up
 
 WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
@@ -40,23 +39,7 @@ ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (60.0, 60.0, 60
 def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     """Build the ``walk_then_interact`` diagram and its script."""
     b = HumanoidSoTBuilder(meshcat=meshcat)
-    left, right = footstep(b.initial_pose("left_foot"), "left"), footstep(b.initial_pose("right_foot"), "right")
-    com0 = b.initial_com()
-    pg = b.builder.AddSystem(
-        PatternGenerator(left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2])
-    )
-    b.add_joint_limits_task("taskJL")
-    for task_name, side in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
-        b.add_op_point_task(task_name, side, gain=20.0)
-        b.builder.Connect(pg.GetOutputPort(side), b.features[task_name].GetInputPort("position_des"))
-        b.builder.Connect(pg.GetOutputPort(side + "_vel"), b.features[task_name].GetInputPort("velocity_des"))
-    b.add_com_task("taskCom", selection="110", gain=20.0)
-    b.builder.Connect(pg.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
-    b.builder.Connect(pg.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
-    b.add_op_point_task("taskWaist", "pelvis", selection="000111", gain=10.0)
-    b.builder.Connect(pg.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
-    b.add_relative_task("taskRHwaist", "right_hand", "pelvis", gain=5.0)
-    b.add_relative_task("taskLHwaist", "left_hand", "pelvis", gain=5.0)
+    pg, left, right = add_walking(b)
     admittances = {
         "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
         "taskForceLH": b.add_admittance_task("taskForceLH", "left", **ADMITTANCE),
