@@ -22,6 +22,7 @@ from pydrake.systems.framework import (
 
 from drake_sot import so3
 from drake_sot.admittance import MassDamperSpring
+from drake_sot.configuration import quaternion_to_rotation
 from drake_sot.systems._context import own_context
 
 #: Fault codes of the ``fault`` output.
@@ -57,18 +58,6 @@ def _quaternion(R: np.ndarray) -> np.ndarray:
     """Unit quaternion [w, x, y, z] of the rotation matrix R."""
     q = RotationMatrix(R).ToQuaternion().wxyz()
     return q / np.linalg.norm(q)
-
-
-def _rotation(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of the quaternion [w, x, y, z] (normalised here)."""
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 class AdmittanceController(LeafSystem):
@@ -233,7 +222,7 @@ class AdmittanceController(LeafSystem):
 
     @staticmethod
     def _pose(x: np.ndarray) -> RigidTransform:
-        return RigidTransform(RotationMatrix(_rotation(x[_Q])), x[_P])
+        return RigidTransform(RotationMatrix(quaternion_to_rotation(x[_Q])), x[_P])
 
     def reference(self, context: Context) -> tuple[RigidTransform, np.ndarray]:
         """``(pose_des, velocity_des)`` held in the state (own or root context)."""
@@ -320,8 +309,8 @@ class AdmittanceController(LeafSystem):
         # Drive the mass-damper-spring with [f; τ] (translation first, like its axes).
         total = w_ext + w_ref
         force = np.concatenate((total[3:], total[:3]))
-        R = _rotation(x[_Q])
-        theta = so3.log(R @ _rotation(x[_Q_REST]).T) if self._rotational_spring else np.zeros(3)
+        R = quaternion_to_rotation(x[_Q])
+        theta = so3.log(R @ quaternion_to_rotation(x[_Q_REST]).T) if self._rotational_spring else np.zeros(3)
         position = np.concatenate((x[_P], theta))
         rest = np.concatenate((x[_P_REST], np.zeros(3)))
         position_next, v_next = self.dynamics.step(position, x[_V], force, rest)
