@@ -192,6 +192,7 @@ class HumanoidSoTBuilder:
         self.dyn.set_name("dyn")
         self.tasks: dict[str, Task] = {}
         self.features: dict[str, _Feature] = {}
+        self._pose_feature_frames: dict[FeaturePoint6d, str] = {}  # op-point feature -> its frame key
         self._q_consumers: list = [self.dyn.GetInputPort("q")]
         self._extra_logs: dict[str, OutputPort] = {}
         self._probe_context = self.control_plant.CreateDefaultContext()
@@ -225,30 +226,54 @@ class HumanoidSoTBuilder:
             self.dyn.add_operational_point(frame_key, frame_name)
         return frame_key
 
-    def _add_task(self, task_name: str, feature: _Feature, gain: Gain) -> Task:
+    def _add_task(self, task_name: str, feature: _Feature, gain: Gain, selection: SelectionLike = None) -> Task:
+        """A task reading ``feature`` (added to the diagram unless it is there already, shared)."""
         if task_name in self.tasks:
             raise ValueError(f"a task named {task_name!r} exists already")
-        self.builder.AddSystem(feature)
+        if feature not in self.features.values():
+            self.builder.AddSystem(feature)
         task = self.builder.AddSystem(Task(task_name, gain=gain))
-        self.builder.Connect(feature.GetOutputPort("feature"), task.add(feature))
+        self.builder.Connect(feature.GetOutputPort("feature"), task.add(feature, selection=selection))
         self.tasks[task_name] = task
         self.features[task_name] = feature
         return task
 
     def add_op_point_task(
         self, task_name: str, frame_key: str, *, selection: SelectionLike = None, gain: Gain = 1.0,
-        desired: RigidTransform | None = None,
+        desired: RigidTransform | None = None, feature_of: str | None = None,
     ) -> Task:
-        """A 6D task (``FeaturePoint6d``) on a humanoid frame; holds its initial pose unless ``desired``."""
+        """A 6D task (``FeaturePoint6d``) on a humanoid frame; holds its initial pose unless ``desired``.
+
+        The feature is 6D and ``selection`` is applied by the task, so that tasks on one
+        frame can share it: ``feature_of`` names an earlier op-point task on the same
+        frame whose feature (and hence desired pose, ``features[feature_of]``) this task
+        reads — e.g. a hand's position, orientation and force tasks at different
+        priorities, one pose error computed per tick. ``desired`` must then be None.
+        """
         op = self.op_point(frame_key)
+        if feature_of is not None:
+            return self._add_task(task_name, self._shared_pose_feature(feature_of, frame_key, desired), gain, selection)
         feature = FeaturePoint6d(
-            selection=selection, name=f"feature_{task_name}",
-            desired=self.initial_pose(frame_key) if desired is None else desired,
+            name=f"feature_{task_name}", desired=self.initial_pose(frame_key) if desired is None else desired,
         )
-        task = self._add_task(task_name, feature, gain)
+        task = self._add_task(task_name, feature, gain, selection)
         self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
         self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        self._pose_feature_frames[feature] = frame_key
         return task
+
+    def _shared_pose_feature(self, task_name: str, frame_key: str, desired: RigidTransform | None) -> FeaturePoint6d:
+        feature = self.features.get(task_name)
+        frame = self._pose_feature_frames.get(feature)
+        if frame is None:
+            raise ValueError(f"feature_of={task_name!r}: no op-point task of that name; "
+                             f"op-point tasks: {sorted(t for t, f in self.features.items() if f in self._pose_feature_frames)}")
+        if frame != frame_key:
+            raise ValueError(f"feature_of={task_name!r}: that task's feature is on frame {frame!r}, not {frame_key!r}")
+        if desired is not None:
+            raise ValueError(f"feature_of={task_name!r}: the desired pose is that of the shared feature; "
+                             "set it on features[feature_of], not with desired=")
+        return feature
 
     def add_relative_task(
         self, task_name: str, frame_key: str, reference_key: str, *, selection: SelectionLike = None,

@@ -137,13 +137,15 @@ def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
     b.add_com_task("taskCom", selection="110")
     b.add_op_point_task("taskRH", "right_hand", selection="111000", desired=X["right"])
     b.add_op_point_task("taskLH", "left_hand", selection="111000", desired=X["left"])
-    b.add_op_point_task("taskRHo", "right_hand", selection="000111", desired=X["right"])
-    b.add_op_point_task("taskLHo", "left_hand", selection="000111", desired=X["left"])
+    # One pose feature per hand: its position, orientation and force tasks select rows of it.
+    b.add_op_point_task("taskRHo", "right_hand", selection="000111", feature_of="taskRH")
+    b.add_op_point_task("taskLHo", "left_hand", selection="000111", feature_of="taskLH")
     b.add_op_point_task("taskHead", "head", selection="000001")
     b.add_posture_task("taskBack", ["chest_yaw", "chest_pitch"])
     b.add_posture_task("taskPosture")
-    b.add_op_point_task("taskRHF", "right_hand", selection="001000")  # force tasks: only their Jacobian row is used
-    b.add_op_point_task("taskLHF", "left_hand", selection="001000")
+    # Force tasks: only their Jacobian row is used.
+    b.add_op_point_task("taskRHF", "right_hand", selection="001000", feature_of="taskRH")
+    b.add_op_point_task("taskLHF", "left_hand", selection="001000", feature_of="taskLH")
     schedule = b.builder.AddSystem(PrioritySchedule(AlphaSchedule(list(TASKS), initial_alpha())))
     table = b.plant.GetModelInstanceByName("table")
     force = b.builder.AddSystem(TableForce())

@@ -8,6 +8,8 @@ import numpy as np
 from pydrake.common.value import AbstractValue, Value
 from pydrake.systems.framework import Context, InputPort, LeafSystem
 
+from drake_sot import features as fmath
+from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain, evaluate_gain, validate_gain
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.systems._context import own_context
@@ -46,7 +48,8 @@ class Task(LeafSystem):
     def __init__(self, name: str, *, gain: Gain = 1.0) -> None:
         super().__init__()
         self.set_name(name)
-        self._features: list[tuple[InputPort, int]] = []
+        # (input port, dimension, rows of the feature's output the task keeps or None for all)
+        self._features: list[tuple[InputPort, int, np.ndarray | None]] = []
         # Value[object]: the parameter holds a float or an AdaptiveGain.
         self._gain = self.DeclareAbstractParameter(Value[object](validate_gain(gain, name=name)))
         self._gain_input = self.DeclareVectorInputPort(GAIN_PORT, 1)
@@ -60,10 +63,17 @@ class Task(LeafSystem):
     @property
     def dimension(self) -> int:
         """Total dimension m of the task (sum of its features' selected components)."""
-        return sum(m for _, m in self._features)
+        return sum(m for _, m, _ in self._features)
 
-    def add(self, feature: _Feature) -> InputPort:
-        """Add a feature (the paper's ``task.add feature``) and return the input port to plug it into."""
+    def add(self, feature: _Feature, *, selection: SelectionLike = None) -> InputPort:
+        """Add a feature (the paper's ``task.add feature``) and return the input port to plug it into.
+
+        ``selection`` keeps some of the feature's (already selected) components in this
+        task, as a feature's own selection does: several tasks can then share one feature
+        (e.g. a hand's position and orientation tasks at different priorities read one
+        6D hand feature, computed once per tick). Raises ValueError as the feature's
+        selection does (wrong length, nothing selected).
+        """
         name = feature.get_name()
         if name == GAIN_PORT:
             raise ValueError(
@@ -74,7 +84,10 @@ class Task(LeafSystem):
         port = self.DeclareAbstractInputPort(
             name, AbstractValue.Make(FeatureSignal(np.zeros(0), np.zeros((0, 0)), np.zeros(0)))
         )
-        self._features.append((port, feature.dimension))
+        rows = None if selection is None else fmath.selection_indices(
+            selection, feature.dimension, name=f"selection of {name!r} in task {self.get_name()!r}"
+        )
+        self._features.append((port, feature.dimension if rows is None else int(rows.size), rows))
         return port
 
     def set_gain(self, context: Context, gain: Gain) -> None:
@@ -103,12 +116,19 @@ class Task(LeafSystem):
     def _calc_task(self, context: Context, value: AbstractValue) -> None:
         if not self._features:
             raise RuntimeError(f"task {self.get_name()!r} has no feature: call add() before building")
-        signals = [port.Eval(context) for port, _ in self._features]
+        signals = [_rows(port.Eval(context), rows) for port, _, rows in self._features]
         if len(signals) == 1:
-            e, J, ff = signals[0].error, signals[0].jacobian, signals[0].feedforward
+            e, J, ff = signals[0]
         else:
-            e = np.concatenate([s.error for s in signals])
-            J = np.vstack([s.jacobian for s in signals])
-            ff = np.concatenate([s.feedforward for s in signals])
+            e = np.concatenate([s[0] for s in signals])
+            J = np.vstack([s[1] for s in signals])
+            ff = np.concatenate([s[2] for s in signals])
         gain = evaluate_gain(self._current_gain(context), float(np.linalg.norm(e)))
         value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))
+
+
+def _rows(signal: FeatureSignal, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(e, J, feedforward)`` of a feature signal, restricted to ``rows`` (None: all)."""
+    if rows is None:
+        return signal.error, signal.jacobian, signal.feedforward
+    return signal.error[rows], signal.jacobian[rows], signal.feedforward[rows]

@@ -40,6 +40,29 @@ def test_task_concatenates_features_and_applies_gain():
     np.testing.assert_allclose(task.GetOutputPort("task").Eval(context).edot_des[2:], -lam * e[2:])
 
 
+def test_task_selection_keeps_rows_of_a_shared_feature():
+    """Two tasks reading one 6D feature with different selections get exactly its rows,
+    with the gain applied to the selected error only."""
+    rng = np.random.default_rng(1)
+    feature = FeatureGeneric(6, name="f")
+    position, orientation = Task("position", gain=2.0), Task("orientation", gain=5.0)
+    position.add(feature, selection="111000")
+    orientation.add(feature, selection=[False, False, False, True, False, True])
+    assert (position.dimension, orientation.dimension) == (3, 2)
+    signal = _feature_signal(rng, 6, ff=np.arange(6.0))
+    for task, rows, gain in ((position, [0, 1, 2], 2.0), (orientation, [3, 5], 5.0)):
+        context = task.CreateDefaultContext()
+        task.GetInputPort("f").FixValue(context, signal)
+        out = task.GetOutputPort("task").Eval(context)
+        np.testing.assert_array_equal(out.error, signal.error[rows])
+        np.testing.assert_array_equal(out.jacobian, signal.jacobian[rows])
+        np.testing.assert_allclose(out.edot_des, -gain * signal.error[rows] + np.arange(6.0)[rows])
+    with pytest.raises(ValueError, match=r"selection of 'f' in task 't' '1110' must be 6 characters"):
+        Task("t").add(feature, selection="1110")
+    with pytest.raises(ValueError, match="selects no component"):
+        Task("t").add(feature, selection="000000")
+
+
 def test_adaptive_gain_from_sot_limits():
     g = AdaptiveGain.from_limits(at_zero=4.0, at_infinity=1.0, slope_at_zero=6.0)
     assert g(0.0) == pytest.approx(4.0)
