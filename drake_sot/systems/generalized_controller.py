@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
@@ -21,6 +22,10 @@ from drake_sot.systems.task import Task
 
 #: ``status`` output values.
 STATUS_OPTIMAL, STATUS_INFEASIBLE, STATUS_FAILED = 0.0, 1.0, 2.0
+
+_POTRF, _POTRS = scipy.linalg.lapack.dpotrf, scipy.linalg.lapack.dpotrs  # Cholesky factor / solve
+#: Smallest squared relative Cholesky pivot for which a task's rows count as independent.
+_INDEPENDENT = 1e-10
 
 
 @dataclass(frozen=True)
@@ -62,23 +67,47 @@ class ContactPoints:
 
 
 def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np.ndarray:
-    """Λ = (J M⁻¹ Jᵀ)⁺ (m, m); rows of J that are zero (an inactive joint-limit row) get zero.
-
-    By a direct inverse of the non-zero rows' block (fast when they are independent: the
-    block is then symmetric positive definite), by the pseudo-inverse when they are not.
-    """
+    """Λ = (J M⁻¹ Jᵀ)⁺ (m, m) by the pseudo-inverse; rows of J that are zero (an inactive
+    joint-limit row) get zero."""
     rows = np.flatnonzero(J.any(axis=1))
     task_inertia = np.zeros((J.shape[0], J.shape[0]))
     if rows.size:
         Jr = J[rows]
-        A = Jr @ M_inv @ Jr.T
-        try:
-            np.linalg.cholesky(A)  # raises when the rows are dependent (A singular)
-            block = np.linalg.inv(A)
-        except np.linalg.LinAlgError:
-            block = pinv(A, rank_threshold)
-        task_inertia[np.ix_(rows, rows)] = block
+        task_inertia[np.ix_(rows, rows)] = pinv(Jr @ M_inv @ Jr.T, rank_threshold)
     return task_inertia
+
+
+def _inertia_weighted(
+    jacobians: Sequence[np.ndarray], M_inv: np.ndarray, accelerations: np.ndarray, blocks: np.ndarray,
+    rank_threshold: float,
+) -> np.ndarray:
+    """``Λ_i a_i`` for every task i at once, ``Λ_i = (J_i M⁻¹ J_iᵀ)⁺`` its task-space inertia.
+
+    ``accelerations`` is the concatenation of the a_i (Σ m_i,), ``blocks`` the (Σ m_i, Σ m_i)
+    boolean mask of the tasks' diagonal blocks. The block-diagonal matrix of the
+    ``J_i M⁻¹ J_iᵀ`` is factorised once (Cholesky); zero rows of a J_i (an inactive
+    joint-limit row) get zero. When some task's rows are dependent or nearly so (a
+    Cholesky pivot below ``_INDEPENDENT`` relative), every task falls back to its
+    pseudo-inverse (threshold ``rank_threshold``).
+    """
+    J = np.vstack(jacobians)
+    active = J.any(axis=1)
+    A = J @ M_inv @ J.T
+    A *= blocks
+    a = np.where(active, accelerations, 0.0)
+    A.flat[:: A.shape[0] + 1] += ~active  # inactive rows: 1 on the diagonal, zero right-hand side
+    diagonal = A.diagonal().copy()
+    factor, info = _POTRF(A, lower=True, overwrite_a=True, clean=False)
+    # L_kk² / A_kk is the squared relative distance of row k to the rows before it (in the
+    # M⁻¹ metric): rounding lets Cholesky succeed on dependent rows, so test it.
+    if info == 0 and (factor.diagonal() ** 2 >= _INDEPENDENT * diagonal).all():
+        return _POTRS(factor, a, lower=True)[0]
+    out, offset = [], 0
+    for Ji in jacobians:
+        m = Ji.shape[0]
+        out.append(_task_inertia(Ji, M_inv, rank_threshold) @ accelerations[offset : offset + m])
+        offset += m
+    return np.concatenate(out)
 
 
 class GeneralizedHierarchyController(LeafSystem):
@@ -162,8 +191,12 @@ class GeneralizedHierarchyController(LeafSystem):
         if len(set(self._names)) != len(self._names):
             raise ValueError(f"task names must be unique: {self._names}")
         self._dims = [t.dimension for t in goals]
-        self._kp = [t.kp for t in self._motion]
-        self._kd = [t.kd for t in self._motion]
+        motion_dims = [t.task.dimension for t in self._motion]
+        self._kp_rows = np.repeat([t.kp for t in self._motion], motion_dims)
+        self._kd_rows = np.repeat([t.kd for t in self._motion], motion_dims)
+        ends = np.cumsum(motion_dims).tolist()
+        self._motion_slices = [slice(end - m, end) for end, m in zip(ends, motion_dims, strict=True)]
+        self._motion_blocks = scipy.linalg.block_diag(*[np.ones((m, m)) for m in motion_dims]) > 0.0
         self._contacts = list(contacts)
         self._contact_frames = [plant.GetFrameByName(c.frame) for c in self._contacts]
         self._cones = [FrictionCone(mu=c.mu, facets=c.facets, min_normal_force=c.min_normal_force) for c in self._contacts]
@@ -222,12 +255,15 @@ class GeneralizedHierarchyController(LeafSystem):
         alpha = self._alpha.Eval(context).reshape(n_t, n_t)
         signals = [port.Eval(context) for port in self._task_ports]
         jacobians = [s.jacobian for s in signals]
-        errors, desired = [], []
-        for k, s in enumerate(signals[: len(self._motion)]):
-            J = s.jacobian
-            task_inertia = _task_inertia(J, M_inv, self._rank_threshold)
-            errors.append(s.error)
-            desired.append(task_inertia @ (-self._kp[k] * s.error - self._kd[k] * (J @ v)))  # eq. 2
+        n_motion = len(self._motion)
+        errors = [s.error for s in signals[:n_motion]]
+        desired: list[np.ndarray] = []
+        if n_motion:
+            # eq. 2 with K_P = k_p Λ, K_D = k_d Λ: w^d = Λ (−k_p e − k_d J v), all motion tasks at once.
+            J_motion = jacobians[:n_motion]
+            acceleration = -self._kp_rows * np.concatenate(errors) - self._kd_rows * (np.vstack(J_motion) @ v)
+            wrench = _inertia_weighted(J_motion, M_inv, acceleration, self._motion_blocks, self._rank_threshold)
+            desired = [wrench[sl] for sl in self._motion_slices]
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
         offset = 0
         for k, (t, (des_port, meas_port)) in enumerate(zip(self._force, self._force_ports, strict=True)):

@@ -7,6 +7,7 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_sot.models import half_sitting_configuration, make_control_model, sole_corner_points
 from drake_sot.systems.features import FeaturePoint6d, FeaturePosture
 from drake_sot.systems.generalized_controller import (
+    _inertia_weighted,
     STATUS_INFEASIBLE,
     STATUS_OPTIMAL,
     ContactPoints,
@@ -125,3 +126,35 @@ def test_infeasible_qp_falls_back_to_gravity_compensation_and_posture():
     expected[list(info.actuated_joints).index("l_elbow")] += 200.0 * (-0.1)
     np.testing.assert_allclose(out["tau"], expected, atol=1e-6)
     np.testing.assert_array_equal(out["contact_forces"], 0.0)
+
+
+@pytest.mark.parametrize("dependent", [False, True])
+def test_inertia_weighted_desired_wrenches_match_per_task_pseudo_inverses(dependent):
+    """Λ_i a_i for all tasks at once (one Cholesky) against numpy's pinv of J_i M⁻¹ J_iᵀ per
+    task; a zero row (inactive joint limit) gets zero; dependent rows take the fallback."""
+    rng = np.random.default_rng(3)
+    nv = 12
+    X = rng.normal(size=(nv, nv))
+    M = X @ X.T + nv * np.eye(nv)
+    M_inv = np.linalg.inv(M)
+    J2 = rng.normal(size=(4, nv))
+    J2[1] = 0.0
+    J3 = rng.normal(size=(3, nv))
+    if dependent:
+        J3[2] = J3[0] - 2.0 * J3[1]
+    jacobians = [rng.normal(size=(2, nv)), J2, J3]
+    a = rng.normal(size=9)
+    blocks = np.zeros((9, 9), dtype=bool)
+    for begin, m in ((0, 2), (2, 4), (6, 3)):
+        blocks[begin : begin + m, begin : begin + m] = True
+    got = _inertia_weighted(jacobians, M_inv, a, blocks, 1e-8)
+    expected, begin = [], 0
+    for J in jacobians:
+        m = J.shape[0]
+        rows = np.flatnonzero(np.abs(J).sum(axis=1) > 0)
+        w = np.zeros(m)
+        w[rows] = np.linalg.pinv(J[rows] @ M_inv @ J[rows].T, rcond=1e-10) @ a[begin : begin + m][rows]
+        expected.append(w)
+        begin += m
+    np.testing.assert_allclose(got, np.concatenate(expected), rtol=1e-8, atol=1e-10)
+    assert got[3] == 0.0
