@@ -191,15 +191,16 @@ _GEQP3 = scipy.linalg.lapack.dgeqp3  # column-pivoted Householder QR
 _ORGQR = scipy.linalg.lapack.dorgqr  # its orthonormal factor Q
 
 
-def _alphas(alpha_row: Sequence[float] | np.ndarray, name: str = "alpha_row") -> np.ndarray:
-    """Return ``alpha_row`` as a float vector with every value finite and in [0, 1], or raise ValueError."""
+def _alphas(alpha_row: Sequence[float] | np.ndarray, name: str = "alpha_row", ndim: int = 1) -> np.ndarray:
+    """Return ``alpha_row`` as a float array (``ndim`` dimensions) with every value finite and in [0, 1],
+    or raise ValueError naming the first bad entry."""
     a = np.asarray(alpha_row, dtype=float)
-    if a.ndim != 1:
-        raise ValueError(f"{name} must be a vector of priorities, got shape {a.shape}")
-    bad = np.flatnonzero(~((a >= 0.0) & (a <= 1.0)))  # also catches NaN
-    if bad.size:
-        j = int(bad[0])
-        raise ValueError(f"{name}[{j}] = {float(a[j])!r}: every alpha must be finite and in [0, 1]")
+    if a.ndim != ndim:
+        raise ValueError(f"{name} must be a {'vector' if ndim == 1 else 'matrix'} of priorities, got shape {a.shape}")
+    if not ((a >= 0.0) & (a <= 1.0)).all():  # also catches NaN
+        index = np.unravel_index(int(np.argmin((a >= 0.0) & (a <= 1.0))), a.shape)
+        where = "".join(f"[{int(k)}]" for k in index)
+        raise ValueError(f"{name}{where} = {float(a[index])!r}: every alpha must be finite and in [0, 1]")
     return a
 
 
@@ -253,12 +254,14 @@ def _jacobians(jacobians: Sequence[np.ndarray]) -> list[np.ndarray]:
 
 def _unit_rows(jacobians: Sequence[np.ndarray]) -> list[np.ndarray]:
     """Per task, its rows scaled to unit length, exactly-zero rows removed: (m'_j, nv) each."""
-    blocks = []
-    for J in jacobians:
-        norms = np.sqrt(np.einsum("ij,ij->i", J, J))
-        nonzero = norms > 0.0  # a zero row (a switched-off component) constrains nothing
-        blocks.append(J / norms[:, None] if nonzero.all() else J[nonzero] / norms[nonzero, None])
-    return blocks
+    stacked = np.vstack(jacobians)
+    norms = np.sqrt(np.einsum("ij,ij->i", stacked, stacked))
+    ends = np.cumsum([J.shape[0] for J in jacobians])[:-1]
+    if norms.min(initial=1.0) > 0.0:
+        return np.split(stacked / norms[:, None], ends)
+    nonzero = norms > 0.0  # a zero row (a switched-off component) constrains nothing
+    return [U[keep] for U, keep in zip(np.split(stacked / np.where(nonzero, norms, 1.0)[:, None], ends),
+                                       np.split(nonzero, ends), strict=True)]
 
 
 def _sorted_rows(
@@ -455,8 +458,7 @@ def generalized_projectors(
     n = len(jacobians)
     if a.shape != (n, n):
         raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
-    for i in range(n):
-        _alphas(a[i], name=f"alpha[{i}]")
+    _alphas(a, name="alpha", ndim=2)
     nv = jacobians[0].shape[1]
     blocks = _unit_rows(jacobians)
     # Tasks with the same α row have the same projector (e.g. both hands' orientation
