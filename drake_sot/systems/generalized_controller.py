@@ -24,6 +24,7 @@ from drake_sot.systems.task import Task
 STATUS_OPTIMAL, STATUS_INFEASIBLE, STATUS_FAILED = 0.0, 1.0, 2.0
 
 _POTRF, _POTRS = scipy.linalg.lapack.dpotrf, scipy.linalg.lapack.dpotrs  # Cholesky factor / solve
+_TRTRS = scipy.linalg.lapack.dtrtrs  # triangular solve
 #: Smallest squared relative Cholesky pivot for which a task's rows count as independent.
 _INDEPENDENT = 1e-10
 
@@ -78,21 +79,26 @@ def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np
 
 
 def _inertia_weighted(
-    jacobians: Sequence[np.ndarray], M_inv: np.ndarray, accelerations: np.ndarray, blocks: np.ndarray,
+    jacobians: Sequence[np.ndarray], M: np.ndarray, accelerations: np.ndarray, blocks: np.ndarray,
     rank_threshold: float,
 ) -> np.ndarray:
     """``Λ_i a_i`` for every task i at once, ``Λ_i = (J_i M⁻¹ J_iᵀ)⁺`` its task-space inertia.
 
-    ``accelerations`` is the concatenation of the a_i (Σ m_i,), ``blocks`` the (Σ m_i, Σ m_i)
-    boolean mask of the tasks' diagonal blocks. The block-diagonal matrix of the
-    ``J_i M⁻¹ J_iᵀ`` is factorised once (Cholesky); zero rows of a J_i (an inactive
-    joint-limit row) get zero. When some task's rows are dependent or nearly so (a
-    Cholesky pivot below ``_INDEPENDENT`` relative), every task falls back to its
-    pseudo-inverse (threshold ``rank_threshold``).
+    ``M`` is the (nv, nv) mass matrix, ``accelerations`` the concatenation of the a_i
+    (Σ m_i,), ``blocks`` the (Σ m_i, Σ m_i) boolean mask of the tasks' diagonal blocks.
+    With ``M = L Lᵀ`` and ``Y = L⁻¹ Jᵀ``, ``J M⁻¹ Jᵀ = Yᵀ Y``; its block-diagonal part is
+    factorised once (Cholesky); zero rows of a J_i (an inactive joint-limit row) get zero.
+    When some task's rows are dependent or nearly so (a Cholesky pivot below
+    ``_INDEPENDENT`` relative), every task falls back to its pseudo-inverse (threshold
+    ``rank_threshold``).
     """
+    L, info = _POTRF(M, lower=True, clean=True)
+    if info != 0:
+        raise RuntimeError(f"the mass matrix is not positive definite (LAPACK dpotrf info = {info})")
     J = np.vstack(jacobians)
     active = J.any(axis=1)
-    A = J @ M_inv @ J.T
+    Y, _ = _TRTRS(L, J.T, lower=True)
+    A = Y.T @ Y
     A *= blocks
     a = np.where(active, accelerations, 0.0)
     A.flat[:: A.shape[0] + 1] += ~active  # inactive rows: 1 on the diagonal, zero right-hand side
@@ -102,6 +108,7 @@ def _inertia_weighted(
     # M⁻¹ metric): rounding lets Cholesky succeed on dependent rows, so test it.
     if info == 0 and (factor.diagonal() ** 2 >= _INDEPENDENT * diagonal).all():
         return _POTRS(factor, a, lower=True)[0]
+    M_inv = _POTRS(L, np.eye(M.shape[0]), lower=True)[0]
     out, offset = [], 0
     for Ji in jacobians:
         m = Ji.shape[0]
@@ -199,7 +206,13 @@ class GeneralizedHierarchyController(LeafSystem):
         self._motion_blocks = scipy.linalg.block_diag(*[np.ones((m, m)) for m in motion_dims]) > 0.0
         self._contacts = list(contacts)
         self._contact_frames = [plant.GetFrameByName(c.frame) for c in self._contacts]
-        self._cones = [FrictionCone(mu=c.mu, facets=c.facets, min_normal_force=c.min_normal_force) for c in self._contacts]
+        self._contact_offsets = [np.asarray(c.points, dtype=float).reshape(-1, 3).T for c in self._contacts]  # (3, k)
+        cones = [FrictionCone(mu=c.mu, facets=c.facets, min_normal_force=c.min_normal_force) for c in self._contacts]
+        # One 3-D contact force task per point: (name, cone), in the order of the stacked Jacobian rows.
+        self._contact_points = [
+            (f"contact{k}_{p}", cone) for k, (c, cone) in enumerate(zip(self._contacts, cones, strict=True))
+            for p in range(len(c.points))
+        ]
         self._weights = dict(weights or {})
         unknown = sorted(set(self._weights) - set(self._names))
         if unknown:
@@ -250,7 +263,7 @@ class GeneralizedHierarchyController(LeafSystem):
         plant.SetPositions(pc, q)
         plant.SetVelocities(pc, v)
         g = -plant.CalcGravityGeneralizedForces(pc)  # gravity as on the left of eq. 1
-        M_inv = np.linalg.inv(plant.CalcMassMatrix(pc))
+        M = plant.CalcMassMatrix(pc)
         n_t = len(self._names)
         alpha = self._alpha.Eval(context).reshape(n_t, n_t)
         signals = [port.Eval(context) for port in self._task_ports]
@@ -262,7 +275,7 @@ class GeneralizedHierarchyController(LeafSystem):
             # eq. 2 with K_P = k_p Λ, K_D = k_d Λ: w^d = Λ (−k_p e − k_d J v), all motion tasks at once.
             J_motion = jacobians[:n_motion]
             acceleration = -self._kp_rows * np.concatenate(errors) - self._kd_rows * (np.vstack(J_motion) @ v)
-            wrench = _inertia_weighted(J_motion, M_inv, acceleration, self._motion_blocks, self._rank_threshold)
+            wrench = _inertia_weighted(J_motion, M, acceleration, self._motion_blocks, self._rank_threshold)
             desired = [wrench[sl] for sl in self._motion_slices]
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
         offset = 0
@@ -282,9 +295,10 @@ class GeneralizedHierarchyController(LeafSystem):
             for name, J, w_d, P in zip(self._names, jacobians, desired, projectors, strict=True)
         ]
         contact_jacobians = self._contact_jacobians()
-        for k, (c, J) in enumerate(zip(self._contacts, contact_jacobians, strict=True)):
-            for p, Jp in enumerate(J):
-                tasks.append(QsTask(f"contact{k}_{p}", Jp, weight=self._regularization, friction=self._cones[k]))
+        tasks += [
+            QsTask(name, contact_jacobians[3 * p : 3 * p + 3], weight=self._regularization, friction=cone)
+            for p, (name, cone) in enumerate(self._contact_points)
+        ]
         solution = self._qp.solve(tasks, g, weighted=self._weighted)
         if solution.status == "optimal":
             tau_v = solution.tau
@@ -306,18 +320,19 @@ class GeneralizedHierarchyController(LeafSystem):
         discrete_state.get_mutable_vector(self._x_status).SetFromVector([status])
         discrete_state.get_mutable_vector(self._x_integral).SetFromVector(integral)
 
-    def _contact_jacobians(self) -> list[list[np.ndarray]]:
+    def _contact_jacobians(self) -> np.ndarray:
+        """(3·k, nv): the translational Jacobians of all the contact points, stacked (world)."""
         plant, pc, world = self._plant, self._plant_context, self._plant.world_frame()
-        return [
-            [plant.CalcJacobianTranslationalVelocity(pc, JacobianWrtVariable.kV, frame, p, world, world) for p in c.points]
-            for c, frame in zip(self._contacts, self._contact_frames, strict=True)
+        blocks = [
+            plant.CalcJacobianTranslationalVelocity(pc, JacobianWrtVariable.kV, frame, points, world, world)
+            for points, frame in zip(self._contact_offsets, self._contact_frames, strict=True)
         ]
+        return np.vstack(blocks) if blocks else np.zeros((0, self._nv))
 
     def _fallback(self, q: np.ndarray, v: np.ndarray, g: np.ndarray, contact_jacobians) -> np.ndarray:
         """Gravity compensation on the contacts (equal shares) plus a posture PD, in the v order."""
         kp, kd = self._fallback_gains
-        rows = [np.vstack(J) for J in contact_jacobians]
-        J = np.vstack(rows) if rows else np.zeros((0, self._nv))
+        J = contact_jacobians
         # contact_torques expects 6-row contacts; split the stacked point forces into 6-row blocks.
         pad = (-J.shape[0]) % 6
         J = np.vstack((J, np.zeros((pad, self._nv))))

@@ -41,7 +41,7 @@ class RobotKinematics(LeafSystem):
         self._plant = plant
         self._plant_context = plant.CreateDefaultContext()
         self._world = plant.world_frame()
-        self._last_q: np.ndarray | None = None
+        self._last_q = b""  # bytes of the q loaded in the scratch context
         self._operational_points: dict[str, str] = {}
         nq, nv = plant.num_positions(), plant.num_velocities()
         self._q_port = self.DeclareVectorInputPort("q", nq)
@@ -106,9 +106,10 @@ class RobotKinematics(LeafSystem):
     def _update(self, context) -> None:
         """Load q into the scratch plant context, only when it changed."""
         q = self._q_port.Eval(context)
-        if self._last_q is None or not np.array_equal(q, self._last_q):
+        key = q.tobytes()
+        if key != self._last_q:
             self._plant.SetPositions(self._plant_context, q)
-            self._last_q = np.array(q)
+            self._last_q = key
 
     def _calc_com(self, context, output: BasicVector) -> None:
         self._update(context)

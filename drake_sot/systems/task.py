@@ -123,7 +123,7 @@ class Task(LeafSystem):
             e = np.concatenate([s[0] for s in signals])
             J = np.vstack([s[1] for s in signals])
             ff = np.concatenate([s[2] for s in signals])
-        gain = evaluate_gain(self._current_gain(context), float(np.linalg.norm(e)))
+        gain = evaluate_gain(self._current_gain(context), math.sqrt(float(e @ e)))
         value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))
 
 
