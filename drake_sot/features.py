@@ -68,7 +68,7 @@ def point6d(
     """
     e_o = so3.log(R @ R_des.T)
     e = np.concatenate((p - p_des, e_o))
-    J_e = np.vstack((J[3:], so3.left_jacobian_inverse(e_o) @ J[:3]))
+    J_e = np.concatenate((J[3:], so3.left_jacobian_inverse(e_o) @ J[:3]))
     if velocity_des is None:
         feedforward = np.zeros(6)
     else:

@@ -24,6 +24,7 @@ task i completely (alpha = 1), partially (0 < alpha < 1) or not at all
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -231,8 +232,9 @@ def priority_matrix(alpha_row: Sequence[float] | np.ndarray, dims: Sequence[int]
     return np.diag(np.repeat(a, d.astype(int)))
 
 
-def _jacobians(jacobians: Sequence[np.ndarray]) -> list[np.ndarray]:
-    """Return the task Jacobians as finite 2-D float arrays with one column count, or raise ValueError."""
+def _jacobians(jacobians: Sequence[np.ndarray]) -> tuple[list[np.ndarray], np.ndarray]:
+    """The task Jacobians as 2-D float arrays with one column count, and their vertical
+    stack, checked finite; or raise ValueError naming the task."""
     checked: list[np.ndarray] = []
     for j, J in enumerate(jacobians):
         J = np.asarray(J, dtype=float)
@@ -246,22 +248,27 @@ def _jacobians(jacobians: Sequence[np.ndarray]) -> list[np.ndarray]:
         checked.append(J)
     if not checked:
         raise ValueError("jacobians is empty: the generalized projector needs at least one task to know nv")
-    if not np.isfinite(np.vstack(checked)).all():  # one check for all; find the culprit only on failure
-        j = next(j for j, J in enumerate(checked) if not np.isfinite(J).all())
-        raise ValueError(f"jacobians[{j}] of shape {checked[j].shape} contains NaN or Inf")
-    return checked
+    stacked = np.vstack(checked)
+    if not math.isfinite(stacked.sum()):  # NaN and Inf propagate; find the culprit only on failure
+        bad = [j for j, J in enumerate(checked) if not np.isfinite(J).all()]
+        if bad:
+            raise ValueError(f"jacobians[{bad[0]}] of shape {checked[bad[0]].shape} contains NaN or Inf")
+    return checked, stacked
 
 
-def _unit_rows(jacobians: Sequence[np.ndarray]) -> list[np.ndarray]:
-    """Per task, its rows scaled to unit length, exactly-zero rows removed: (m'_j, nv) each."""
-    stacked = np.vstack(jacobians)
+def _unit_rows(jacobians: Sequence[np.ndarray], stacked: np.ndarray) -> list[np.ndarray]:
+    """Per task, its rows scaled to unit length, exactly-zero rows removed: (m'_j, nv) each.
+    ``stacked`` is the vertical stack of ``jacobians``."""
     norms = np.sqrt(np.einsum("ij,ij->i", stacked, stacked))
-    ends = np.cumsum([J.shape[0] for J in jacobians])[:-1]
-    if norms.min(initial=1.0) > 0.0:
-        return np.split(stacked / norms[:, None], ends)
     nonzero = norms > 0.0  # a zero row (a switched-off component) constrains nothing
-    return [U[keep] for U, keep in zip(np.split(stacked / np.where(nonzero, norms, 1.0)[:, None], ends),
-                                       np.split(nonzero, ends), strict=True)]
+    unit = stacked / np.where(nonzero, norms, 1.0)[:, None]
+    blocks, begin = [], 0
+    keep_all = bool(nonzero.all())
+    for J in jacobians:
+        end = begin + J.shape[0]
+        blocks.append(unit[begin:end] if keep_all else unit[begin:end][nonzero[begin:end]])
+        begin = end
+    return blocks
 
 
 def _sorted_rows(
@@ -285,7 +292,7 @@ def _sorted_rows(
             groups[-1] = (end, alpha[j])
         else:
             groups.append((end, alpha[j]))
-    rows = jacobians[order[0]] if len(order) == 1 else np.vstack([jacobians[j] for j in order])
+    rows = jacobians[order[0]] if len(order) == 1 else np.concatenate([jacobians[j] for j in order])
     if normalise:
         norms = np.sqrt(np.einsum("ij,ij->i", rows, rows))
         if norms.min() > 0.0:
@@ -418,7 +425,7 @@ def generalized_projector(
     """
     tol = _nonnegative("rank_threshold", rank_threshold)
     if validate:
-        jacobians = _jacobians(jacobians)
+        jacobians, _ = _jacobians(jacobians)
         alpha = _alphas(alpha_row)
         if alpha.size != len(jacobians):
             raise ValueError(
@@ -453,14 +460,14 @@ def generalized_projectors(
         ValueError: as :func:`generalized_projector`, or ``alpha`` not (n, n).
     """
     tol = _nonnegative("rank_threshold", rank_threshold)
-    jacobians = _jacobians(jacobians)
+    jacobians, stacked = _jacobians(jacobians)
     a = np.asarray(alpha, dtype=float)
     n = len(jacobians)
     if a.shape != (n, n):
         raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
     _alphas(a, name="alpha", ndim=2)
     nv = jacobians[0].shape[1]
-    blocks = _unit_rows(jacobians)
+    blocks = _unit_rows(jacobians, stacked)
     # Tasks with the same α row have the same projector (e.g. both hands' orientation
     # tasks in a symmetric hierarchy): compute each distinct row once.
     distinct: dict[bytes, np.ndarray] = {}

@@ -79,11 +79,12 @@ def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np
 
 
 def _inertia_weighted(
-    jacobians: Sequence[np.ndarray], M: np.ndarray, accelerations: np.ndarray, blocks: np.ndarray,
+    J: np.ndarray, tasks: Sequence[slice], M: np.ndarray, accelerations: np.ndarray, blocks: np.ndarray,
     rank_threshold: float,
 ) -> np.ndarray:
     """``Λ_i a_i`` for every task i at once, ``Λ_i = (J_i M⁻¹ J_iᵀ)⁺`` its task-space inertia.
 
+    ``J`` (Σ m_i, nv) stacks the tasks' Jacobians, task i's rows being ``J[tasks[i]]``;
     ``M`` is the (nv, nv) mass matrix, ``accelerations`` the concatenation of the a_i
     (Σ m_i,), ``blocks`` the (Σ m_i, Σ m_i) boolean mask of the tasks' diagonal blocks.
     With ``M = L Lᵀ`` and ``Y = L⁻¹ Jᵀ``, ``J M⁻¹ Jᵀ = Yᵀ Y``; its block-diagonal part is
@@ -95,7 +96,6 @@ def _inertia_weighted(
     L, info = _POTRF(M, lower=True, clean=True)
     if info != 0:
         raise RuntimeError(f"the mass matrix is not positive definite (LAPACK dpotrf info = {info})")
-    J = np.vstack(jacobians)
     active = J.any(axis=1)
     Y, _ = _TRTRS(L, J.T, lower=True)
     A = Y.T @ Y
@@ -109,12 +109,7 @@ def _inertia_weighted(
     if info == 0 and (factor.diagonal() ** 2 >= _INDEPENDENT * diagonal).all():
         return _POTRS(factor, a, lower=True)[0]
     M_inv = _POTRS(L, np.eye(M.shape[0]), lower=True)[0]
-    out, offset = [], 0
-    for Ji in jacobians:
-        m = Ji.shape[0]
-        out.append(_task_inertia(Ji, M_inv, rank_threshold) @ accelerations[offset : offset + m])
-        offset += m
-    return np.concatenate(out)
+    return np.concatenate([_task_inertia(J[rows], M_inv, rank_threshold) @ accelerations[rows] for rows in tasks])
 
 
 class GeneralizedHierarchyController(LeafSystem):
@@ -273,9 +268,10 @@ class GeneralizedHierarchyController(LeafSystem):
         desired: list[np.ndarray] = []
         if n_motion:
             # eq. 2 with K_P = k_p Λ, K_D = k_d Λ: w^d = Λ (−k_p e − k_d J v), all motion tasks at once.
-            J_motion = jacobians[:n_motion]
-            acceleration = -self._kp_rows * np.concatenate(errors) - self._kd_rows * (np.vstack(J_motion) @ v)
-            wrench = _inertia_weighted(J_motion, M, acceleration, self._motion_blocks, self._rank_threshold)
+            J_motion = np.concatenate(jacobians[:n_motion])
+            acceleration = -self._kp_rows * np.concatenate(errors) - self._kd_rows * (J_motion @ v)
+            wrench = _inertia_weighted(J_motion, self._motion_slices, M, acceleration, self._motion_blocks,
+                                       self._rank_threshold)
             desired = [wrench[sl] for sl in self._motion_slices]
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
         offset = 0

@@ -147,7 +147,8 @@ def test_inertia_weighted_desired_wrenches_match_per_task_pseudo_inverses(depend
     blocks = np.zeros((9, 9), dtype=bool)
     for begin, m in ((0, 2), (2, 4), (6, 3)):
         blocks[begin : begin + m, begin : begin + m] = True
-    got = _inertia_weighted(jacobians, M, a, blocks, 1e-8)
+    tasks = [slice(0, 2), slice(2, 6), slice(6, 9)]
+    got = _inertia_weighted(np.concatenate(jacobians), tasks, M, a, blocks, 1e-8)
     expected, begin = [], 0
     for J in jacobians:
         m = J.shape[0]
