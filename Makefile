@@ -1,6 +1,6 @@
 # The README's two commands. Both create .venv (python3 -m venv) when it is missing.
 #   make demo   install the package, run the main scenario, write out/
-#   make test   install the test extras and the Debian packages the tests need, run pytest
+#   make test   install the test extras and the Debian packages the tests need, run ruff, then pytest
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -47,6 +47,8 @@ demo: $(VENV)/.installed
 # chromium renders the recorded replay in a test; graphviz renders diagrams.
 test: $(VENV)/.installed-test
 	$(call apt_need,dot:graphviz chromium:chromium)
+	$(BIN)/ruff format --check .
+	$(BIN)/ruff check .
 	$(BIN)/python -m pytest
 
 bench: $(VENV)/.installed

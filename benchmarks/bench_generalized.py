@@ -70,20 +70,37 @@ class Humanoid:
         self.rng = rng
         # Operational points relative to the base (world-aligned axes) [m].
         self.p = {
-            "rh": np.array([0.25, -0.2, 0.1]), "lh": np.array([0.25, 0.2, 0.1]),
-            "com": np.array([0.02, 0.0, 0.05]), "head": np.array([0.0, 0.0, 0.35]),
+            "rh": np.array([0.25, -0.2, 0.1]),
+            "lh": np.array([0.25, 0.2, 0.1]),
+            "com": np.array([0.02, 0.0, 0.05]),
+            "head": np.array([0.0, 0.0, 0.35]),
         }
-        self.feet = [np.array([x, s * 0.07 + y, -0.5]) for s in (-1, 1) for x in (-0.04, 0.08) for y in (-0.025, 0.025)]
-        self.chain = {"rh": list(BACK) + list(RARM), "lh": list(BACK) + list(LARM), "head": list(BACK) + list(NECK),
-                      "com": list(range(N_A))}
-        self.base = {k: rng.normal(scale=0.3, size=(3, N_A)) for k in ("rh", "lh", "rho", "lho", "head", "com")}
+        self.feet = [
+            np.array([x, s * 0.07 + y, -0.5]) for s in (-1, 1) for x in (-0.04, 0.08) for y in (-0.025, 0.025)
+        ]
+        self.chain = {
+            "rh": list(BACK) + list(RARM),
+            "lh": list(BACK) + list(LARM),
+            "head": list(BACK) + list(NECK),
+            "com": list(range(N_A)),
+        }
+        self.base = {
+            k: rng.normal(scale=0.3, size=(3, N_A)) for k in ("rh", "lh", "rho", "lho", "head", "com")
+        }
         self.leg = [rng.normal(scale=0.25, size=(3, 6)) for _ in self.feet]
         self.dir = {k: rng.normal(scale=0.05, size=v.shape) for k, v in self.base.items()}
         self.g_ac = rng.normal(scale=3.0, size=N_A)
-        self.targets = {"com": 40.0 * rng.normal(size=2), "rh": 25.0 * rng.normal(size=3),
-                        "lh": 25.0 * rng.normal(size=3), "rho": 3.0 * rng.normal(size=3),
-                        "lho": 3.0 * rng.normal(size=3), "rhf": np.array([-30.0]), "lhf": np.array([-15.0]),
-                        "head": np.array([0.5]), "back": 5.0 * rng.normal(size=5)}
+        self.targets = {
+            "com": 40.0 * rng.normal(size=2),
+            "rh": 25.0 * rng.normal(size=3),
+            "lh": 25.0 * rng.normal(size=3),
+            "rho": 3.0 * rng.normal(size=3),
+            "lho": 3.0 * rng.normal(size=3),
+            "rhf": np.array([-30.0]),
+            "lhf": np.array([-15.0]),
+            "head": np.array([0.5]),
+            "back": 5.0 * rng.normal(size=5),
+        }
 
     def _joint_part(self, key: str, chain_key: str, s: float) -> np.ndarray:
         J = np.zeros((3, N_A))
@@ -96,11 +113,14 @@ class Humanoid:
         s = np.sin(2 * np.pi * k / 200.0)
         c = np.cos(2 * np.pi * k / 130.0)
         out: list[QsTask] = []
+
         def pos(name):
             p = self.p[name] + 0.02 * np.array([s, c, s * c])
             return np.hstack([-skew(p), np.eye(3), self._joint_part(name, name, s)])
+
         def ori(key, chain):
             return np.hstack([np.eye(3), np.zeros((3, 3)), self._joint_part(key, chain, c)])
+
         tg = self.targets
         com = pos("com")[:2]
         out.append(QsTask("com", com, desired=tg["com"] * (1 + 0.3 * s), weight=10.0))
@@ -112,7 +132,8 @@ class Humanoid:
         out.append(QsTask("rhf", Jrh[2:3], desired=tg["rhf"] * (1 + 0.5 * s), weight=2.0))
         out.append(QsTask("lhf", Jlh[2:3], desired=tg["lhf"] * (1 + 0.5 * c), weight=2.0))
         out.append(QsTask("head", ori("head", "head")[2:3], desired=tg["head"] * c, weight=0.1))
-        back = np.zeros((5, N)); back[:, N_BASE + 12 : N_BASE + 17] = np.eye(5)
+        back = np.zeros((5, N))
+        back[:, N_BASE + 12 : N_BASE + 17] = np.eye(5)
         out.append(QsTask("back", back, desired=tg["back"] * (1 + 0.3 * s), weight=0.1))
         out.append(QsTask("posture", np.hstack([np.zeros((N_A, N_BASE)), np.eye(N_A)]), weight=1e-3))
         cone = FrictionCone(mu=0.8, facets=4)
@@ -123,7 +144,9 @@ class Humanoid:
             J[:, cols] = L * (1 + 0.1 * s)
             out.append(QsTask(f"foot{i}", J, weight=1e-3, friction=cone))
         cpos = self.p["com"] + 0.01 * np.array([s, c, 0.0])
-        g = np.concatenate([np.cross(cpos, [0.0, 0.0, MASS * G0]), [0.0, 0.0, MASS * G0], self.g_ac * (1 + 0.2 * s)])
+        g = np.concatenate(
+            [np.cross(cpos, [0.0, 0.0, MASS * G0]), [0.0, 0.0, MASS * G0], self.g_ac * (1 + 0.2 * s)]
+        )
         return out, g
 
 
@@ -147,8 +170,10 @@ def priority_alpha(names: list[str], rhf_over_rh: float = 0.5) -> np.ndarray:
 
 
 def with_projectors(tasks: list[QsTask], P: np.ndarray) -> list[QsTask]:
-    return [t if t.friction is not None else QsTask(t.name, t.jacobian, t.desired, t.weight, P[i])
-            for i, t in enumerate(tasks)]
+    return [
+        t if t.friction is not None else QsTask(t.name, t.jacobian, t.desired, t.weight, P[i])
+        for i, t in enumerate(tasks)
+    ]
 
 
 # --------------------------------------------------------------------------- other solvers
@@ -165,7 +190,9 @@ def make_quadprog():
         Cmat = np.vstack([p.A_eq, -p.A_in[up], p.A_in[lo]]).T
         b = np.concatenate([p.b_eq, -p.upper[up], p.lower[lo]])
         try:  # G = R^-1 with diag(h) = R^T R: the factorized form skips quadprog's Cholesky
-            x = quadprog.solve_qp(np.diag(1.0 / np.sqrt(p.h)), p.h * p.d, Cmat, b, p.A_eq.shape[0], factorized=True)[0]
+            x = quadprog.solve_qp(
+                np.diag(1.0 / np.sqrt(p.h)), p.h * p.d, Cmat, b, p.A_eq.shape[0], factorized=True
+            )[0]
         except ValueError as e:
             return None, ("infeasible" if "inconsistent" in str(e) else "failed"), str(e), 0
         return x, "optimal", "", 0
@@ -209,8 +236,15 @@ def make_piqp():
         s = piqp.DenseSolver()
         s.settings.eps_abs = 1e-9
         s.settings.eps_rel = 1e-12
-        s.setup(np.asfortranarray(np.diag(p.h)), -p.h * p.d, np.asfortranarray(p.A_eq), p.b_eq,
-                np.asfortranarray(p.A_in), p.lower, p.upper)
+        s.setup(
+            np.asfortranarray(np.diag(p.h)),
+            -p.h * p.d,
+            np.asfortranarray(p.A_eq),
+            p.b_eq,
+            np.asfortranarray(p.A_in),
+            p.lower,
+            p.upper,
+        )
         st = s.solve()
         if st == piqp.PIQP_SOLVED:
             return s.result.x.copy(), "optimal", "", int(s.result.info.iter)
@@ -251,8 +285,12 @@ def make_drake_osqp():
 
 def candidates(verbose: bool = False) -> dict[str, object]:
     out: dict[str, object] = {"daqp": "daqp"}
-    for name, make in (("quadprog", make_quadprog), ("proxsuite", make_proxsuite), ("piqp", make_piqp),
-                       ("drake-osqp", make_drake_osqp)):
+    for name, make in (
+        ("quadprog", make_quadprog),
+        ("proxsuite", make_proxsuite),
+        ("piqp", make_piqp),
+        ("drake-osqp", make_drake_osqp),
+    ):
         try:
             out[name] = make()
         except ImportError as e:
@@ -271,7 +309,9 @@ def run(ticks: int) -> None:
     alpha = priority_alpha(names)
     lo, hi = -TAU_MAX, TAU_MAX
     forms = {"hierarchical eq. 9-11": False, "weighted eq. 5-7": True}
-    per_form = {f: candidates(verbose=(f == "weighted eq. 5-7")) for f in forms}  # one adapter (and its warm-start state) per QP
+    per_form = {
+        f: candidates(verbose=(f == "weighted eq. 5-7")) for f in forms
+    }  # one adapter (and its warm-start state) per QP
     solvers = list(per_form["weighted eq. 5-7"])
     qps = {(s, f): QuasiStaticQP(N, N_BASE, lo, hi, solver=per_form[f][s]) for f in forms for s in solvers}
     cold = {f: QuasiStaticQP(N, N_BASE, lo, hi, warm_start=False) for f in forms}
@@ -319,11 +359,17 @@ def run(ticks: int) -> None:
         proj.append(t1 - t0)
         assert sol.status == "optimal", sol.message
 
-    us = lambda v: f"{1e6 * v:.0f} µs"
-    p99 = lambda v: float(np.percentile(v, 99))
-    print(f"n = {N} ({N_BASE} root + {N_A} actuated), {len(tasks0)} tasks, m = {dims} variables, "
-          f"{ticks} ticks; active inequalities per tick (daqp): median {statistics.median(active):.0f}, "
-          f"max {max(active)}\n")
+    def us(v):
+        return f"{1e6 * v:.0f} µs"
+
+    def p99(v):
+        return float(np.percentile(v, 99))
+
+    print(
+        f"n = {N} ({N_BASE} root + {N_A} actuated), {len(tasks0)} tasks, m = {dims} variables, "
+        f"{ticks} ticks; active inequalities per tick (daqp): median {statistics.median(active):.0f}, "
+        f"max {max(active)}\n"
+    )
     print("| measurement | median | p99 | ratio to daqp (median) | not optimal | max abs(x - x_daqp) |")
     print("|---|---|---|---|---|---|")
     for form in forms:
@@ -331,12 +377,19 @@ def run(ticks: int) -> None:
         for s in [*solvers, "daqp, cold start"]:
             v = times[(s, form)]
             e = "-" if s.startswith("daqp") else f"{err[(s, form)]:.1e}"
-            print(f"| {s}, {form} | {us(statistics.median(v))} | {us(p99(v))} | "
-                  f"{statistics.median(v) / base:.2f} | {fails[(s, form)]}/{ticks} | {e} |")
-    print(f"| QP build alone (hierarchical) | {us(statistics.median(build))} | {us(p99(build))} | - | - | - |")
+            print(
+                f"| {s}, {form} | {us(statistics.median(v))} | {us(p99(v))} | "
+                f"{statistics.median(v) / base:.2f} | {fails[(s, form)]}/{ticks} | {e} |"
+            )
+    print(
+        f"| QP build alone (hierarchical) | {us(statistics.median(build))} | {us(p99(build))} | - | - | - |"
+    )
     print(f"| 18 generalized projectors | {us(statistics.median(proj))} | {us(p99(proj))} | - | - | - |")
-    print(f"| full tick: 18 projectors + build + daqp solve | {us(statistics.median(full))} | {us(p99(full))} | - "
-          f"| target: median ≤ 1000 µs, p99 ≤ 3000 µs | - |")
+    print(
+        f"| full tick: 18 projectors + build + daqp solve | {us(statistics.median(full))} "
+        f"| {us(p99(full))} | - "
+        f"| target: median ≤ 1000 µs, p99 ≤ 3000 µs | - |"
+    )
     for s, msg in why.items():
         print(f"\nfirst non-optimal answer of {s}: {msg}")
 
@@ -365,12 +418,16 @@ def controller_tick(duration: float = 4.0) -> None:
         GeneralizedHierarchyController._update = original
     us = 1e6 * np.array(samples)
     dims = sum(t.dimension for t in setup.built.tasks.values()) + 3 * 8
-    print(f"\ncontroller update in table_pounding ({len(setup.built.tasks)} goal tasks + 8 contacts, "
-          f"m = {dims}, {len(us)} ticks in physics):\n")
+    print(
+        f"\ncontroller update in table_pounding ({len(setup.built.tasks)} goal tasks + 8 contacts, "
+        f"m = {dims}, {len(us)} ticks in physics):\n"
+    )
     print("| measurement | median | p99 | target |")
     print("|---|---|---|---|")
-    print(f"| GeneralizedHierarchyController update | {np.median(us):.0f} µs | {np.percentile(us, 99):.0f} µs "
-          "| median ≤ 1000 µs, p99 ≤ 3000 µs |")
+    print(
+        f"| GeneralizedHierarchyController update | {np.median(us):.0f} µs | {np.percentile(us, 99):.0f} µs "
+        "| median ≤ 1000 µs, p99 ≤ 3000 µs |"
+    )
 
 
 def main() -> None:

@@ -33,7 +33,8 @@ def _timeit(fn, repeat: int) -> list[float]:
 
 
 def solve_projector_form(levels, rank_threshold=1e-6):
-    """Paper 000 eq. 8-9 as written: q̇_i = q̇_{i-1} + (J_i P)^+ (ė_i - J_i q̇_{i-1}), P ← P - (J_i P)^+ J_i P."""
+    """Paper 000 eq. 8-9 as written:
+    q̇_i = q̇_{i-1} + (J_i P)^+ (ė_i - J_i q̇_{i-1}), P ← P - (J_i P)^+ J_i P."""
     n = levels[0][0].shape[1]
     qdot, P = np.zeros(n), np.eye(n)
     for J, edot in levels:
@@ -58,7 +59,11 @@ def bench_solver(repeat: int = 2000) -> dict[str, float]:
         basis += _timeit(lambda: solve_strict(levels), 1)
         proj += _timeit(lambda: solve_projector_form(levels), 1)
     ratio = statistics.median(p / b for p, b in zip(proj, basis, strict=True))
-    return {"basis_us": 1e6 * statistics.median(basis), "projector_us": 1e6 * statistics.median(proj), "ratio": ratio}
+    return {
+        "basis_us": 1e6 * statistics.median(basis),
+        "projector_us": 1e6 * statistics.median(proj),
+        "ratio": ratio,
+    }
 
 
 def bench_tick(repeat: int = 300) -> dict[str, float]:
@@ -83,7 +88,10 @@ def bench_tick(repeat: int = 300) -> dict[str, float]:
         built.sot.EvalUniquePeriodicDiscreteUpdate(sot_context)
 
     samples = _timeit(tick, repeat)
-    return {"tick_median_us": 1e6 * statistics.median(samples), "tick_p99_us": 1e6 * float(np.percentile(samples, 99))}
+    return {
+        "tick_median_us": 1e6 * statistics.median(samples),
+        "tick_p99_us": 1e6 * float(np.percentile(samples, 99)),
+    }
 
 
 def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, float]:
@@ -106,7 +114,10 @@ def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, flo
     plant, _, info = add_humanoid_plant(builder)
     q0 = half_sitting_configuration(plant, info)
     x_des = np.concatenate(
-        [[q0[plant.GetJointByName(j).position_start()] for j in info.actuated_joints], np.zeros(len(info.actuated_joints))]
+        [
+            [q0[plant.GetJointByName(j).position_start()] for j in info.actuated_joints],
+            np.zeros(len(info.actuated_joints)),
+        ]
     )
     source = builder.AddSystem(ConstantVectorSource(x_des))
     builder.Connect(source.get_output_port(), plant.get_desired_state_input_port(info.model_instance))
@@ -129,12 +140,24 @@ def main() -> None:
     tick = bench_tick()
     rtf = bench_realtime()
     rows = [
-        ("solve_strict, reach stack (n=36, 5 levels, 50 rows)", f"{solver['basis_us']:.0f} µs",
-         f"projector form eq. 8-9: {solver['projector_us']:.0f} µs", f"projector / basis time: {solver['ratio']:.2f}"),
-        ("full control tick of reach (median / p99)", f"{tick['tick_median_us']:.0f} / {tick['tick_p99_us']:.0f} µs",
-         "control period: 5000 µs", f"{tick['tick_median_us'] / 5000:.1%} of the period"),
-        ("reach scenario real-time factor", f"{rtf['rtf_scenario']:.2f}",
-         f"plant alone on constant set points: {rtf['rtf_plant']:.2f}", f"{rtf['rtf_scenario'] / rtf['rtf_plant']:.2f} of baseline"),
+        (
+            "solve_strict, reach stack (n=36, 5 levels, 50 rows)",
+            f"{solver['basis_us']:.0f} µs",
+            f"projector form eq. 8-9: {solver['projector_us']:.0f} µs",
+            f"projector / basis time: {solver['ratio']:.2f}",
+        ),
+        (
+            "full control tick of reach (median / p99)",
+            f"{tick['tick_median_us']:.0f} / {tick['tick_p99_us']:.0f} µs",
+            "control period: 5000 µs",
+            f"{tick['tick_median_us'] / 5000:.1%} of the period",
+        ),
+        (
+            "reach scenario real-time factor",
+            f"{rtf['rtf_scenario']:.2f}",
+            f"plant alone on constant set points: {rtf['rtf_plant']:.2f}",
+            f"{rtf['rtf_scenario'] / rtf['rtf_plant']:.2f} of baseline",
+        ),
     ]
     print_table(rows)
 

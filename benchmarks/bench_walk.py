@@ -27,7 +27,7 @@ from drake_sot.preview import Footstep, PreviewController
 from drake_sot.systems.pattern_generator import PatternGenerator
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_sot import bench_realtime, print_table  # noqa: E402  (same baseline as the SoT benchmark)
+from bench_sot import bench_realtime, print_table
 
 DT = 0.005
 
@@ -52,7 +52,9 @@ def _tick_times(system: LeafSystem, setup, duration: float) -> list[float]:
 
 
 def bench_pattern_generator(duration: float = 20.0) -> dict[str, float]:
-    pg = PatternGenerator(Footstep(0.0, 0.095, 0.0, "left"), Footstep(0.0, -0.095, 0.0, "right"), com_height=0.81)
+    pg = PatternGenerator(
+        Footstep(0.0, 0.095, 0.0, "left"), Footstep(0.0, -0.095, 0.0, "right"), com_height=0.81
+    )
     pg_ticks = _tick_times(pg, lambda c: pg.set_velocity(c, 0.2, 0.0, 0.1), duration)
     empty_ticks = _tick_times(_EmptyTick(), lambda c: None, duration)
     controller = PreviewController(dt=DT, z_c=0.81)
@@ -80,11 +82,19 @@ def main() -> None:
     pg = bench_pattern_generator()
     rtf = bench_walk_realtime()
     rows = [
-        ("PatternGenerator tick, walking (median / p99)", f"{pg['pg_median_us']:.1f} / {pg['pg_p99_us']:.1f} µs",
-         f"empty periodic update: {pg['empty_median_us']:.1f} µs; preview step alone: {pg['step_median_us']:.1f} µs",
-         f"{pg['pg_median_us'] / pg['empty_median_us']:.1f}x an empty tick"),
-        ("walk scenario real-time factor", f"{rtf['rtf_scenario']:.2f}",
-         f"plant alone on constant set points: {rtf['rtf_plant']:.2f}", f"{rtf['rtf_scenario'] / rtf['rtf_plant']:.2f} of baseline"),
+        (
+            "PatternGenerator tick, walking (median / p99)",
+            f"{pg['pg_median_us']:.1f} / {pg['pg_p99_us']:.1f} µs",
+            f"empty periodic update: {pg['empty_median_us']:.1f} µs; "
+            f"preview step alone: {pg['step_median_us']:.1f} µs",
+            f"{pg['pg_median_us'] / pg['empty_median_us']:.1f}x an empty tick",
+        ),
+        (
+            "walk scenario real-time factor",
+            f"{rtf['rtf_scenario']:.2f}",
+            f"plant alone on constant set points: {rtf['rtf_plant']:.2f}",
+            f"{rtf['rtf_scenario'] / rtf['rtf_plant']:.2f} of baseline",
+        ),
     ]
     print_table(rows)
 

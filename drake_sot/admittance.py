@@ -40,7 +40,9 @@ def _per_axis(name: str, value: ArrayLike, n: int | None) -> np.ndarray:
             raise ValueError(f"{name} is a scalar: give the number of axes n")
         a = np.full(n, float(a))
     if a.ndim != 1 or (n is not None and a.shape != (n,)):
-        raise ValueError(f"{name} must be a scalar or have shape ({n if n is not None else 'n'},), got shape {a.shape}")
+        raise ValueError(
+            f"{name} must be a scalar or have shape ({n if n is not None else 'n'},), got shape {a.shape}"
+        )
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} must be finite, got {a}")
     return a
@@ -71,8 +73,13 @@ class MassDamperSpring:
     """
 
     def __init__(
-        self, mass: ArrayLike, damping: ArrayLike, stiffness: ArrayLike = 0.0, dt: float | None = None,
-        *, n: int | None = None,
+        self,
+        mass: ArrayLike,
+        damping: ArrayLike,
+        stiffness: ArrayLike = 0.0,
+        dt: float | None = None,
+        *,
+        n: int | None = None,
     ) -> None:
         if dt is None:
             raise ValueError("dt (the step [s]) is required")
@@ -159,7 +166,9 @@ def _square(name: str, value, m: int) -> np.ndarray:
     if a.ndim == 1:
         a = np.diag(a)
     if a.shape != (m, m) or not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite with shape ({m}, {m}) (or its diagonal ({m},)), got shape {a.shape}")
+        raise ValueError(
+            f"{name} must be finite with shape ({m}, {m}) (or its diagonal ({m},)), got shape {a.shape}"
+        )
     return a
 
 
@@ -170,7 +179,9 @@ def _full_row_rank(J: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray
         raise ValueError(f"J must be a finite (m, n) matrix, got shape {J.shape}")
     A = np.asarray(A, dtype=float)
     if A.shape != (J.shape[1], J.shape[1]) or not np.all(np.isfinite(A)):
-        raise ValueError(f"A must be finite with shape ({J.shape[1]}, {J.shape[1]}) to match J {J.shape}, got {A.shape}")
+        raise ValueError(
+            f"A must be finite with shape ({J.shape[1]}, {J.shape[1]}) to match J {J.shape}, got {A.shape}"
+        )
     try:
         L = scipy.linalg.cholesky(A, lower=True)
     except np.linalg.LinAlgError as err:

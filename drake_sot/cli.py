@@ -49,9 +49,16 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--duration", type=float, default=None, metavar="S", help="simulated seconds")
     run.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
     run.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
-    run.add_argument("--workers", type=int, default=2, metavar="N", help="worker processes of a study (default 2)")
-    run.add_argument("--transition", type=float, default=None, metavar="S",
-                     help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)")
+    run.add_argument(
+        "--workers", type=int, default=2, metavar="N", help="worker processes of a study (default 2)"
+    )
+    run.add_argument(
+        "--transition",
+        type=float,
+        default=None,
+        metavar="S",
+        help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)",
+    )
     return parser
 
 
@@ -71,7 +78,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"drake-sot: --workers must be >= 1, got {args.workers}", file=sys.stderr)
             return 2
         kwargs = {"duration": args.duration} if args.duration is not None else {}
-        files = STUDIES[args.scenario].run(args.out, workers=args.workers, progress=ProgressBar(unit="runs"), **kwargs)
+        files = STUDIES[args.scenario].run(
+            args.out, workers=args.workers, progress=ProgressBar(unit="runs"), **kwargs
+        )
         for path in files.values():
             print(f"wrote {path}")
         return 0
@@ -86,13 +95,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"drake-sot: {args.scenario} takes no --transition", file=sys.stderr)
         return 2
     output = run_scenario(
-        scenario, args.out, duration=args.duration, record=not args.no_record, progress=ProgressBar(),
+        scenario,
+        args.out,
+        duration=args.duration,
+        record=not args.no_record,
+        progress=ProgressBar(),
         parameters=parameters,
     )
     result = output.result
     for path in output.files.values():
         print(f"wrote {path}")
-    print(f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s (real-time factor {result.realtime_factor:.2f})")
+    print(
+        f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
+        f"(real-time factor {result.realtime_factor:.2f})"
+    )
     if result.interrupted:
         print("interrupted: the artefacts cover the simulated part", file=sys.stderr)
         return 130

@@ -30,9 +30,7 @@ def selection_indices(selection: SelectionLike, size: int, *, name: str = "selec
         return np.arange(size)
     if isinstance(selection, str):
         if len(selection) != size or set(selection) - {"0", "1"}:
-            raise ValueError(
-                f"{name} {selection!r} must be {size} characters of '0'/'1' (one per component)"
-            )
+            raise ValueError(f"{name} {selection!r} must be {size} characters of '0'/'1' (one per component)")
         flags = np.array([c == "1" for c in selection])
     else:
         flags = np.asarray(selection, dtype=bool)
@@ -73,9 +71,7 @@ def point6d(
         feedforward = np.zeros(6)
     else:
         # X = R R*ᵀ moves as dX/dt = -X [ω*]ₓ when only the reference moves.
-        feedforward = np.concatenate(
-            (velocity_des[:3], so3.right_jacobian_inverse(e_o) @ velocity_des[3:])
-        )
+        feedforward = np.concatenate((velocity_des[:3], so3.right_jacobian_inverse(e_o) @ velocity_des[3:]))
     return e, J_e, feedforward
 
 

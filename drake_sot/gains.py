@@ -27,7 +27,7 @@ class AdaptiveGain:
             raise ValueError("AdaptiveGain gives λ = 0 everywhere (a + c = 0)")
 
     @classmethod
-    def from_limits(cls, at_zero: float, at_infinity: float, slope_at_zero: float) -> "AdaptiveGain":
+    def from_limits(cls, at_zero: float, at_infinity: float, slope_at_zero: float) -> AdaptiveGain:
         """The SoT parametrisation: λ(0), λ(∞) and ``-dλ/d‖e‖`` at 0."""
         a = at_zero - at_infinity
         if a <= 0.0:

@@ -197,7 +197,9 @@ def _alphas(alpha_row: Sequence[float] | np.ndarray, name: str = "alpha_row", nd
     or raise ValueError naming the first bad entry."""
     a = np.asarray(alpha_row, dtype=float)
     if a.ndim != ndim:
-        raise ValueError(f"{name} must be a {'vector' if ndim == 1 else 'matrix'} of priorities, got shape {a.shape}")
+        raise ValueError(
+            f"{name} must be a {'vector' if ndim == 1 else 'matrix'} of priorities, got shape {a.shape}"
+        )
     if not ((a >= 0.0) & (a <= 1.0)).all():  # also catches NaN
         index = np.unravel_index(int(np.argmin((a >= 0.0) & (a <= 1.0))), a.shape)
         where = "".join(f"[{int(k)}]" for k in index)
@@ -225,7 +227,9 @@ def priority_matrix(alpha_row: Sequence[float] | np.ndarray, dims: Sequence[int]
     a = _alphas(alpha_row)
     d = np.asarray(dims)
     if d.shape != a.shape:
-        raise ValueError(f"dims has shape {d.shape} but alpha_row has shape {a.shape}; one dimension per task")
+        raise ValueError(
+            f"dims has shape {d.shape} but alpha_row has shape {a.shape}; one dimension per task"
+        )
     for j, m in enumerate(dims):
         if isinstance(m, bool) or int(m) != m or m < 0:
             raise ValueError(f"dims[{j}] = {m!r}: a task dimension must be an integer >= 0")
@@ -281,7 +285,9 @@ def _sorted_rows(
     left, and ``groups`` the ``(end, alpha)`` of each run of equal alpha:
     rows ``[previous end, end)`` have priority ``alpha``.
     """
-    order = sorted((j for j, a in enumerate(alpha) if a > 0.0 and jacobians[j].shape[0]), key=lambda j: -alpha[j])
+    order = sorted(
+        (j for j, a in enumerate(alpha) if a > 0.0 and jacobians[j].shape[0]), key=lambda j: -alpha[j]
+    )
     if not order:
         return None, []
     groups: list[tuple[int, float]] = []

@@ -8,8 +8,8 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 
 def plot_task_errors(
@@ -37,8 +37,17 @@ def plot_task_errors(
     for t, labels in merged.items():
         label = "; ".join(labels)
         ax.axvline(t, color="0.5", linestyle="--", linewidth=0.8)
-        ax.text(t, 1.0, f" {label}", transform=ax.get_xaxis_transform(), rotation=90,
-                va="top", ha="left", fontsize=8, color="0.3")
+        ax.text(
+            t,
+            1.0,
+            f" {label}",
+            transform=ax.get_xaxis_transform(),
+            rotation=90,
+            va="top",
+            ha="left",
+            fontsize=8,
+            color="0.3",
+        )
     ax.set_xlabel("time [s]")
     ax.set_ylabel("task error norm ‖e‖ (m, rad)")
     ax.set_title(title or "task errors")
@@ -122,9 +131,17 @@ def plot_interaction(
     for j, hand in enumerate(hands):
         force_ax, disp_ax = axes[0, j], axes[1, j]
         for i, axis in enumerate("xyz"):
-            force_ax.plot(time, applied[hand][:, i], color=f"C{i}", linestyle="--", linewidth=0.9,
-                          label=f"partner f{axis}")
-            force_ax.plot(time, measured[hand][:, i], color=f"C{i}", linewidth=1.2, label=f"wrist sensor f{axis}")
+            force_ax.plot(
+                time,
+                applied[hand][:, i],
+                color=f"C{i}",
+                linestyle="--",
+                linewidth=0.9,
+                label=f"partner f{axis}",
+            )
+            force_ax.plot(
+                time, measured[hand][:, i], color=f"C{i}", linewidth=1.2, label=f"wrist sensor f{axis}"
+            )
             disp_ax.plot(time, 100 * displacement[hand][:, i], color=f"C{i}", label=f"Δ{axis}")
         force_ax.set_title(f"{hand} hand")
         force_ax.set_ylabel("force [N]")
@@ -134,7 +151,9 @@ def plot_interaction(
             ax.grid(True, alpha=0.3)
             for t, label in events:
                 ax.axvline(t, color="0.5", linestyle=":", linewidth=0.8)
-                ax.text(t, 1.0, f" {label}", transform=ax.get_xaxis_transform(), fontsize=7, va="top", color="0.3")
+                ax.text(
+                    t, 1.0, f" {label}", transform=ax.get_xaxis_transform(), fontsize=7, va="top", color="0.3"
+                )
         force_ax.legend(loc="lower left", fontsize=7, ncol=2)
         disp_ax.legend(loc="lower left", fontsize=7)
     fig.tight_layout()
@@ -167,9 +186,17 @@ def plot_priority_switch(
 def plot_alpha_sweep(grid: np.ndarray, head: np.ndarray, lh: np.ndarray, path: str | Path) -> None:
     """Heat maps of the steady head and left-hand errors over (α_lh,head rows, α_head,lh columns)."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), dpi=110)
-    for ax, values, title in ((axes[0], head, "head task error [cm]"), (axes[1], lh, "left-hand task error [cm]")):
-        image = ax.imshow(100 * values, origin="lower", cmap="viridis", aspect="auto",
-                          extent=(grid[0] - 0.1, grid[-1] + 0.1, grid[0] - 0.1, grid[-1] + 0.1))
+    for ax, values, title in (
+        (axes[0], head, "head task error [cm]"),
+        (axes[1], lh, "left-hand task error [cm]"),
+    ):
+        image = ax.imshow(
+            100 * values,
+            origin="lower",
+            cmap="viridis",
+            aspect="auto",
+            extent=(grid[0] - 0.1, grid[-1] + 0.1, grid[0] - 0.1, grid[-1] + 0.1),
+        )
         for i, a in enumerate(grid):
             for j, b in enumerate(grid):
                 ax.text(b, a, f"{100 * values[i, j]:.1f}", ha="center", va="center", fontsize=7, color="w")

@@ -279,9 +279,7 @@ class PreviewController:
         """
         ref = np.asarray(zmp_reference, dtype=float)
         if ref.ndim != 2 or ref.shape[1] != 2 or ref.shape[0] < 1:
-            raise ValueError(
-                f"zmp_reference must have shape (K>=1, 2), got {ref.shape}"
-            )
+            raise ValueError(f"zmp_reference must have shape (K>=1, 2), got {ref.shape}")
         if not np.isfinite(ref).all():
             raise ValueError("zmp_reference contains NaN or Inf")
         if x0 is None:
@@ -303,9 +301,7 @@ class PreviewController:
         else:
             s = np.array(error_sum, dtype=float)
             if s.shape != (2,) or not np.isfinite(s).all():
-                raise ValueError(
-                    f"error_sum must be a finite (2,) vector, got {error_sum!r}"
-                )
+                raise ValueError(f"error_sum must be a finite (2,) vector, got {error_sum!r}")
         step = self.step
         for k in range(K):
             states[k] = x
@@ -335,13 +331,9 @@ class Footstep:
 
     def __post_init__(self) -> None:
         if self.side not in _SIDES:
-            raise ValueError(
-                f"Footstep side must be 'left' or 'right', got {self.side!r}"
-            )
+            raise ValueError(f"Footstep side must be 'left' or 'right', got {self.side!r}")
         for name in ("x", "y", "yaw"):
-            object.__setattr__(
-                self, name, _finite(f"Footstep.{name}", getattr(self, name))
-            )
+            object.__setattr__(self, name, _finite(f"Footstep.{name}", getattr(self, name)))
 
     @property
     def pose(self) -> np.ndarray:
@@ -370,9 +362,7 @@ class StepTiming:
 
     def __post_init__(self) -> None:
         for name in ("single_support", "double_support", "step_height"):
-            object.__setattr__(
-                self, name, _positive(f"StepTiming.{name}", getattr(self, name))
-            )
+            object.__setattr__(self, name, _positive(f"StepTiming.{name}", getattr(self, name)))
 
 
 @dataclass(frozen=True)
@@ -394,13 +384,9 @@ class StepLimits:
 
     def __post_init__(self) -> None:
         for name in ("max_stride", "min_width", "max_width", "max_yaw"):
-            object.__setattr__(
-                self, name, _positive(f"StepLimits.{name}", getattr(self, name))
-            )
+            object.__setattr__(self, name, _positive(f"StepLimits.{name}", getattr(self, name)))
         if self.min_width > self.max_width:
-            raise ValueError(
-                f"StepLimits.min_width {self.min_width} m exceeds max_width {self.max_width} m"
-            )
+            raise ValueError(f"StepLimits.min_width {self.min_width} m exceeds max_width {self.max_width} m")
 
     def check(self, stance: Footstep, step: Footstep) -> None:
         """Raise ValueError naming the violated limit and the values; return None if reachable.
@@ -418,9 +404,7 @@ class StepLimits:
         dy = -s * wx + c * wy
         where = f"{step.side} step to ({step.x:.3g}, {step.y:.3g})"
         if abs(dx) > self.max_stride:
-            raise ValueError(
-                f"{where} exceeds max_stride {self.max_stride:.2f} m (stride {abs(dx):.2f} m)"
-            )
+            raise ValueError(f"{where} exceeds max_stride {self.max_stride:.2f} m (stride {abs(dx):.2f} m)")
         lateral = dy if step.side == "left" else -dy
         if lateral < self.min_width:
             raise ValueError(
@@ -433,9 +417,7 @@ class StepLimits:
             )
         dyaw = _wrap(step.yaw - stance.yaw)
         if abs(dyaw) > self.max_yaw:
-            raise ValueError(
-                f"{where} exceeds max_yaw {self.max_yaw:.2f} rad (relative yaw {dyaw:.2f} rad)"
-            )
+            raise ValueError(f"{where} exceeds max_yaw {self.max_yaw:.2f} rad (relative yaw {dyaw:.2f} rad)")
 
 
 def _other(side: str) -> str:
@@ -470,9 +452,7 @@ class Segment:
             # a read-only view: the caller's array stays writeable
             a = np.asarray(getattr(self, name), dtype=float).view()
             if a.shape != (K, cols):
-                raise ValueError(
-                    f"Segment.{name} must have shape ({K}, {cols}), got {a.shape}"
-                )
+                raise ValueError(f"Segment.{name} must have shape ({K}, {cols}), got {a.shape}")
             a.flags.writeable = False
             object.__setattr__(self, name, a)
         p = np.asarray(self.phase).view()
@@ -480,14 +460,10 @@ class Segment:
             raise ValueError(f"Segment.phase must be 1-D, got shape {p.shape}")
         if p.dtype != np.int8:
             if not np.all(np.isin(p, (0, 1, 2))):
-                raise ValueError(
-                    f"Segment.phase values must be 0, 1 or 2, got {np.unique(p)}"
-                )
+                raise ValueError(f"Segment.phase values must be 0, 1 or 2, got {np.unique(p)}")
             p = p.astype(np.int8)
         elif np.any((p < 0) | (p > 2)):
-            raise ValueError(
-                f"Segment.phase values must be 0, 1 or 2, got {np.unique(p)}"
-            )
+            raise ValueError(f"Segment.phase values must be 0, 1 or 2, got {np.unique(p)}")
         p.flags.writeable = False
         object.__setattr__(self, "phase", p)
 
@@ -520,9 +496,7 @@ class Segment:
 def _samples(name: str, duration: float, dt: float, minimum: int) -> int:
     n = round(duration / dt)
     if n < minimum:
-        raise ValueError(
-            f"{name} {duration!r} s gives {n} samples at dt {dt!r} s; at least {minimum} needed"
-        )
+        raise ValueError(f"{name} {duration!r} s gives {n} samples at dt {dt!r} s; at least {minimum} needed")
     return n
 
 
@@ -555,9 +529,7 @@ def _landing_yaw(yaw0: float, yaw1: float) -> float:
     return yaw1 if abs(yaw1 - yaw0) <= math.pi else yaw0 + _wrap(yaw1 - yaw0)
 
 
-def _swing(
-    start: Footstep, end: Footstep, height: float, n: int, dt: float
-) -> tuple[np.ndarray, np.ndarray]:
+def _swing(start: Footstep, end: Footstep, height: float, n: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """(n, 4) poses and velocities of a swing from ``start`` (sample 0) to ``end`` (sample n-1).
 
     The swing lasts ``(n-1)·dt`` so that lift-off and touch-down are both samples.
@@ -608,9 +580,7 @@ def step_segment(
     stance = right if swing_left else left
     swing_from = left if swing_left else right
 
-    zmp = np.concatenate(
-        [_zmp_transfer(z0, stance.xy, n_ds), np.broadcast_to(stance.xy, (n_ss, 2))]
-    )
+    zmp = np.concatenate([_zmp_transfer(z0, stance.xy, n_ds), np.broadcast_to(stance.xy, (n_ss, 2))])
     stance_pose, stance_vel = _still(stance.pose, n_ds + n_ss)
     ds_pose, ds_vel = _still(swing_from.pose, n_ds)
     sw_pose, sw_vel = _swing(swing_from, step, timing.step_height, n_ss, dt)
@@ -644,38 +614,28 @@ def stop_segment(
     hold = float(hold)
     if not (math.isfinite(hold) and hold >= 0.0):
         raise ValueError(f"hold must be a finite value >= 0, got {hold!r}")
-    n_tr = _samples(
-        "stop transfer", max(timing.double_support, STOP_TRANSFER_MIN), dt, 1
-    )
+    n_tr = _samples("stop transfer", max(timing.double_support, STOP_TRANSFER_MIN), dt, 1)
     n_hold = round(hold / dt)
     mid = 0.5 * (left.xy + right.xy)
-    zmp = np.concatenate(
-        [_zmp_transfer(z0, mid, n_tr), np.broadcast_to(mid, (n_hold, 2))]
-    )
+    zmp = np.concatenate([_zmp_transfer(z0, mid, n_tr), np.broadcast_to(mid, (n_hold, 2))])
     n = n_tr + n_hold
     lp, lv = _still(left.pose, n)
     rp, rv = _still(right.pose, n)
     return Segment(zmp, lp, rp, lv, rv, np.zeros(n, dtype=np.int8))
 
 
-def stand_segment(
-    left: Footstep, right: Footstep, duration: float, dt: float
-) -> Segment:
+def stand_segment(left: Footstep, right: Footstep, duration: float, dt: float) -> Segment:
     """``duration`` [s] standing still (phase 0), the ZMP reference at the midpoint of the soles."""
     _check_feet(left, right)
     dt = _positive("dt", dt)
     duration = float(duration)
     if not (math.isfinite(duration) and duration >= 0.0):
-        raise ValueError(
-            f"stand duration must be a finite value >= 0, got {duration!r}"
-        )
+        raise ValueError(f"stand duration must be a finite value >= 0, got {duration!r}")
     n = round(duration / dt)
     mid = 0.5 * (left.xy + right.xy)
     lp, lv = _still(left.pose, n)
     rp, rv = _still(right.pose, n)
-    return Segment(
-        np.broadcast_to(mid, (n, 2)).copy(), lp, rp, lv, rv, np.zeros(n, dtype=np.int8)
-    )
+    return Segment(np.broadcast_to(mid, (n, 2)).copy(), lp, rp, lv, rv, np.zeros(n, dtype=np.int8))
 
 
 class FootstepPlan:
@@ -705,9 +665,7 @@ class FootstepPlan:
         feet = {"left": left, "right": right}
         for i, step in enumerate(steps):
             if not isinstance(step, Footstep):
-                raise TypeError(
-                    f"step {i} must be a Footstep, got {type(step).__name__}"
-                )
+                raise TypeError(f"step {i} must be a Footstep, got {type(step).__name__}")
             try:
                 limits.check(feet[_other(step.side)], step)
             except ValueError as err:
@@ -741,16 +699,12 @@ class FootstepPlan:
         if stand > 0.0:
             segments.append(stand_segment(self.left, self.right, stand, dt))
         for step in self.steps:
-            segments.append(
-                step_segment(feet["left"], feet["right"], zmp, step, self.timing, dt)
-            )
+            segments.append(step_segment(feet["left"], feet["right"], zmp, step, self.timing, dt))
             zmp = feet[_other(step.side)].xy
             # keep the sampled yaw continuous when the footsteps' yaws wrap round
             yaw = _landing_yaw(feet[step.side].yaw, step.yaw)
             feet[step.side] = Footstep(step.x, step.y, yaw, step.side)
-        segments.append(
-            stop_segment(feet["left"], feet["right"], zmp, self.timing, dt, hold)
-        )
+        segments.append(stop_segment(feet["left"], feet["right"], zmp, self.timing, dt, hold))
         return Segment.join(segments)
 
     @classmethod
@@ -775,9 +729,7 @@ class FootstepPlan:
         scalars or one value per step.
         """
         if first_side not in _SIDES:
-            raise ValueError(
-                f"first_side must be 'left' or 'right', got {first_side!r}"
-            )
+            raise ValueError(f"first_side must be 'left' or 'right', got {first_side!r}")
         n = int(n_steps)
         per_step = {}
         for name, value in (("stride", stride), ("turn", turn)):

@@ -272,15 +272,20 @@ class _Layout:
         for t in tasks:
             J = t.jacobian
             if not isinstance(J, np.ndarray) or J.ndim != 2 or J.shape[1] != n or J.shape[0] < 1:
-                raise ValueError(f"task {t.name!r}: jacobian must be an (m >= 1, {n}) array, got {np.shape(J)}")
+                raise ValueError(
+                    f"task {t.name!r}: jacobian must be an (m >= 1, {n}) array, got {np.shape(J)}"
+                )
             if t.friction is not None:
                 if not isinstance(t.friction, FrictionCone):
                     raise ValueError(f"task {t.name!r}: friction must be a FrictionCone, got {t.friction!r}")
                 if J.shape[0] != 3:
-                    raise ValueError(f"task {t.name!r}: a friction cone needs a 3-D point force task, got m = {J.shape[0]}")
+                    raise ValueError(
+                        f"task {t.name!r}: a friction cone needs a 3-D point force task, got m = {J.shape[0]}"
+                    )
                 if not weighted and t.projector is not None:
                     raise ValueError(
-                        f"task {t.name!r}: a contact task is never projected (paper 004 §3.3); set projector=None"
+                        f"task {t.name!r}: a contact task is never projected (paper 004 §3.3); "
+                        "set projector=None"
                     )
         dims = [t.jacobian.shape[0] for t in tasks]
         ends = np.cumsum(dims).tolist()
@@ -388,7 +393,13 @@ class QuasiStaticQP:
     # ------------------------------------------------------------------ build
     def _layout(self, tasks: Sequence[QsTask], weighted: bool) -> _Layout:
         try:
-            key = (weighted, *[(t.name, t.jacobian.shape, t.desired is None, t.projector is None, t.friction) for t in tasks])
+            key = (
+                weighted,
+                *[
+                    (t.name, t.jacobian.shape, t.desired is None, t.projector is None, t.friction)
+                    for t in tasks
+                ],
+            )
         except AttributeError:  # a Jacobian that is not an array: let _Layout say which
             key = None
         lay = self._layouts.get(key) if key is not None else None
@@ -572,7 +583,10 @@ class QuasiStaticQP:
                 f"static equilibrium (eq. 9b) cannot be met: the root rows of the (projected) task "
                 f"Jacobians cannot balance g_root (least-squares residual {gap:.3g}); is a contact active?"
             )
-        return "constraints cannot hold together (equilibrium with friction cones, min normal forces, torque bounds)"
+        return (
+            "constraints cannot hold together "
+            "(equilibrium with friction cones, min normal forces, torque bounds)"
+        )
 
     def _solution(self, lay, g, x, status, message, iters, t0) -> QsSolution:
         nb = self.n_base

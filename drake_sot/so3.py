@@ -26,11 +26,7 @@ def exp(w: np.ndarray) -> np.ndarray:
     W = hat(w)
     if theta < _SMALL:
         return np.eye(3) + W + 0.5 * W @ W
-    return (
-        np.eye(3)
-        + (np.sin(theta) / theta) * W
-        + ((1.0 - np.cos(theta)) / theta**2) * W @ W
-    )
+    return np.eye(3) + (np.sin(theta) / theta) * W + ((1.0 - np.cos(theta)) / theta**2) * W @ W
 
 
 def log(R: np.ndarray) -> np.ndarray:
@@ -41,7 +37,9 @@ def log(R: np.ndarray) -> np.ndarray:
     """
     vx, vy, vz = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
     # atan2 keeps full precision at both ends, where arccos of the trace does not.
-    theta = math.atan2(0.5 * math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0))
+    theta = math.atan2(
+        0.5 * math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    )
     v = np.array([vx, vy, vz])
     if theta < 1e-6:
         return 0.5 * v

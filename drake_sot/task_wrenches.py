@@ -42,7 +42,9 @@ def _gain(name: str, gain: Gain, m: int) -> np.ndarray:
     """
     k = np.asarray(gain, dtype=float)
     if k.ndim > 2 or (k.ndim == 1 and k.shape != (m,)) or (k.ndim == 2 and k.shape != (m, m)):
-        raise ValueError(f"{name} must be a scalar, a ({m},) vector or a ({m}, {m}) matrix, got shape {k.shape}")
+        raise ValueError(
+            f"{name} must be a scalar, a ({m},) vector or a ({m}, {m}) matrix, got shape {k.shape}"
+        )
     if not np.isfinite(k).all():
         raise ValueError(f"{name} contains NaN or Inf")
     if k.ndim < 2:
@@ -119,7 +121,9 @@ class PIForceController:
             ``integral_limit`` that is not positive or of the wrong shape.
     """
 
-    def __init__(self, dim: int, kp: Gain, ki: Gain, *, integral_limit: float | np.ndarray | None = None) -> None:
+    def __init__(
+        self, dim: int, kp: Gain, ki: Gain, *, integral_limit: float | np.ndarray | None = None
+    ) -> None:
         if isinstance(dim, bool) or int(dim) != dim or dim < 1:
             raise ValueError(f"dim must be an integer >= 1, got {dim!r}")
         self._m = int(dim)

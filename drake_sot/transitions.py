@@ -178,7 +178,9 @@ class AlphaSchedule:
         if isinstance(task, (int, np.integer)) and not isinstance(task, bool):
             k = int(task)
             if not 0 <= k < len(self._names):
-                raise ValueError(f"task index {k} out of range for {len(self._names)} tasks ({', '.join(self._names)})")
+                raise ValueError(
+                    f"task index {k} out of range for {len(self._names)} tasks ({', '.join(self._names)})"
+                )
             return k
         raise ValueError(f"a task is a name or an index, got {task!r}")
 
@@ -201,9 +203,7 @@ class AlphaSchedule:
         a, b = self.index(i), self.index(j)
         value = _finite("value", value)
         if not 0.0 <= value <= 1.0:
-            raise ValueError(
-                f"alpha[{self._names[a]!r}, {self._names[b]!r}] = {value} must be in [0, 1]"
-            )
+            raise ValueError(f"alpha[{self._names[a]!r}, {self._names[b]!r}] = {value} must be in [0, 1]")
         start = _finite("start", start)
         duration = _finite("duration", duration)
         if duration < 0.0:
@@ -220,7 +220,9 @@ class AlphaSchedule:
         self._arrays = None
         return tr
 
-    def switch(self, i: str | int, j: str | int, *, start: float, duration: float) -> tuple[Transition, Transition]:
+    def switch(
+        self, i: str | int, j: str | int, *, start: float, duration: float
+    ) -> tuple[Transition, Transition]:
         """Swap the priorities of tasks i and j: paper 004's priority switch, eq. 12.
 
         ``alpha[i, j]`` and ``alpha[j, i]`` exchange the values they have at
@@ -244,7 +246,8 @@ class AlphaSchedule:
         ab, ba = self.alpha(start, a, b), self.alpha(start, b, a)
         if ab == ba:
             raise ValueError(
-                f"switch({self._names[a]!r}, {self._names[b]!r}) at t = {start}: alpha[i, j] = alpha[j, i] = {ab}, "
+                f"switch({self._names[a]!r}, {self._names[b]!r}) at t = {start}: "
+                f"alpha[i, j] = alpha[j, i] = {ab}, "
                 "swapping them changes nothing; use set() to change them"
             )
         # validate the second pair's ordering before scheduling the first one
@@ -278,11 +281,18 @@ class AlphaSchedule:
         if self._arrays is None:
             n = len(self._names)
             rows = [
-                (a * n + b, tr.start, tr.end, tr.start_value, tr.value, trs[k + 1].start if k + 1 < len(trs) else np.inf)
+                (
+                    a * n + b,
+                    tr.start,
+                    tr.end,
+                    tr.start_value,
+                    tr.value,
+                    trs[k + 1].start if k + 1 < len(trs) else np.inf,
+                )
                 for (a, b), trs in self._pairs.items()
                 for k, tr in enumerate(trs)
             ]
-            cols = list(zip(*rows)) if rows else [()] * 6
+            cols = list(zip(*rows, strict=False)) if rows else [()] * 6
             self._arrays = (np.array(cols[0], dtype=int),) + tuple(np.array(c, dtype=float) for c in cols[1:])
         return self._arrays
 

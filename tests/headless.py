@@ -10,9 +10,16 @@ from pathlib import Path
 import numpy as np
 
 FLAGS = (
-    "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
-    "--disable-breakpad", "--disable-crash-reporter",
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--enable-unsafe-swiftshader",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+    "--disable-breakpad",
+    "--disable-crash-reporter",
 )
 
 
@@ -21,7 +28,9 @@ def chromium() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser")
 
 
-def screenshot(page: Path, out: Path, *, size: str = "800,600", attempts: int = 3, timeout: float = 45.0) -> np.ndarray:
+def screenshot(
+    page: Path, out: Path, *, size: str = "800,600", attempts: int = 3, timeout: float = 45.0
+) -> np.ndarray:
     """Render ``page`` headless and return the screenshot's RGB pixels (h, w, 3) in [0, 1].
 
     Headless Chromium occasionally hangs at start-up on these machines (seen once in
@@ -36,8 +45,14 @@ def screenshot(page: Path, out: Path, *, size: str = "800,600", attempts: int = 
     for attempt in range(1, attempts + 1):
         profile = out.parent / f"chromium-profile-{attempt}"
         command = [
-            browser, *FLAGS, f"--user-data-dir={profile}", f"--screenshot={out}", f"--window-size={size}",
-            "--virtual-time-budget=5000", "--timeout=20000", page.resolve().as_uri(),
+            browser,
+            *FLAGS,
+            f"--user-data-dir={profile}",
+            f"--screenshot={out}",
+            f"--window-size={size}",
+            "--virtual-time-budget=5000",
+            "--timeout=20000",
+            page.resolve().as_uri(),
         ]
         try:
             subprocess.run(command, capture_output=True, timeout=timeout, check=True)

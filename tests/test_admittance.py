@@ -125,7 +125,11 @@ def test_exact_under_a_piecewise_constant_force_against_solve_ivp():
         f = rng.normal(scale=10.0, size=2)
         sol = solve_ivp(
             lambda t, s, f=f: np.concatenate((s[2:], (f - B * s[2:] - K * (s[:2] - rest)) / M)),
-            (0.0, 0.02), np.concatenate((x, v)), method="DOP853", rtol=1e-12, atol=1e-14,
+            (0.0, 0.02),
+            np.concatenate((x, v)),
+            method="DOP853",
+            rtol=1e-12,
+            atol=1e-14,
         )
         x, v = mds.step(x, v, f, rest)
         np.testing.assert_allclose(x, sol.y[:2, -1], rtol=1e-9, atol=1e-12)

@@ -7,12 +7,12 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from headless import chromium, screenshot
 
 from drake_sot import cli
 from drake_sot.diagrams import reach
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, run_scenario
-from headless import chromium, screenshot
 
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 
@@ -20,7 +20,14 @@ DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 def test_list_names_the_scenarios():
     out = subprocess.run([*DRAKE_SOT, "list"], capture_output=True, text=True, check=True).stdout
     listed = [line.split()[0] for line in out.splitlines()]
-    assert listed == ["priority_switching", "reach", "table_pounding", "walk", "walk_then_interact", "alpha_sweep"]
+    assert listed == [
+        "priority_switching",
+        "reach",
+        "table_pounding",
+        "walk",
+        "walk_then_interact",
+        "alpha_sweep",
+    ]
 
 
 def test_bad_arguments_are_refused(capsys):
@@ -68,7 +75,7 @@ def test_diagram_svg_shows_the_control_graph(recorded_run):
 def test_replay_is_standalone_and_renders(recorded_run, tmp_path):
     out, _ = recorded_run
     html = (out / "reach.html").read_text()
-    assert "<script src=\"http" not in html and "<link" not in html  # no external resources
+    assert '<script src="http' not in html and "<link" not in html  # no external resources
     if chromium() is None:
         pytest.skip("chromium is not installed (make test installs it with apt)")
     pixels = screenshot(out / "reach.html", tmp_path / "shot.png").reshape(-1, 3)
@@ -94,7 +101,9 @@ def _fail(context):
 
 
 def test_interrupted_run_keeps_what_was_simulated(tmp_path):
-    output = run_scenario(_scenario_with(Command(0.3, "Ctrl-C", _interrupt)), tmp_path, duration=2.0, record=True)
+    output = run_scenario(
+        _scenario_with(Command(0.3, "Ctrl-C", _interrupt)), tmp_path, duration=2.0, record=True
+    )
     assert output.result.interrupted and not output.result.completed
     assert output.arrays["time"][-1] == pytest.approx(0.3, abs=0.006)
     for ext in ("html", "svg", "png", "npz"):
@@ -114,7 +123,9 @@ def test_ctrl_c_on_the_command_line(tmp_path):
     """A real SIGINT mid-run: exit code 130 and the artefacts of the simulated part."""
     proc = subprocess.Popen(
         [*DRAKE_SOT, "run", "reach", "--no-record", "--out", str(tmp_path)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a shell may have ignored it
     )
     for line in proc.stdout:

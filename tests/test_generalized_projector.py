@@ -81,7 +81,8 @@ def problems(draw: st.DrawFn, max_nv: int = 10, max_tasks: int = 6) -> Problem:
 
 
 def literal_reference(jacobians: list[np.ndarray], alpha: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """Eq. 8 as written: stable sort of the rows by decreasing alpha, row-by-row Gram-Schmidt, P = I - B^T A B."""
+    """Eq. 8 as written: stable sort of the rows by decreasing alpha, row-by-row Gram-Schmidt,
+    P = I - B^T A B."""
     nv = jacobians[0].shape[1]
     order = sorted(range(len(jacobians)), key=lambda j: -alpha[j])  # stable
     basis: list[np.ndarray] = []
@@ -100,7 +101,7 @@ def literal_reference(jacobians: list[np.ndarray], alpha: np.ndarray, tol: float
                 basis.append(v / residual)
                 weights.append(float(alpha[j]))
     P = np.eye(nv)
-    for b, a in zip(basis, weights):
+    for b, a in zip(basis, weights, strict=False):
         P -= a * np.outer(b, b)
     return P
 
@@ -137,7 +138,9 @@ def test_strict_priority_of_all_the_others_is_their_null_space_projector(
     alpha[i] = 0.0
     others = [J for j, J in enumerate(jacobians) if j != i]
     J_others = np.vstack(others) if others else np.zeros((0, nv))
-    np.testing.assert_allclose(generalized_projector(jacobians, alpha), null_space_projector(J_others, nv), atol=TOL)
+    np.testing.assert_allclose(
+        generalized_projector(jacobians, alpha), null_space_projector(J_others, nv), atol=TOL
+    )
 
 
 @SETTINGS
@@ -156,7 +159,9 @@ def test_alpha_ii_one_cancels_task_i(p: Problem, data: st.DataObject) -> None:
     alpha = p.alpha.copy()
     alpha[i] = 1.0
     P = generalized_projector(p.jacobians, alpha)
-    np.testing.assert_allclose(p.jacobians[i] @ P, 0.0, atol=TOL * (1.0 + np.abs(p.jacobians[i]).max(initial=0.0)))
+    np.testing.assert_allclose(
+        p.jacobians[i] @ P, 0.0, atol=TOL * (1.0 + np.abs(p.jacobians[i]).max(initial=0.0))
+    )
 
 
 @SETTINGS
@@ -198,7 +203,9 @@ def test_zero_alpha_rows_and_zero_rows_change_nothing() -> None:
     J1, J2 = rng.standard_normal((2, 5)), rng.standard_normal((3, 5))
     P = generalized_projector([J1, J2], [0.7, 0.3])
     # a third task at alpha 0 (any rows), or a zero row in a task, or an all-zero task
-    np.testing.assert_allclose(generalized_projector([J1, J2, rng.standard_normal((4, 5))], [0.7, 0.3, 0.0]), P)
+    np.testing.assert_allclose(
+        generalized_projector([J1, J2, rng.standard_normal((4, 5))], [0.7, 0.3, 0.0]), P
+    )
     np.testing.assert_allclose(generalized_projector([np.vstack([J1, np.zeros(5)]), J2], [0.7, 0.3]), P)
     np.testing.assert_allclose(generalized_projector([J1, J2, np.zeros((2, 5))], [0.7, 0.3, 1.0]), P)
     np.testing.assert_allclose(generalized_projector([J1, J2, np.zeros((0, 5))], [0.7, 0.3, 1.0]), P)
@@ -223,7 +230,11 @@ def test_a_shared_direction_is_attributed_to_the_larger_alpha(a1: float, a2: flo
     if a1 >= a2:
         expected = np.diag([1.0 - a1, 1.0 - a2])
     else:
-        expected = np.eye(2) - a2 / 2 * np.array([[1.0, 1.0], [1.0, 1.0]]) - a1 / 2 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+        expected = (
+            np.eye(2)
+            - a2 / 2 * np.array([[1.0, 1.0], [1.0, 1.0]])
+            - a1 / 2 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+        )
     np.testing.assert_allclose(P, expected, atol=1e-14)
 
 
@@ -242,7 +253,9 @@ def test_orthonormal_rows_give_i_minus_jt_a_j() -> None:
     jacobians = [J[:2], J[2:3], J[3:]]
     alpha = [0.4, 1.0, 0.7]
     np.testing.assert_allclose(
-        generalized_projector(jacobians, alpha), np.eye(7) - J.T @ priority_matrix(alpha, dims) @ J, atol=1e-13
+        generalized_projector(jacobians, alpha),
+        np.eye(7) - J.T @ priority_matrix(alpha, dims) @ J,
+        atol=1e-13,
     )
 
 
@@ -267,7 +280,8 @@ def test_lipschitz_and_monotone_in_each_alpha(p: Problem, data: st.DataObject) -
 
 
 def test_finite_difference_is_the_projector_of_the_new_directions() -> None:
-    """With the ordering fixed (distinct alphas), dP/d alpha_j = -(projector onto the directions task j adds)."""
+    """With the ordering fixed (distinct alphas), dP/d alpha_j = -(projector onto the directions
+    task j adds)."""
     rng = np.random.default_rng(7)
     jacobians = [rng.standard_normal((2, 6)), rng.standard_normal((2, 6)), rng.standard_normal((1, 6))]
     jacobians[2] = jacobians[0][:1] + jacobians[1][:1] + rng.standard_normal((1, 6))
@@ -276,9 +290,9 @@ def test_finite_difference_is_the_projector_of_the_new_directions() -> None:
     for j in range(3):
         step = np.zeros(3)
         step[j] = h
-        derivative = (generalized_projector(jacobians, alpha + step) - generalized_projector(jacobians, alpha - step)) / (
-            2 * h
-        )
+        derivative = (
+            generalized_projector(jacobians, alpha + step) - generalized_projector(jacobians, alpha - step)
+        ) / (2 * h)
         above = np.vstack([jacobians[k] for k in range(3) if alpha[k] > alpha[j]] or [np.zeros((0, 6))])
         with_j = np.vstack([above, jacobians[j]])
         expected = -(null_space_projector(above, 6) - null_space_projector(with_j, 6))
@@ -294,7 +308,9 @@ def test_rank_threshold_is_relative_to_the_row_norm() -> None:
     """[1, 1e-12] is within 1e-12 of the span of [1, 0]: dependent at the default 1e-9 whatever its scale."""
     for scale in (1e-6, 1.0, 1e6):
         jacobians = [np.array([[1.0, 0.0]]), scale * np.array([[1.0, 1e-12]])]
-        np.testing.assert_allclose(generalized_projector(jacobians, [1.0, 0.5]), np.diag([0.0, 1.0]), atol=1e-15)
+        np.testing.assert_allclose(
+            generalized_projector(jacobians, [1.0, 0.5]), np.diag([0.0, 1.0]), atol=1e-15
+        )
     near = [np.array([[1.0, 0.0]]), np.array([[1.0, 1e-6]])]
     np.testing.assert_allclose(generalized_projector(near, [1.0, 0.5]), np.diag([0.0, 0.5]), atol=1e-9)
     np.testing.assert_allclose(
@@ -311,10 +327,17 @@ def test_humanoid_sized_stack_matches_the_papers_construction() -> None:
     jacobians[6] = jacobians[2][:1].copy()
     jacobians[8] = np.eye(nv)[6:]  # posture: the 30 actuated joints
     jacobians[9] = np.eye(nv)[6:11]  # back: 5 of them
-    for alpha in ([1, 1, 1, 0, 0, 1, 0, 0, 0, 0], [1, 0.5, 0.3, 0.3, 0, 1, 0.7, 0.2, 0.1, 0], rng.random(10),
-                  [1, 1, 1, 1, 1, 1, 1, 1, 0, 1], np.ones(10)):
+    for alpha in (
+        [1, 1, 1, 0, 0, 1, 0, 0, 0, 0],
+        [1, 0.5, 0.3, 0.3, 0, 1, 0.7, 0.2, 0.1, 0],
+        rng.random(10),
+        [1, 1, 1, 1, 1, 1, 1, 1, 0, 1],
+        np.ones(10),
+    ):
         alpha = np.array(alpha, dtype=float)
-        np.testing.assert_allclose(generalized_projector(jacobians, alpha), literal_reference(jacobians, alpha), atol=TOL)
+        np.testing.assert_allclose(
+            generalized_projector(jacobians, alpha), literal_reference(jacobians, alpha), atol=TOL
+        )
 
 
 @SETTINGS
@@ -368,7 +391,12 @@ J3 = np.ones((3, 4))
         ([J2, J3], [np.nan, 0.0], {}, r"alpha_row\[0\] = nan"),
         ([J2, J3], [0.5], {}, r"alpha_row has 1 values but there are 2 Jacobians"),
         ([J2, J3], [[0.5, 0.5]], {}, r"alpha_row must be a vector"),
-        ([J2, np.ones((3, 5))], [0.5, 0.5], {}, r"jacobians\[1\] has shape \(3, 5\) but jacobians\[0\] has shape \(2, 4\)"),
+        (
+            [J2, np.ones((3, 5))],
+            [0.5, 0.5],
+            {},
+            r"jacobians\[1\] has shape \(3, 5\) but jacobians\[0\] has shape \(2, 4\)",
+        ),
         ([J2, np.ones(4)], [0.5, 0.5], {}, r"jacobians\[1\] must be a 2-D matrix .* got shape \(4,\)"),
         ([J2, np.full((3, 4), np.nan)], [0.5, 0.0], {}, r"jacobians\[1\] of shape \(3, 4\) contains NaN"),
         ([], [], {}, r"jacobians is empty"),
@@ -381,7 +409,9 @@ def test_validation(jacobians, alpha, kwargs, match: str) -> None:
 
 
 def test_batch_validation() -> None:
-    with pytest.raises(ValueError, match=r"alpha has shape \(2,\) but there are 2 Jacobians; expected \(2, 2\)"):
+    with pytest.raises(
+        ValueError, match=r"alpha has shape \(2,\) but there are 2 Jacobians; expected \(2, 2\)"
+    ):
         generalized_projectors([J2, J3], np.zeros(2))
     with pytest.raises(ValueError, match=r"alpha\[1\]\[0\] = 2.0"):
         generalized_projectors([J2, J3], np.array([[0.0, 0.0], [2.0, 0.0]]))

@@ -68,9 +68,7 @@ def walk_reference(
     return ref, jumps
 
 
-def error_away_from_jumps(
-    zmp: np.ndarray, ref: np.ndarray, jumps: np.ndarray, window: float
-) -> float:
+def error_away_from_jumps(zmp: np.ndarray, ref: np.ndarray, jumps: np.ndarray, window: float) -> float:
     """Max |zmp - ref| (per axis) over the samples farther than `window` seconds from every jump."""
     k = np.arange(len(ref))
     far = np.min(np.abs(k[:, None] - jumps[None, :]), axis=1) * DT > window
@@ -118,9 +116,7 @@ def support_violations(seg: Segment, zmp: np.ndarray, tol: float = 1e-9) -> list
         else:
             key = np.concatenate([seg.left[k], seg.right[k]]).tobytes()
             if key not in hulls:
-                hulls[key] = ConvexHull(
-                    np.vstack([sole_corners(seg.left[k]), sole_corners(seg.right[k])])
-                )
+                hulls[key] = ConvexHull(np.vstack([sole_corners(seg.left[k]), sole_corners(seg.right[k])]))
             eq = hulls[key].equations
             ok = bool(np.all(eq[:, :2] @ zmp[k] + eq[:, 2] <= tol))
         if not ok:
@@ -147,13 +143,7 @@ def walk(controller):
 
 def test_tracking_stability_and_final_rest(controller, walk):
     ref, jumps, plan = walk
-    assert (
-        plan.zmp.shape
-        == plan.com.shape
-        == plan.com_vel.shape
-        == plan.com_acc.shape
-        == ref.shape
-    )
+    assert plan.zmp.shape == plan.com.shape == plan.com_vel.shape == plan.com_acc.shape == ref.shape
     assert error_away_from_jumps(plan.zmp, ref, jumps, 0.1) < 3e-3
     rho = np.max(np.abs(np.linalg.eigvals(controller.closed_loop)))
     assert rho < 1.0
@@ -170,9 +160,7 @@ def test_horizon_matters(walk):
     short = PreviewController(dt=DT, z_c=Z_C, horizon=0.4, q=1.0, r=1e-6, g=G).plan(ref)
     short_error = error_away_from_jumps(short.zmp, ref, jumps, 0.1)
     assert short_error > 3 * long_error
-    assert (
-        short_error > 0.02
-    )  # centimetres off: a 0.4 s preview cannot anticipate a 0.8 s step
+    assert short_error > 0.02  # centimetres off: a 0.4 s preview cannot anticipate a 0.8 s step
 
 
 def test_cart_table_model(walk):
@@ -181,9 +169,7 @@ def test_cart_table_model(walk):
     np.testing.assert_allclose(p, c - Z_C / G * a, atol=1e-12)
     # Jerk held over each period: exact Taylor expansion between samples.
     jerk = np.diff(a, axis=0) / DT
-    np.testing.assert_allclose(
-        np.diff(v, axis=0), DT * a[:-1] + DT**2 / 2 * jerk, atol=1e-12
-    )
+    np.testing.assert_allclose(np.diff(v, axis=0), DT * a[:-1] + DT**2 / 2 * jerk, atol=1e-12)
     np.testing.assert_allclose(
         np.diff(c, axis=0),
         DT * v[:-1] + DT**2 / 2 * a[:-1] + DT**3 / 6 * jerk,
@@ -191,9 +177,7 @@ def test_cart_table_model(walk):
     )
     # And plain finite differences agree to O(dt²).
     np.testing.assert_allclose(np.gradient(c, DT, axis=0)[1:-1], v[1:-1], atol=2e-3)
-    np.testing.assert_allclose(
-        np.gradient(v, DT, axis=0)[1:-1], a[1:-1], atol=0.1
-    )  # jerk up to ~1e2 m/s³
+    np.testing.assert_allclose(np.gradient(v, DT, axis=0)[1:-1], a[1:-1], atol=0.1)  # jerk up to ~1e2 m/s³
 
 
 def test_gains_against_riccati_iteration(controller):
@@ -213,12 +197,8 @@ def test_gains_against_riccati_iteration(controller):
     K = (Bt.T @ P @ At)[0] / (R + (Bt.T @ P @ Bt).item())
     np.testing.assert_allclose(controller.Gi, K[0], rtol=1e-6)
     np.testing.assert_allclose(controller.Gx, K[1:], rtol=1e-6)
-    np.testing.assert_allclose(
-        controller.closed_loop, At - Bt @ K[None, :], rtol=1e-6, atol=1e-9
-    )
-    print(
-        f"Gi = {controller.Gi:.6g}, Gx = {controller.Gx}, Gp[0] = {controller.Gp[0]:.6g}"
-    )
+    np.testing.assert_allclose(controller.closed_loop, At - Bt @ K[None, :], rtol=1e-6, atol=1e-9)
+    print(f"Gi = {controller.Gi:.6g}, Gx = {controller.Gx}, Gp[0] = {controller.Gp[0]:.6g}")
 
 
 def test_preview_gains_against_shift_register_riccati(controller):
@@ -276,11 +256,7 @@ def test_plan_is_repeated_steps_of_kajitas_law(controller):
         np.testing.assert_allclose(plan.com[k], x[0], atol=1e-9)
         np.testing.assert_allclose(plan.com_acc[k], x[2], atol=1e-7)
         e_sum = e_sum + (C @ x)[0] - padded[k]
-        u = (
-            -controller.Gi * e_sum
-            - controller.Gx @ x
-            - controller.Gp[1:] @ padded[k + 1 : k + N]
-        )
+        u = -controller.Gi * e_sum - controller.Gx @ x - controller.Gp[1:] @ padded[k + 1 : k + N]
         x = A @ x + B @ u[None, :]
         # and plan() is step() repeated, bit for bit
         steps_x, steps_s, z = controller.step(steps_x, steps_s, padded[k : k + N])
@@ -302,9 +278,7 @@ def test_bumpless_start_and_translation_invariance(controller):
     # that had already been running (a kick of centimetres).
     first = slice(0, round(0.2 / DT))
     bumpless = np.abs(a.zmp[first] - ref[first]).max()
-    kicked = np.abs(
-        controller.plan(ref, error_sum=np.zeros(2)).zmp[first] - ref[first]
-    ).max()
+    kicked = np.abs(controller.plan(ref, error_sum=np.zeros(2)).zmp[first] - ref[first]).max()
     assert bumpless < 0.01
     assert kicked > 5 * bumpless
 
@@ -318,9 +292,7 @@ def test_step_speed(controller):
         t0 = time.perf_counter()
         _x, s, _ = controller.step(np.zeros((3, 2)), s, window)
         times[i] = time.perf_counter() - t0
-    print(
-        f"PreviewController.step median {np.median(times) * 1e6:.2f} µs (N = {controller.N})"
-    )
+    print(f"PreviewController.step median {np.median(times) * 1e6:.2f} µs (N = {controller.N})")
 
 
 def test_controller_validation():
@@ -361,18 +333,12 @@ def test_step_segment():
     ):
         assert a.shape == (len(seg), cols)
     assert seg.phase.dtype == np.int8
-    assert np.all(seg.phase[:n_ds] == 0) and np.all(
-        seg.phase[n_ds:] == 1
-    )  # left support
+    assert np.all(seg.phase[:n_ds] == 0) and np.all(seg.phase[n_ds:] == 1)  # left support
 
     # Stance foot still; swing foot still in double support, exactly on the step at the end.
-    np.testing.assert_array_equal(
-        seg.left, np.tile([0.0, HALF_WIDTH, 0.0, 0.0], (len(seg), 1))
-    )
+    np.testing.assert_array_equal(seg.left, np.tile([0.0, HALF_WIDTH, 0.0, 0.0], (len(seg), 1)))
     np.testing.assert_array_equal(seg.left_vel, 0.0)
-    np.testing.assert_array_equal(
-        seg.right[: n_ds + 1], np.tile([0.0, -HALF_WIDTH, 0.0, 0.0], (n_ds + 1, 1))
-    )
+    np.testing.assert_array_equal(seg.right[: n_ds + 1], np.tile([0.0, -HALF_WIDTH, 0.0, 0.0], (n_ds + 1, 1)))
     np.testing.assert_array_equal(seg.right[-1], [0.25, -0.12, 0.0, 0.3])
 
     swing = seg.right[n_ds:]
@@ -391,16 +357,12 @@ def test_step_segment():
     assert np.abs(acc[:, :2]).max() < 10.0  # a smooth swing, not a jump
 
     # Derivatives given with the poses match finite differences.
-    np.testing.assert_allclose(
-        np.gradient(seg.right, dt, axis=0)[1:-1], seg.right_vel[1:-1], atol=1e-3
-    )
+    np.testing.assert_allclose(np.gradient(seg.right, dt, axis=0)[1:-1], seg.right_vel[1:-1], atol=1e-3)
     np.testing.assert_array_equal(seg.right_vel[[n_ds, -1]], 0.0)
 
     # ZMP: linear from the start to the stance sole centre, then inside the stance sole.
     np.testing.assert_array_equal(seg.zmp[0], start)
-    expected = start + np.arange(n_ds)[:, None] / n_ds * (
-        np.array([0.0, HALF_WIDTH]) - start
-    )
+    expected = start + np.arange(n_ds)[:, None] / n_ds * (np.array([0.0, HALF_WIDTH]) - start)
     np.testing.assert_allclose(seg.zmp[:n_ds], expected, atol=1e-15)
     assert all(in_sole(seg.zmp[k], seg.left[k]) for k in range(n_ds, len(seg)))
     assert support_violations(seg, seg.zmp) == []
@@ -431,9 +393,7 @@ def test_stop_segment():
     assert len(seg) == n_transfer + 100
     assert np.all(seg.phase == 0)
     np.testing.assert_array_equal(seg.zmp[0], left.xy)
-    np.testing.assert_allclose(
-        seg.zmp[n_transfer:], np.tile([0.9, 0.0], (100, 1)), atol=1e-15
-    )
+    np.testing.assert_allclose(seg.zmp[n_transfer:], np.tile([0.9, 0.0], (100, 1)), atol=1e-15)
     np.testing.assert_array_equal(seg.left_vel, 0.0)
     assert support_violations(seg, seg.zmp) == []
 
@@ -467,9 +427,7 @@ def test_limits_refuse_bad_steps():
     limits = StepLimits()
     with pytest.raises(ValueError, match="min_width"):  # right foot onto the left one
         limits.check(LEFT0, Footstep(0.1, 0.05, 0.0, "right"))
-    with pytest.raises(
-        ValueError, match="cross"
-    ):  # left foot to the right of the right one
+    with pytest.raises(ValueError, match="cross"):  # left foot to the right of the right one
         limits.check(RIGHT0, Footstep(0.1, -0.2, 0.0, "left"))
     with pytest.raises(ValueError, match="max_stride") as err:
         limits.check(LEFT0, Footstep(0.5, -HALF_WIDTH, 0.0, "right"))
@@ -520,9 +478,7 @@ def turning_walk_steps() -> list[Footstep]:
             yaw += math.pi / 8
             ox, oy = ox + 0.05 * math.cos(yaw), oy + 0.05 * math.sin(yaw)
         lat = HALF_WIDTH if side == "left" else -HALF_WIDTH
-        steps.append(
-            Footstep(ox - lat * math.sin(yaw), oy + lat * math.cos(yaw), yaw, side)
-        )
+        steps.append(Footstep(ox - lat * math.sin(yaw), oy + lat * math.cos(yaw), yaw, side))
         side = "left" if side == "right" else "right"
     return steps
 
@@ -533,23 +489,17 @@ def test_turning_walk_zmp_in_support_polygon():
     assert math.isclose(steps[-1].yaw, math.pi / 2)
     seg = plan.sample(DT, hold=1.0)
     timing = StepTiming()
-    expected = 12 * round((timing.single_support + timing.double_support) / DT) + round(
-        1.3 / DT
-    )
+    expected = 12 * round((timing.single_support + timing.double_support) / DT) + round(1.3 / DT)
     assert len(seg) == expected
     assert support_violations(seg, seg.zmp) == []
     # Every foot ends where its last step put it.
     np.testing.assert_array_equal(seg.right[-1], steps[-2].pose)
     np.testing.assert_array_equal(seg.left[-1], steps[-1].pose)
-    np.testing.assert_allclose(
-        seg.zmp[-1], 0.5 * (steps[-1].xy + steps[-2].xy), atol=1e-12
-    )
+    np.testing.assert_allclose(seg.zmp[-1], 0.5 * (steps[-1].xy + steps[-2].xy), atol=1e-12)
     # Poses are continuous and their derivatives match finite differences.
     for pose, vel in ((seg.left, seg.left_vel), (seg.right, seg.right_vel)):
         assert np.abs(np.diff(pose, axis=0)).max() < 0.02  # no jumps
-        np.testing.assert_allclose(
-            np.gradient(pose, DT, axis=0)[1:-1], vel[1:-1], atol=0.02
-        )
+        np.testing.assert_allclose(np.gradient(pose, DT, axis=0)[1:-1], vel[1:-1], atol=0.02)
     # FootstepPlan.walk builds the same footsteps.
     built = FootstepPlan.walk(
         LEFT0,
@@ -558,16 +508,14 @@ def test_turning_walk_zmp_in_support_polygon():
         stride=[0.25] * 8 + [0.05] * 4,
         turn=[0.0] * 8 + [math.pi / 8] * 4,
     )
-    for a, b in zip(built.steps, steps):
+    for a, b in zip(built.steps, steps, strict=False):
         assert a.side == b.side
         np.testing.assert_allclose([a.x, a.y, a.yaw], [b.x, b.y, b.yaw], atol=1e-12)
 
 
 def test_planned_zmp_of_a_walk_stays_in_support_polygon(controller):
     """The CoM plan of a sampled walk keeps the model ZMP inside the (slightly shrunk) support."""
-    seg = FootstepPlan(LEFT0, RIGHT0, turning_walk_steps()).sample(
-        DT, hold=1.0, stand=1.0
-    )
+    seg = FootstepPlan(LEFT0, RIGHT0, turning_walk_steps()).sample(DT, hold=1.0, stand=1.0)
     plan = controller.plan(seg.zmp)
     assert np.abs(plan.zmp - seg.zmp).max() < 0.02
     assert support_violations(seg, plan.zmp) == []
@@ -614,13 +562,8 @@ def test_segment_arrays_are_read_only_views():
 
 def test_full_turn_keeps_yaw_continuous():
     """Footstep yaws given wrapped to [-π, π) still give a continuous sampled yaw."""
-    built = FootstepPlan.walk(
-        LEFT0, RIGHT0, 18, stride=0.0, turn=math.pi / 8, first_side="left"
-    )
-    wrapped = [
-        Footstep(s.x, s.y, (s.yaw + math.pi) % (2 * math.pi) - math.pi, s.side)
-        for s in built.steps
-    ]
+    built = FootstepPlan.walk(LEFT0, RIGHT0, 18, stride=0.0, turn=math.pi / 8, first_side="left")
+    wrapped = [Footstep(s.x, s.y, (s.yaw + math.pi) % (2 * math.pi) - math.pi, s.side) for s in built.steps]
     seg = FootstepPlan(LEFT0, RIGHT0, wrapped).sample(DT, hold=0.2)
     for pose in (seg.left, seg.right):
         assert np.abs(np.diff(pose[:, 3])).max() < 0.02

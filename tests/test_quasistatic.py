@@ -49,10 +49,14 @@ def gravity_term(n: int, mass: float, com: np.ndarray, g_act: np.ndarray | None 
 
 def feet_points() -> list[np.ndarray]:
     """8 contact points, 4 per foot, symmetric about the x and y axes of the base, 0.8 m below it."""
-    return [np.array([x, s * (0.1 + y), -0.8]) for s in (-1.0, 1.0) for x in (-0.05, 0.1) for y in (-0.04, 0.04)]
+    return [
+        np.array([x, s * (0.1 + y), -0.8]) for s in (-1.0, 1.0) for x in (-0.05, 0.1) for y in (-0.04, 0.04)
+    ]
 
 
-def generalized(tasks: list[QsTask], x_by_name: dict[str, np.ndarray], g: np.ndarray, weighted: bool) -> np.ndarray:
+def generalized(
+    tasks: list[QsTask], x_by_name: dict[str, np.ndarray], g: np.ndarray, weighted: bool
+) -> np.ndarray:
     """sum_i P_i J_i^T w_i + g computed directly from the task definitions."""
     out = g.copy()
     for t in tasks:
@@ -85,18 +89,36 @@ def humanoid_like(rng: np.random.Generator, n_a: int = 6, push: float = 1.0):
     mass, com = 20.0, np.array([0.02, -0.01, 0.0])
     pts = [np.array([x, y, -0.6]) for x in (-0.1, 0.1) for y in (-0.1, 0.1)]
     tasks = [
-        QsTask(f"c{i}", point_jacobian(p, n, rng.normal(scale=0.3, size=(3, n_a))), weight=1e-3,
-               friction=FrictionCone(mu=0.6))
+        QsTask(
+            f"c{i}",
+            point_jacobian(p, n, rng.normal(scale=0.3, size=(3, n_a))),
+            weight=1e-3,
+            friction=FrictionCone(mu=0.6),
+        )
         for i, p in enumerate(pts)
     ]
     hand = point_jacobian(np.array([0.3, 0.1, 0.2]), n, rng.normal(scale=0.5, size=(3, n_a)))
-    tasks.append(QsTask("hand", hand, desired=push * np.array([60.0, -20.0, -40.0]), weight=2.0,
-                        projector=random_projector(rng, n)))
+    tasks.append(
+        QsTask(
+            "hand",
+            hand,
+            desired=push * np.array([60.0, -20.0, -40.0]),
+            weight=2.0,
+            projector=random_projector(rng, n),
+        )
+    )
     ori = np.hstack([np.eye(3), np.zeros((3, 3)), rng.normal(scale=0.5, size=(3, n_a))])
-    tasks.append(QsTask("ori", ori, desired=np.array([3.0, -2.0, 1.0]), weight=0.5,
-                        projector=random_projector(rng, n)))
-    tasks.append(QsTask("posture", np.hstack([np.zeros((n_a, 6)), np.eye(n_a)]), weight=1e-3,
-                        projector=random_projector(rng, n)))
+    tasks.append(
+        QsTask("ori", ori, desired=np.array([3.0, -2.0, 1.0]), weight=0.5, projector=random_projector(rng, n))
+    )
+    tasks.append(
+        QsTask(
+            "posture",
+            np.hstack([np.zeros((n_a, 6)), np.eye(n_a)]),
+            weight=1e-3,
+            projector=random_projector(rng, n),
+        )
+    )
     g = gravity_term(n, mass, com, rng.normal(scale=2.0, size=n_a))
     return n, tasks, g
 
@@ -107,20 +129,37 @@ def test_matches_kkt_solution_when_no_inequality_is_active(weighted: bool) -> No
     rng = np.random.default_rng(1)
     n_a, n = 4, 10
     tasks = [
-        QsTask("foot", np.hstack([np.eye(6), rng.normal(size=(6, n_a))]), weight=1e-3),  # a 6-D support wrench
-        QsTask("hand", rng.normal(size=(3, n)), desired=np.array([5.0, -3.0, 2.0]), weight=4.0,
-               projector=random_projector(rng, n)),
-        QsTask("head", rng.normal(size=(2, n)), desired=np.array([1.0, 0.5]), weight=0.5,
-               projector=random_projector(rng, n)),
-        QsTask("posture", np.hstack([np.zeros((n_a, 6)), np.eye(n_a)]), weight=2e-3,
-               projector=random_projector(rng, n)),
+        QsTask(
+            "foot", np.hstack([np.eye(6), rng.normal(size=(6, n_a))]), weight=1e-3
+        ),  # a 6-D support wrench
+        QsTask(
+            "hand",
+            rng.normal(size=(3, n)),
+            desired=np.array([5.0, -3.0, 2.0]),
+            weight=4.0,
+            projector=random_projector(rng, n),
+        ),
+        QsTask(
+            "head",
+            rng.normal(size=(2, n)),
+            desired=np.array([1.0, 0.5]),
+            weight=0.5,
+            projector=random_projector(rng, n),
+        ),
+        QsTask(
+            "posture",
+            np.hstack([np.zeros((n_a, 6)), np.eye(n_a)]),
+            weight=2e-3,
+            projector=random_projector(rng, n),
+        ),
     ]
     g = rng.normal(size=n) * 10.0
     # Independent KKT: min sum_j h_j (x_j - d_j)^2  s.t.  E x = -g_root.
     cols = [((np.eye(n) if (weighted or t.projector is None) else t.projector) @ t.jacobian.T) for t in tasks]
     A = np.hstack(cols)
-    h = np.concatenate([np.full(t.jacobian.shape[0], t.weight if (weighted or t.desired is None) else 1.0)
-                        for t in tasks])
+    h = np.concatenate(
+        [np.full(t.jacobian.shape[0], t.weight if (weighted or t.desired is None) else 1.0) for t in tasks]
+    )
     d = np.concatenate([t.desired if t.desired is not None else np.zeros(t.jacobian.shape[0]) for t in tasks])
     E = A[:6]
     m = h.size
@@ -193,7 +232,9 @@ def test_goal_beyond_friction_stays_in_the_cone() -> None:
 def test_impossible_minimum_normal_force_is_infeasible() -> None:
     n, mass = 6, 40.0
     cone = FrictionCone(mu=0.8, min_normal_force=mass * G0)  # each contact >= the whole weight
-    tasks = [QsTask(f"c{i}", point_jacobian(p, n), weight=1e-3, friction=cone) for i, p in enumerate(feet_points())]
+    tasks = [
+        QsTask(f"c{i}", point_jacobian(p, n), weight=1e-3, friction=cone) for i, p in enumerate(feet_points())
+    ]
     qp = QuasiStaticQP(n)
     sol = qp.solve(tasks, gravity_term(n, mass, np.zeros(3)))
     assert sol.status == "infeasible"
@@ -201,8 +242,10 @@ def test_impossible_minimum_normal_force_is_infeasible() -> None:
     assert np.isnan(sol.tau).all() and all(np.isnan(w).all() for w in sol.wrenches.values())
     # The next feasible tick of the same structure solves again (no stale warm start).
     light = FrictionCone(mu=0.8, min_normal_force=1.0)
-    ok = qp.solve([QsTask(t.name, t.jacobian, weight=1e-3, friction=light) for t in tasks],
-                  gravity_term(n, mass, np.zeros(3)))
+    ok = qp.solve(
+        [QsTask(t.name, t.jacobian, weight=1e-3, friction=light) for t in tasks],
+        gravity_term(n, mass, np.zeros(3)),
+    )
     assert ok.status == "optimal", ok.message
 
 
@@ -217,8 +260,15 @@ def test_unsupported_base_is_infeasible() -> None:
 def test_torque_bounds_the_equilibrium_violates_are_infeasible() -> None:
     # One joint whose torque the contact forces fix: tau = c * sum(w_z) + g_act = -c m g + g_act.
     n, mass, c = 7, 10.0, 0.2
-    tasks = [QsTask(f"c{i}", point_jacobian(p, n, np.array([[0.0], [0.0], [c]])), weight=1e-3,
-                    friction=FrictionCone(mu=0.8)) for i, p in enumerate(feet_points()[:4])]
+    tasks = [
+        QsTask(
+            f"c{i}",
+            point_jacobian(p, n, np.array([[0.0], [0.0], [c]])),
+            weight=1e-3,
+            friction=FrictionCone(mu=0.8),
+        )
+        for i, p in enumerate(feet_points()[:4])
+    ]
     g = gravity_term(n, mass, np.array([0.0, -0.1, 0.0]), np.array([1.0]))
     required = -c * mass * G0 + 1.0
     ok = QuasiStaticQP(n, tau_min=[required - 1.0], tau_max=[required + 1.0]).solve(tasks, g)
@@ -235,8 +285,10 @@ def test_standing_on_eight_points_carries_the_weight_evenly() -> None:
     rng = np.random.default_rng(3)
     leg = rng.normal(scale=0.3, size=(3, n_a))
     cone = FrictionCone(mu=0.8)
-    tasks = [QsTask(f"c{i}", point_jacobian(p, n, leg), weight=1e-3, friction=cone)
-             for i, p in enumerate(feet_points())]
+    tasks = [
+        QsTask(f"c{i}", point_jacobian(p, n, leg), weight=1e-3, friction=cone)
+        for i, p in enumerate(feet_points())
+    ]
     tasks.append(QsTask("posture", np.hstack([np.zeros((n_a, 6)), np.eye(n_a)]), weight=1e-3))
     com = np.array([0.025, 0.0, 0.0])  # centred between the points of each foot
     sol = QuasiStaticQP(n).solve(tasks, gravity_term(n, mass, com))
@@ -251,14 +303,18 @@ def test_standing_on_eight_points_carries_the_weight_evenly() -> None:
 def test_shifted_com_gives_the_minimum_norm_distribution() -> None:
     n, mass = 6, 45.0
     pts = feet_points()
-    tasks = [QsTask(f"c{i}", point_jacobian(p, n), weight=1e-3, friction=FrictionCone(mu=0.8))
-             for i, p in enumerate(pts)]
+    tasks = [
+        QsTask(f"c{i}", point_jacobian(p, n), weight=1e-3, friction=FrictionCone(mu=0.8))
+        for i, p in enumerate(pts)
+    ]
     com = np.array([0.04, 0.02, 0.0])
     g = gravity_term(n, mass, com)
     # Independent: minimum-norm contact forces f with sum [p x f; f] = [c x W; W], W = (0, 0, mg).
     Eq = np.hstack([np.vstack([skew(p), np.eye(3)]) for p in pts])
     f_ref = np.linalg.lstsq(Eq, g[:6], rcond=None)[0].reshape(8, 3)
-    assert np.all(f_ref[:, 2] > 10.0) and np.all(np.abs(f_ref[:, :2]) < 0.8 / np.sqrt(2) * f_ref[:, 2:3])  # no cone active
+    assert np.all(f_ref[:, 2] > 10.0) and np.all(
+        np.abs(f_ref[:, :2]) < 0.8 / np.sqrt(2) * f_ref[:, 2:3]
+    )  # no cone active
     sol = QuasiStaticQP(n).solve(tasks, g)
     f = np.array([-sol.wrenches[f"c{i}"] for i in range(8)])
     np.testing.assert_allclose(f, f_ref, atol=1e-8)
@@ -270,8 +326,10 @@ def test_strict_priority_meets_the_higher_task_where_weights_compromise() -> Non
     J1, J2 = np.array([[1.0, 0.0]]), np.array([[1.0, 1.0]])
     P2 = np.eye(2) - np.linalg.pinv(J1) @ J1  # null-space projector of task 1
     d1, d2, w1, w2 = 1.0, 1.0, 10.0, 1.0
-    tasks = [QsTask("t1", J1, desired=np.array([d1]), weight=w1),
-             QsTask("t2", J2, desired=np.array([d2]), weight=w2, projector=P2)]
+    tasks = [
+        QsTask("t1", J1, desired=np.array([d1]), weight=w1),
+        QsTask("t2", J2, desired=np.array([d2]), weight=w2, projector=P2),
+    ]
     qp = QuasiStaticQP(2, n_base=0, tau_min=[-1.2, -5.0], tau_max=[1.2, 5.0])
     hier = qp.solve(tasks, np.zeros(2))
     weig = qp.solve(tasks, np.zeros(2), weighted=True)
@@ -298,10 +356,12 @@ def test_agrees_with_scipy_slsqp_polished_on_its_active_set(weighted: bool, seed
     sol = QuasiStaticQP(n, tau_min=-tau_max, tau_max=tau_max).solve(tasks, g, weighted=weighted)
     assert sol.status == "optimal", sol.message
     # The same QP assembled here from the task definitions: min sum h (x - d)^2, E x = e, G x <= c.
-    A = np.hstack([((np.eye(n) if (weighted or t.projector is None) else t.projector) @ t.jacobian.T)
-                   for t in tasks])
-    h = np.concatenate([np.full(t.jacobian.shape[0], t.weight if (weighted or t.desired is None) else 1.0)
-                        for t in tasks])
+    A = np.hstack(
+        [((np.eye(n) if (weighted or t.projector is None) else t.projector) @ t.jacobian.T) for t in tasks]
+    )
+    h = np.concatenate(
+        [np.full(t.jacobian.shape[0], t.weight if (weighted or t.desired is None) else 1.0) for t in tasks]
+    )
     d = np.concatenate([t.desired if t.desired is not None else np.zeros(t.jacobian.shape[0]) for t in tasks])
     k = 0.6 / np.sqrt(2)
     # f = -w: f_x <= k f_z, -f_x <= k f_z, f_y <= k f_z, -f_y <= k f_z, -f_z <= 0, written on w.
@@ -318,19 +378,31 @@ def test_agrees_with_scipy_slsqp_polished_on_its_active_set(weighted: bool, seed
     c = np.concatenate([np.zeros(5 * len(rows)), tau_max - g[6:], tau_max + g[6:]])
     # 1) SLSQP, in scaled variables y = sqrt(h) x (identity Hessian), cost divided by its value at 0.
     s, c0 = np.sqrt(h), float(h @ d**2)
-    cons = [{"type": "eq", "fun": lambda y: E @ (y / s) - e, "jac": lambda y: E / s},
-            {"type": "ineq", "fun": lambda y: c - G @ (y / s), "jac": lambda y: -G / s}]
-    res = scipy.optimize.minimize(lambda y: np.sum((y - s * d) ** 2) / c0, np.zeros(h.size),
-                                  jac=lambda y: 2 * (y - s * d) / c0, constraints=cons, method="SLSQP",
-                                  options={"ftol": 1e-13, "maxiter": 2000})
+    cons = [
+        {"type": "eq", "fun": lambda y: E @ (y / s) - e, "jac": lambda y: E / s},
+        {"type": "ineq", "fun": lambda y: c - G @ (y / s), "jac": lambda y: -G / s},
+    ]
+    res = scipy.optimize.minimize(
+        lambda y: np.sum((y - s * d) ** 2) / c0,
+        np.zeros(h.size),
+        jac=lambda y: 2 * (y - s * d) / c0,
+        constraints=cons,
+        method="SLSQP",
+        options={"ftol": 1e-13, "maxiter": 2000},
+    )
     assert res.success, res.message
     x_slsqp = res.x / s
     # SLSQP alone is accurate to ~1e-4 here (the regularised directions weigh 1e-3), so:
     # 2) the KKT system on SLSQP's active set, solved exactly, must be a certified optimum.
     act = np.flatnonzero(c - G @ x_slsqp < 1e-4 * (1.0 + np.abs(c)))
     Ga = G[act]
-    K = np.block([[2 * np.diag(h), E.T, Ga.T], [E, np.zeros((6, 6 + act.size))],
-                  [Ga, np.zeros((act.size, 6 + act.size))]])
+    K = np.block(
+        [
+            [2 * np.diag(h), E.T, Ga.T],
+            [E, np.zeros((6, 6 + act.size))],
+            [Ga, np.zeros((act.size, 6 + act.size))],
+        ]
+    )
     sol_kkt = np.linalg.lstsq(K, np.concatenate([2 * h * d, e, c[act]]), rcond=None)[0]
     x = sol_kkt[: h.size]
     assert np.abs(K @ sol_kkt - np.concatenate([2 * h * d, e, c[act]])).max() < 1e-8

@@ -16,7 +16,9 @@ def test_two_soles_hull_and_distances():
     left, right = sole_corners(0.0, 0.1, 0.0, (0.2, 0.1)), sole_corners(0.0, -0.1, 0.0, (0.2, 0.1))
     hull = support_polygon([left, right])
     assert len(hull) == 4  # the two rectangles span one rectangle 0.2 x 0.3
-    assert signed_distance_inside(hull, np.array([0.0, 0.0])) == pytest.approx(0.1)  # 0.1 to the front/back edges
+    assert signed_distance_inside(hull, np.array([0.0, 0.0])) == pytest.approx(
+        0.1
+    )  # 0.1 to the front/back edges
     assert signed_distance_inside(hull, np.array([0.0, 0.14])) == pytest.approx(0.01)
     assert signed_distance_inside(hull, np.array([0.0, 0.2])) == pytest.approx(-0.05)
     single = support_polygon([left])

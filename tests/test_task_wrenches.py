@@ -39,10 +39,16 @@ def test_pd_wrench_pulls_toward_the_goal_with_the_sot_error_negated() -> None:
         ((np.ones(3), np.ones(2), 1.0, 1.0), r"error_rate must have shape \(3,\), got \(2,\)"),
         ((np.ones((3, 1)), np.ones(3), 1.0, 1.0), r"error must have shape a vector"),
         ((np.array([np.nan, 0.0]), np.ones(2), 1.0, 1.0), r"error of shape \(2,\) contains NaN"),
-        ((np.ones(2), np.ones(2), [1.0, 2.0, 3.0], 1.0), r"kp must be a scalar, a \(2,\) vector or a \(2, 2\) matrix"),
+        (
+            (np.ones(2), np.ones(2), [1.0, 2.0, 3.0], 1.0),
+            r"kp must be a scalar, a \(2,\) vector or a \(2, 2\) matrix",
+        ),
         ((np.ones(2), np.ones(2), 1.0, -1.0), r"kd = -1.0 must be >= 0"),
         ((np.ones(2), np.ones(2), np.array([[1.0, 2.0], [0.0, 1.0]]), 1.0), r"kp must be a symmetric"),
-        ((np.ones(2), np.ones(2), np.array([[1.0, 2.0], [2.0, 1.0]]), 1.0), r"kp must be positive semidefinite"),
+        (
+            (np.ones(2), np.ones(2), np.array([[1.0, 2.0], [2.0, 1.0]]), 1.0),
+            r"kp must be positive semidefinite",
+        ),
         ((np.ones(2), np.ones(2), np.inf, 1.0), r"kp contains NaN or Inf"),
     ],
 )
@@ -115,8 +121,14 @@ def test_reset_to_a_value() -> None:
         ({"dim": 0, "kp": 1.0, "ki": 1.0}, r"dim must be an integer >= 1, got 0"),
         ({"dim": 2, "kp": [1.0], "ki": 1.0}, r"kp must be a scalar, a \(2,\) vector"),
         ({"dim": 2, "kp": 1.0, "ki": -1.0}, r"ki = -1.0 must be >= 0"),
-        ({"dim": 2, "kp": 1.0, "ki": 1.0, "integral_limit": 0.0}, r"integral_limit = 0.0 must be finite and > 0"),
-        ({"dim": 2, "kp": 1.0, "ki": 1.0, "integral_limit": [1.0, 2.0, 3.0]}, r"integral_limit must be a scalar or a \(2,\)"),
+        (
+            {"dim": 2, "kp": 1.0, "ki": 1.0, "integral_limit": 0.0},
+            r"integral_limit = 0.0 must be finite and > 0",
+        ),
+        (
+            {"dim": 2, "kp": 1.0, "ki": 1.0, "integral_limit": [1.0, 2.0, 3.0]},
+            r"integral_limit must be a scalar or a \(2,\)",
+        ),
     ],
 )
 def test_pi_construction_validation(kwargs, match: str) -> None:

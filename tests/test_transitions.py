@@ -21,7 +21,15 @@ SETTINGS = settings(max_examples=100, deadline=None)
 def test_profile_values() -> None:
     """0.5 - 0.5 cos(pi u) by hand: u = 0, 1/3, 1/2, 2/3, 1 -> 0, 1/4, 1/2, 3/4, 1; clamped outside."""
     t1, t2 = 2.0, 5.0
-    for t, expected in [(-1.0, 0.0), (2.0, 0.0), (3.0, 0.25), (3.5, 0.5), (4.0, 0.75), (5.0, 1.0), (9.0, 1.0)]:
+    for t, expected in [
+        (-1.0, 0.0),
+        (2.0, 0.0),
+        (3.0, 0.25),
+        (3.5, 0.5),
+        (4.0, 0.75),
+        (5.0, 1.0),
+        (9.0, 1.0),
+    ]:
         assert smooth_step(t, t1, t2) == pytest.approx(expected, abs=1e-15)
         assert isinstance(smooth_step(t, t1, t2), float)
     ts = np.array([[-1.0, 2.0, 3.0], [3.5, 4.0, 9.0]])
@@ -106,7 +114,9 @@ def test_set_follows_eq_12_from_the_current_value() -> None:
 
 def test_switch_keeps_the_sum_and_swaps() -> None:
     s = schedule()
-    s.switch("lh", "lhf", start=2.0, duration=0.6)  # lhf rises above lh: alpha[lh, lhf] 0 -> 1, alpha[lhf, lh] 1 -> 0
+    s.switch(
+        "lh", "lhf", start=2.0, duration=0.6
+    )  # lhf rises above lh: alpha[lh, lhf] 0 -> 1, alpha[lhf, lh] 1 -> 0
     for t in np.linspace(1.5, 3.0, 61):
         a = s.at(t)
         assert a[1, 2] + a[2, 1] == pytest.approx(1.0, abs=1e-15)
@@ -169,8 +179,14 @@ def test_at_equals_the_scalar_evaluation(data: st.DataObject) -> None:
         i, j = int(rng.integers(n)), int(rng.integers(n))
         start = starts.get((i, j), -1.0) + float(rng.choice([0.0, rng.uniform(0.0, 1.5)]))
         starts[(i, j)] = start
-        s.set(i, j, float(rng.random()), start=start, duration=float(rng.choice([0.0, rng.uniform(0.0, 1.0)])))
-    for t in list(rng.uniform(-2.0, 8.0, 20)) + [tr.start for tr in s.transitions] + [tr.end for tr in s.transitions]:
+        s.set(
+            i, j, float(rng.random()), start=start, duration=float(rng.choice([0.0, rng.uniform(0.0, 1.0)]))
+        )
+    for t in (
+        list(rng.uniform(-2.0, 8.0, 20))
+        + [tr.start for tr in s.transitions]
+        + [tr.end for tr in s.transitions]
+    ):
         scalar = np.array([[s.alpha(t, i, j) for j in range(n)] for i in range(n)])
         np.testing.assert_allclose(s.at(t), scalar, atol=1e-15)
         assert ((s.at(t) >= 0.0) & (s.at(t) <= 1.0)).all()
@@ -203,7 +219,9 @@ def test_validation() -> None:
         s.set("a", "b", 0.0, start=1.0, duration=1.0)
     with pytest.raises(ValueError, match=r"switch needs two different tasks"):
         s.switch("a", "a", start=5.0, duration=1.0)
-    with pytest.raises(ValueError, match=r"alpha\[i, j\] = alpha\[j, i\] = 1.0, swapping them changes nothing"):
+    with pytest.raises(
+        ValueError, match=r"alpha\[i, j\] = alpha\[j, i\] = 1.0, swapping them changes nothing"
+    ):
         s.switch("a", "b", start=5.0, duration=1.0)
     with pytest.raises(ValueError, match=r"would precede it"):
         s.switch("b", "a", start=1.0, duration=1.0)

@@ -33,7 +33,12 @@ def run_tutorial(tmp_path_factory):
             out = tmp_path_factory.mktemp(path.stem)
             env = dict(os.environ, DRAKE_SOT_OUT=str(out), MPLBACKEND="Agg")
             proc = subprocess.run(
-                [sys.executable, str(path)], cwd=REPO, env=env, capture_output=True, text=True, timeout=TIMEOUT,
+                [sys.executable, str(path)],
+                cwd=REPO,
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=TIMEOUT,
             )
             runs[path] = (proc, out)
         return runs[path]

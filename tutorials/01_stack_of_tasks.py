@@ -90,8 +90,8 @@ print("dyn output ports:", [dyn.get_output_port(i).get_name() for i in range(dyn
 # height during that particular motion. On this model the CoM stands at ≈ 0.81 m in
 # half-sitting; asking for 0.64 m would make the robot squat by some 17 cm, a motion
 # that has nothing to do with the paper's example. So we keep the paper's value but
-# give the feature the *selection* `"110"`: only x and y are controlled (the CoM's ground projection, what balance
-# needs) and z is left free. The target (0, 0) is 1.3 cm behind the initial CoM,
+# give the feature the *selection* `"110"`: only x and y are controlled (the CoM's ground
+# projection, what balance needs) and z is left free. The target (0, 0) is 1.3 cm behind the initial CoM,
 # well inside the feet's support polygon (the soles are 23 cm long).
 #
 # **Where does `s*` come from?** In the paper `featureComDes` is another feature whose
@@ -153,7 +153,10 @@ builder.Connect(featureCom.GetOutputPort("feature"), taskCom.add(featureCom))
 # in the world; with the relative feature it pins both feet to the ground.
 
 # %%
-right_sole, left_sole = control_info.frames["right_foot"], control_info.frames["left_foot"]  # "r_sole", "l_sole"
+right_sole, left_sole = (
+    control_info.frames["right_foot"],
+    control_info.frames["left_foot"],
+)  # "r_sole", "l_sole"
 # dyn2.createOpPoint rleg 6
 dyn.add_operational_point("rleg", right_sole)
 # dyn2.createOpPoint lleg 12
@@ -297,7 +300,9 @@ sot.rm(context, "taskCom")
 show("rm taskCom")
 # set featureComDes.errorIN [3](0,0.03,0.64)   -- the paper's `set`, at run time
 COM_DES = np.array([0.0, 0.03, 0.64])
-featureComDes.get_mutable_source_value(featureComDes.GetMyMutableContextFromRoot(context)).SetFromVector(COM_DES)
+featureComDes.get_mutable_source_value(featureComDes.GetMyMutableContextFromRoot(context)).SetFromVector(
+    COM_DES
+)
 simulator.AdvanceTo(1.5)
 
 sot.push(context, "taskCom")
@@ -326,12 +331,17 @@ feet_gap_error = np.linalg.norm((X_W_lleg.inverse() @ X_W_rleg).translation() - 
 left_foot_drift = np.linalg.norm(X_W_lleg.translation() - X_W_lleg0.translation())
 
 print(f"pelvis height: {pelvis_height:.3f} m")
-print(f"CoM: ({com[0]:+.4f}, {com[1]:+.4f}, {com[2]:.4f}) m, target xy ({COM_DES[0]:+.4f}, {COM_DES[1]:+.4f})")
+print(
+    f"CoM: ({com[0]:+.4f}, {com[1]:+.4f}, {com[2]:.4f}) m, target xy ({COM_DES[0]:+.4f}, {COM_DES[1]:+.4f})"
+)
 print(f"CoM xy error: {com_xy_error:.4f} m")
 print(f"featureTwofeet error norm: {np.linalg.norm(twofeet_error):.2e}")
 print(f"measured feet relative position error: {feet_gap_error:.4f} m")
 print(f"measured left foot drift: {left_foot_drift:.4f} m")
-print("featureTwofeet s* (a parameter, see set_desired):", np.round(featureTwofeet.desired(context).translation(), 4))
+print(
+    "featureTwofeet s* (a parameter, see set_desired):",
+    np.round(featureTwofeet.desired(context).translation(), 4),
+)
 print(f"wall time (manual diagram, 2.5 s simulated): {time.perf_counter() - wall_start:.1f} s")
 
 # %% [markdown]
@@ -351,5 +361,8 @@ b.add_com_task("taskCom", selection="110", gain=3.0, desired=COM_DES_PAPER)
 built = b.build(stack=["taskLF", "taskRF", "taskCom"])
 sim = built.create_simulator()
 sim.AdvanceTo(0.5)
-print(f"HumanoidSoTBuilder at t = {sim.get_context().get_time():.1f} s: stack =", built.sot.list(sim.get_mutable_context()))
+print(
+    f"HumanoidSoTBuilder at t = {sim.get_context().get_time():.1f} s: stack =",
+    built.sot.list(sim.get_mutable_context()),
+)
 print(f"total wall time: {time.perf_counter() - wall_start:.1f} s")

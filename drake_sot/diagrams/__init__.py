@@ -1,11 +1,25 @@
 """Scenarios: diagrams that compose the systems around the embedded humanoid, one per module."""
 
-from drake_sot.diagrams import alpha_sweep, priority_switching, reach, table_pounding, walk, walk_then_interact
+from drake_sot.diagrams import (
+    alpha_sweep,
+    priority_switching,
+    reach,
+    table_pounding,
+    walk,
+    walk_then_interact,
+)
 from drake_sot.diagrams.scenario import Scenario
 
-SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
-        reach.SCENARIO, walk.SCENARIO, walk_then_interact.SCENARIO, priority_switching.SCENARIO, table_pounding.SCENARIO,
-    )}
+SCENARIOS: dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        reach.SCENARIO,
+        walk.SCENARIO,
+        walk_then_interact.SCENARIO,
+        priority_switching.SCENARIO,
+        table_pounding.SCENARIO,
+    )
+}
 
 #: Batches of simulations (the ``drake-sot run`` command accepts them like scenarios).
 STUDIES: dict[str, alpha_sweep.Study] = {s.name: s for s in (alpha_sweep.STUDY,)}

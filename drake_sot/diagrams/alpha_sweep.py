@@ -25,9 +25,13 @@ GRID = tuple(np.round(np.linspace(0.0, 1.0, 6), 3))  # {0, 0.2, ..., 1}
 SETTLE = 4.0  # [s] simulated per point; errors averaged over the last second
 
 
-def steady_errors(alpha_lh_head: float, alpha_head_lh: float, duration: float = SETTLE) -> tuple[float, float]:
+def steady_errors(
+    alpha_lh_head: float, alpha_head_lh: float, duration: float = SETTLE
+) -> tuple[float, float]:
     """(head, left-hand) mean error norm [m] over the last second of a run with constant α."""
-    setup = ps.build_with(AlphaSchedule(list(ps.TASKS), ps.initial_alpha(alpha_lh_head, alpha_head_lh)), duration=duration)
+    setup = ps.build_with(
+        AlphaSchedule(list(ps.TASKS), ps.initial_alpha(alpha_lh_head, alpha_head_lh)), duration=duration
+    )
     simulator = setup.built.create_simulator()
     result = simulate(simulator, duration)
     if not result.completed:
@@ -36,7 +40,9 @@ def steady_errors(alpha_lh_head: float, alpha_head_lh: float, duration: float = 
     slices = setup.built.error_slices()
     window = log.sample_times() >= duration - 1.0
     data = log.data()[:, window]
-    return tuple(float(np.mean(np.linalg.norm(data[slices[name]], axis=0))) for name in ("taskHead", "taskLH"))
+    return tuple(
+        float(np.mean(np.linalg.norm(data[slices[name]], axis=0))) for name in ("taskHead", "taskLH")
+    )
 
 
 def _point(args: tuple[float, float, float]) -> tuple[float, float, float, float]:
@@ -78,13 +84,16 @@ def run(
             if progress:
                 progress(done, len(points), time.perf_counter() - start)
     files = {"npz": out / "alpha_sweep.npz", "png": out / "alpha_sweep.png"}
-    np.savez_compressed(files["npz"], alpha_lh_head=np.array(grid), alpha_head_lh=np.array(grid), head_error=head, lh_error=lh)
+    np.savez_compressed(
+        files["npz"], alpha_lh_head=np.array(grid), alpha_head_lh=np.array(grid), head_error=head, lh_error=lh
+    )
     plot_alpha_sweep(np.array(grid), head, lh, files["png"])
     return files
 
 
 STUDY = Study(
     name="alpha_sweep",
-    description="steady head and left-hand errors over a 6x6 grid of priorities, in parallel (paper 004 fig. 11)",
+    description="steady head and left-hand errors over a 6x6 grid of priorities, in parallel "
+    "(paper 004 fig. 11)",
     run=run,
 )

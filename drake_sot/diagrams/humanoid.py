@@ -24,14 +24,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import Meshcat, MeshcatParams, SceneGraph
+from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, SceneGraph
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import BodyIndex, JointIndex
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
-from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
 
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
@@ -45,12 +44,6 @@ from drake_sot.models import (
     weld_base,
 )
 from drake_sot.systems.admittance import AdmittanceController
-from drake_sot.systems.generalized_controller import (
-    ContactPoints,
-    ForceTask,
-    GeneralizedHierarchyController,
-    MotionTask,
-)
 from drake_sot.systems.features import (
     FeatureCoM,
     FeatureJointLimits,
@@ -61,11 +54,18 @@ from drake_sot.systems.features import (
 )
 from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.force_sensor import ForceSensor
+from drake_sot.systems.generalized_controller import (
+    ContactPoints,
+    ForceTask,
+    GeneralizedHierarchyController,
+    MotionTask,
+)
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.stack_history import StackHistory
 from drake_sot.systems.task import Task
+
 
 @dataclass
 class BuiltHumanoid:
@@ -93,11 +93,12 @@ class BuiltHumanoid:
         return simulator
 
     def frame_pose(self, root_context, frame_key: str) -> RigidTransform:
-        """Pose in world of a humanoid frame (logical name, e.g. ``"right_hand"``) in the *simulated* plant."""
+        """Pose in world of a humanoid frame (logical name, e.g. ``"right_hand"``) in the
+        *simulated* plant."""
         plant_context = self.plant.GetMyContextFromRoot(root_context)
-        return self.plant.GetFrameByName(self.info.frames[frame_key], self.info.model_instance).CalcPoseInWorld(
-            plant_context
-        )
+        return self.plant.GetFrameByName(
+            self.info.frames[frame_key], self.info.model_instance
+        ).CalcPoseInWorld(plant_context)
 
     def error_slices(self) -> dict[str, slice]:
         """Where each task's error lies in the logged ``errors``."""
@@ -133,7 +134,11 @@ class HumanoidTorqueControl(BuiltHumanoid):
 
 
 def add_humanoid_plant(
-    builder: DiagramBuilder, *, time_step: float = 1e-3, pd_gains: bool = True, fixed_base: bool = False,
+    builder: DiagramBuilder,
+    *,
+    time_step: float = 1e-3,
+    pd_gains: bool = True,
+    fixed_base: bool = False,
     before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
 ) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
     """The simulated world in a finalized ``MultibodyPlant`` (SAP, point contact,
@@ -141,7 +146,9 @@ def add_humanoid_plant(
     (or torque-controlled ones, ``pd_gains=False``) on the ground, or with its pelvis
     welded in the air (``fixed_base``, no ground). ``before_finalize`` may add to the
     world (a table, collision shapes on the hands) before the plant is finalized."""
-    config = MultibodyPlantConfig(time_step=time_step, discrete_contact_approximation="sap", contact_model="point")
+    config = MultibodyPlantConfig(
+        time_step=time_step, discrete_contact_approximation="sap", contact_model="point"
+    )
     plant, scene_graph = AddMultibodyPlant(config, builder)
     info = load_humanoid(plant, pd_gains=pd_gains)
     if fixed_base:
@@ -171,17 +178,27 @@ class HumanoidSoTBuilder:
     """
 
     def __init__(
-        self, *, control_period: float = 0.005, time_step: float = 1e-3, meshcat: Meshcat | None = None,
-        actuation: str = "pd", fixed_base: bool = False,
+        self,
+        *,
+        control_period: float = 0.005,
+        time_step: float = 1e-3,
+        meshcat: Meshcat | None = None,
+        actuation: str = "pd",
+        fixed_base: bool = False,
         before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
     ) -> None:
         if actuation not in ("pd", "torque"):
-            raise ValueError(f"actuation {actuation!r} must be 'pd' (kinematic SoT) or 'torque' (generalized hierarchy)")
+            raise ValueError(
+                f"actuation {actuation!r} must be 'pd' (kinematic SoT) or 'torque' (generalized hierarchy)"
+            )
         self.actuation = actuation
         self.fixed_base = fixed_base
         self.builder = DiagramBuilder()
         self.plant, self.scene_graph, self.info = add_humanoid_plant(
-            self.builder, time_step=time_step, pd_gains=actuation == "pd", fixed_base=fixed_base,
+            self.builder,
+            time_step=time_step,
+            pd_gains=actuation == "pd",
+            fixed_base=fixed_base,
             before_finalize=before_finalize,
         )
         self.control_plant, self.control_info = make_control_model(fixed_base=fixed_base)
@@ -226,7 +243,9 @@ class HumanoidSoTBuilder:
             self.dyn.add_operational_point(frame_key, frame_name)
         return frame_key
 
-    def _add_task(self, task_name: str, feature: _Feature, gain: Gain, selection: SelectionLike = None) -> Task:
+    def _add_task(
+        self, task_name: str, feature: _Feature, gain: Gain, selection: SelectionLike = None
+    ) -> Task:
         """A task reading ``feature`` (added to the diagram unless it is there already, shared)."""
         if task_name in self.tasks:
             raise ValueError(f"a task named {task_name!r} exists already")
@@ -239,8 +258,14 @@ class HumanoidSoTBuilder:
         return task
 
     def add_op_point_task(
-        self, task_name: str, frame_key: str, *, selection: SelectionLike = None, gain: Gain = 1.0,
-        desired: RigidTransform | None = None, feature_of: str | None = None,
+        self,
+        task_name: str,
+        frame_key: str,
+        *,
+        selection: SelectionLike = None,
+        gain: Gain = 1.0,
+        desired: RigidTransform | None = None,
+        feature_of: str | None = None,
     ) -> Task:
         """A 6D task (``FeaturePoint6d``) on a humanoid frame; holds its initial pose unless ``desired``.
 
@@ -252,9 +277,12 @@ class HumanoidSoTBuilder:
         """
         op = self.op_point(frame_key)
         if feature_of is not None:
-            return self._add_task(task_name, self._shared_pose_feature(feature_of, frame_key, desired), gain, selection)
+            return self._add_task(
+                task_name, self._shared_pose_feature(feature_of, frame_key, desired), gain, selection
+            )
         feature = FeaturePoint6d(
-            name=f"feature_{task_name}", desired=self.initial_pose(frame_key) if desired is None else desired,
+            name=f"feature_{task_name}",
+            desired=self.initial_pose(frame_key) if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain, selection)
         self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
@@ -262,25 +290,41 @@ class HumanoidSoTBuilder:
         self._pose_feature_frames[feature] = frame_key
         return task
 
-    def _shared_pose_feature(self, task_name: str, frame_key: str, desired: RigidTransform | None) -> FeaturePoint6d:
+    def _shared_pose_feature(
+        self, task_name: str, frame_key: str, desired: RigidTransform | None
+    ) -> FeaturePoint6d:
         feature = self.features.get(task_name)
         frame = self._pose_feature_frames.get(feature)
         if frame is None:
-            raise ValueError(f"feature_of={task_name!r}: no op-point task of that name; "
-                             f"op-point tasks: {sorted(t for t, f in self.features.items() if f in self._pose_feature_frames)}")
+            raise ValueError(
+                f"feature_of={task_name!r}: no op-point task of that name; "
+                f"op-point tasks: "
+                f"{sorted(t for t, f in self.features.items() if f in self._pose_feature_frames)}"
+            )
         if frame != frame_key:
-            raise ValueError(f"feature_of={task_name!r}: that task's feature is on frame {frame!r}, not {frame_key!r}")
+            raise ValueError(
+                f"feature_of={task_name!r}: that task's feature is on frame {frame!r}, not {frame_key!r}"
+            )
         if desired is not None:
-            raise ValueError(f"feature_of={task_name!r}: the desired pose is that of the shared feature; "
-                             "set it on features[feature_of], not with desired=")
+            raise ValueError(
+                f"feature_of={task_name!r}: the desired pose is that of the shared feature; "
+                "set it on features[feature_of], not with desired="
+            )
         return feature
 
     def add_relative_task(
-        self, task_name: str, frame_key: str, reference_key: str, *, selection: SelectionLike = None,
-        gain: Gain = 1.0, desired: RigidTransform | None = None,
+        self,
+        task_name: str,
+        frame_key: str,
+        reference_key: str,
+        *,
+        selection: SelectionLike = None,
+        gain: Gain = 1.0,
+        desired: RigidTransform | None = None,
     ) -> Task:
         """A relative 6D task (``FeaturePoint6dRelative``): the pose of ``frame_key`` in
-        ``reference_key`` (e.g. the paper's ``featureTwofeet``); holds the initial relative pose unless ``desired``."""
+        ``reference_key`` (e.g. the paper's ``featureTwofeet``); holds the initial relative pose
+        unless ``desired``."""
         op, ref = self.op_point(frame_key), self.op_point(reference_key)
         if desired is None:
             desired = self.initial_pose(reference_key).InvertAndCompose(self.initial_pose(frame_key))
@@ -293,11 +337,17 @@ class HumanoidSoTBuilder:
         return task
 
     def add_com_task(
-        self, task_name: str, *, selection: SelectionLike = "110", gain: Gain = 1.0, desired: np.ndarray | None = None
+        self,
+        task_name: str,
+        *,
+        selection: SelectionLike = "110",
+        gain: Gain = 1.0,
+        desired: np.ndarray | None = None,
     ) -> Task:
         """A CoM task (``FeatureCoM``, xy by default); holds the initial CoM unless ``desired``."""
         feature = FeatureCoM(
-            selection=selection, name=f"feature_{task_name}",
+            selection=selection,
+            name=f"feature_{task_name}",
             desired=self.initial_com() if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain)
@@ -306,20 +356,34 @@ class HumanoidSoTBuilder:
         return task
 
     def add_posture_task(
-        self, task_name: str, joints: Sequence[str] | None = None, *, gain: Gain = 1.0, desired: np.ndarray | None = None
+        self,
+        task_name: str,
+        joints: Sequence[str] | None = None,
+        *,
+        gain: Gain = 1.0,
+        desired: np.ndarray | None = None,
     ) -> Task:
         """A posture task (``FeaturePosture``) on ``joints`` (all actuated joints by default) toward q0."""
         feature = FeaturePosture(
-            self.control_plant, list(joints) if joints is not None else list(self.control_info.actuated_joints),
-            name=f"feature_{task_name}", desired=self.q0 if desired is None else desired,
+            self.control_plant,
+            list(joints) if joints is not None else list(self.control_info.actuated_joints),
+            name=f"feature_{task_name}",
+            desired=self.q0 if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain)
         self._q_consumers.append(feature.GetInputPort("q"))
         return task
 
     def add_admittance_task(
-        self, task_name: str, side: str, *, mass: float | Sequence[float], damping: float | Sequence[float],
-        stiffness: float | Sequence[float] = 0.0, gain: Gain = 5.0, max_velocity=(0.5, 1.0),
+        self,
+        task_name: str,
+        side: str,
+        *,
+        mass: float | Sequence[float],
+        damping: float | Sequence[float],
+        stiffness: float | Sequence[float] = 0.0,
+        gain: Gain = 5.0,
+        max_velocity=(0.5, 1.0),
     ) -> AdmittanceController:
         """A force-based hand task (paper 000 IV-C): the hand's wrist sensor drives an
         ``AdmittanceController`` whose reference pose and velocity feed a 6D hand task.
@@ -339,14 +403,22 @@ class HumanoidSoTBuilder:
         sensor_joint = self.info.force_sensors[f"{side}_wrist"]
         sensor = self.builder.AddSystem(ForceSensor(self.plant, sensor_joint))
         sensor.set_name(f"{side}_wrist_sensor")
-        self.builder.Connect(self.plant.get_reaction_forces_output_port(), sensor.GetInputPort("reaction_forces"))
+        self.builder.Connect(
+            self.plant.get_reaction_forces_output_port(), sensor.GetInputPort("reaction_forces")
+        )
         joint = self.control_plant.GetJointByName(sensor_joint)
         sensor_op = self.op_point(f"{side}_wrist_sensor", joint.frame_on_child().name())
         hand_mass, hand_com = _mass_below(self.control_plant, self._probe_context, joint)
         admittance = self.builder.AddSystem(
             AdmittanceController(
-                mass=mass, damping=damping, stiffness=stiffness, hand_mass=hand_mass, hand_com=hand_com,
-                period=self.control_period, max_velocity=max_velocity, name=f"admittance_{task_name}",
+                mass=mass,
+                damping=damping,
+                stiffness=stiffness,
+                hand_mass=hand_mass,
+                hand_com=hand_com,
+                period=self.control_period,
+                max_velocity=max_velocity,
+                name=f"admittance_{task_name}",
             )
         )
         hand = self.op_point(f"{side}_hand")
@@ -365,8 +437,10 @@ class HumanoidSoTBuilder:
         """A joint-limit task (``FeatureJointLimits``) on ``joints`` (every actuated joint by
         default); put it at the top of the stack."""
         feature = FeatureJointLimits(
-            self.control_plant, list(joints) if joints is not None else list(self.control_info.actuated_joints),
-            margin=margin, name=f"feature_{task_name}",
+            self.control_plant,
+            list(joints) if joints is not None else list(self.control_info.actuated_joints),
+            margin=margin,
+            name=f"feature_{task_name}",
         )
         task = self._add_task(task_name, feature, gain)
         self._q_consumers.append(feature.GetInputPort("q"))
@@ -374,14 +448,27 @@ class HumanoidSoTBuilder:
 
     def log(self, name: str, port: OutputPort) -> None:
         """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""
-        if name in self._extra_logs or name in ("state", "q_ref", "errors", "wrenches", "tau", "status", "contact_forces"):
+        if name in self._extra_logs or name in (
+            "state",
+            "q_ref",
+            "errors",
+            "wrenches",
+            "tau",
+            "status",
+            "contact_forces",
+        ):
             raise ValueError(f"a log named {name!r} exists already")
         self._extra_logs[name] = port
 
     # --- closing the loop ------------------------------------------------------------
     def build(
-        self, stack: Sequence[str], *, log_period: float | None = None, load: OutputPort | None = None,
-        dynamic_feedforward: bool = False, stack_source: OutputPort | None = None,
+        self,
+        stack: Sequence[str],
+        *,
+        log_period: float | None = None,
+        load: OutputPort | None = None,
+        dynamic_feedforward: bool = False,
+        stack_source: OutputPort | None = None,
     ) -> HumanoidSoT:
         """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
 
@@ -398,30 +485,43 @@ class HumanoidSoTBuilder:
                 for validation and the context commands are refused.
         """
         if self.actuation != "pd":
-            raise ValueError("build() closes the kinematic SoT on a position-controlled robot; use build_generalized()")
+            raise ValueError(
+                "build() closes the kinematic SoT on a position-controlled robot; use build_generalized()"
+            )
         b = self.builder
         period = self.control_period
         sot = b.AddSystem(
-            StackOfTasks(self.control_plant.num_velocities(), list(self.tasks.values()), period=period, stack=stack)
+            StackOfTasks(
+                self.control_plant.num_velocities(), list(self.tasks.values()), period=period, stack=stack
+            )
         )
         for task_name, task in self.tasks.items():
             b.Connect(task.GetOutputPort("task"), sot.GetInputPort(task_name))
         if stack_source is not None:
             b.Connect(stack_source, sot.GetInputPort("stack"))
-        device = b.AddSystem(Integrator(self.control_plant, self.control_info.actuated_joints, self.q0, period=period))
+        device = b.AddSystem(
+            Integrator(self.control_plant, self.control_info.actuated_joints, self.q0, period=period)
+        )
         b.Connect(sot.GetOutputPort("qdot"), device.GetInputPort("qdot"))
         for port in self._q_consumers:
             b.Connect(device.GetOutputPort("q"), port)
-        b.Connect(device.GetOutputPort("state_des"), self.plant.get_desired_state_input_port(self.info.model_instance))
+        b.Connect(
+            device.GetOutputPort("state_des"),
+            self.plant.get_desired_state_input_port(self.info.model_instance),
+        )
         feet = [self.control_info.frames["left_foot"], self.control_info.frames["right_foot"]]
-        feedforward = b.AddSystem(TorqueFeedforward(self.control_plant, self.control_info.actuated_joints, feet))
+        feedforward = b.AddSystem(
+            TorqueFeedforward(self.control_plant, self.control_info.actuated_joints, feet)
+        )
         feedforward.set_name("torque_feedforward")
         inputs = ("q", "v", "vdot") if dynamic_feedforward else ("q",)
         for name in inputs:
             b.Connect(device.GetOutputPort(name), feedforward.GetInputPort(name))
         if load is not None:
             b.Connect(load, feedforward.GetInputPort("load"))
-        b.Connect(feedforward.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance))
+        b.Connect(
+            feedforward.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance)
+        )
 
         history = b.AddSystem(StackHistory(period=period))
         b.Connect(sot.GetOutputPort("stack"), history.GetInputPort("stack"))
@@ -430,9 +530,20 @@ class HumanoidSoTBuilder:
             {"q_ref": device.GetOutputPort("q"), "errors": sot.GetOutputPort("errors")}, log_period
         )
         return HumanoidSoT(
-            diagram=diagram, plant=self.plant, info=self.info, control_plant=self.control_plant, dyn=self.dyn,
-            sot=sot, device=device, tasks=dict(self.tasks), features=dict(self.features), loggers=loggers,
-            stack_history=history, q0=self.q0, meshcat=self.meshcat, visualizer=visualizer,
+            diagram=diagram,
+            plant=self.plant,
+            info=self.info,
+            control_plant=self.control_plant,
+            dyn=self.dyn,
+            sot=sot,
+            device=device,
+            tasks=dict(self.tasks),
+            features=dict(self.features),
+            loggers=loggers,
+            stack_history=history,
+            q0=self.q0,
+            meshcat=self.meshcat,
+            visualizer=visualizer,
         )
 
     def build_generalized(
@@ -463,15 +574,25 @@ class HumanoidSoTBuilder:
         if self.actuation != "torque":
             raise ValueError("build_generalized() needs HumanoidSoTBuilder(actuation='torque')")
         b = self.builder
-        contacts = [] if self.fixed_base else [
-            ContactPoints(self.control_info.frames[foot], sole_corner_points(), mu=mu) for foot in ("left_foot", "right_foot")
-        ]
+        contacts = (
+            []
+            if self.fixed_base
+            else [
+                ContactPoints(self.control_info.frames[foot], sole_corner_points(), mu=mu)
+                for foot in ("left_foot", "right_foot")
+            ]
+        )
         controller = b.AddSystem(
             GeneralizedHierarchyController(
-                self.control_plant, self.control_info.actuated_joints,
+                self.control_plant,
+                self.control_info.actuated_joints,
                 motion_tasks=[MotionTask(self.tasks[n], kp, kd) for n, kp, kd in motion],
                 force_tasks=[ForceTask(self.tasks[n], kp, ki) for n, kp, ki in force],
-                contacts=contacts, q_posture=self.q0, period=self.control_period, weighted=weighted, weights=weights,
+                contacts=contacts,
+                q_posture=self.q0,
+                period=self.control_period,
+                weighted=weighted,
+                weights=weights,
             )
         )
         for name in controller.task_names:
@@ -482,7 +603,9 @@ class HumanoidSoTBuilder:
         state = self.plant.get_state_output_port(self.info.model_instance)
         b.Connect(state, controller.GetInputPort("state"))
         b.Connect(alpha, controller.GetInputPort("alpha"))
-        b.Connect(controller.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance))
+        b.Connect(
+            controller.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance)
+        )
         nq, nv = self.control_plant.num_positions(), self.control_plant.num_velocities()
         split = b.AddSystem(Demultiplexer([nq, nv]))
         split.set_name("measured_q_v")
@@ -490,20 +613,36 @@ class HumanoidSoTBuilder:
         for port in self._q_consumers:
             b.Connect(split.get_output_port(0), port)
         diagram, loggers, visualizer = self._finish(
-            {name: controller.GetOutputPort(name) for name in ("errors", "wrenches", "tau", "status", "contact_forces")},
+            {
+                name: controller.GetOutputPort(name)
+                for name in ("errors", "wrenches", "tau", "status", "contact_forces")
+            },
             log_period,
         )
         return HumanoidTorqueControl(
-            diagram=diagram, plant=self.plant, info=self.info, control_plant=self.control_plant, dyn=self.dyn,
-            tasks=dict(self.tasks), features=dict(self.features), loggers=loggers, q0=self.q0,
-            meshcat=self.meshcat, visualizer=visualizer, controller=controller,
+            diagram=diagram,
+            plant=self.plant,
+            info=self.info,
+            control_plant=self.control_plant,
+            dyn=self.dyn,
+            tasks=dict(self.tasks),
+            features=dict(self.features),
+            loggers=loggers,
+            q0=self.q0,
+            meshcat=self.meshcat,
+            visualizer=visualizer,
+            controller=controller,
         )
 
     def _finish(self, logs: dict[str, OutputPort], log_period: float | None):
         """Loggers (plant state, ``logs``, the extra ones), the visualizer, and the diagram."""
         b = self.builder
         log_period = log_period or self.control_period
-        ports = {"state": self.plant.get_state_output_port(self.info.model_instance), **logs, **self._extra_logs}
+        ports = {
+            "state": self.plant.get_state_output_port(self.info.model_instance),
+            **logs,
+            **self._extra_logs,
+        }
         loggers = {name: LogVectorOutput(port, b, log_period) for name, port in ports.items()}
         for name, logger in loggers.items():
             logger.set_name(f"log_{name}")
@@ -532,10 +671,14 @@ def _mass_below(plant: MultibodyPlant, context, joint) -> tuple[float, np.ndarra
 
     bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies()) if below(BodyIndex(i))]
     mass = sum(body.default_mass() for body in bodies)
-    p_WCm = sum(
-        body.default_mass() * body.EvalPoseInWorld(context).multiply(body.default_spatial_inertia().get_com())
-        for body in bodies
-    ) / mass
+    p_WCm = (
+        sum(
+            body.default_mass()
+            * body.EvalPoseInWorld(context).multiply(body.default_spatial_inertia().get_com())
+            for body in bodies
+        )
+        / mass
+    )
     return mass, joint.frame_on_child().CalcPoseInWorld(context).inverse().multiply(p_WCm)
 
 

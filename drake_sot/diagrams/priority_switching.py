@@ -28,7 +28,12 @@ SWITCH_AT, SWITCH_DURATION = 4.0, 2.0  # [s]
 DURATION = 9.0
 LH_OFFSET = np.array([0.58, -0.15, 0.15])  # [m] from the initial left hand: in front, beyond the arm's reach
 #: (kp [1/s²], kd [1/s]) per task: stiffness and damping per unit of task-space inertia.
-GAINS = {"taskJL": (400.0, 40.0), "taskHead": (100.0, 20.0), "taskLH": (100.0, 20.0), "taskPosture": (16.0, 8.0)}
+GAINS = {
+    "taskJL": (400.0, 40.0),
+    "taskHead": (100.0, 20.0),
+    "taskLH": (100.0, 20.0),
+    "taskPosture": (16.0, 8.0),
+}
 
 
 def initial_alpha(alpha_lh_head: float = 0.0, alpha_head_lh: float = 1.0) -> np.ndarray:
@@ -46,7 +51,9 @@ def initial_alpha(alpha_lh_head: float = 0.0, alpha_head_lh: float = 1.0) -> np.
     return alpha
 
 
-def build_with(alpha: AlphaSchedule, meshcat: Meshcat | None = None, duration: float = DURATION) -> ScenarioSetup:
+def build_with(
+    alpha: AlphaSchedule, meshcat: Meshcat | None = None, duration: float = DURATION
+) -> ScenarioSetup:
     """The scenario's diagram with a given α schedule (the sweep reuses it with constant α)."""
     b = HumanoidSoTBuilder(meshcat=meshcat, actuation="torque", fixed_base=True)
     arm_and_body = [j for j in b.control_info.actuated_joints if not j.endswith("gripper")]
@@ -60,11 +67,15 @@ def build_with(alpha: AlphaSchedule, meshcat: Meshcat | None = None, duration: f
     schedule = b.builder.AddSystem(PrioritySchedule(alpha))
     b.log("alpha", schedule.GetOutputPort("alpha"))
     built = b.build_generalized(
-        motion=[(name, *GAINS[name]) for name in TASKS], alpha=schedule.GetOutputPort("alpha"),
+        motion=[(name, *GAINS[name]) for name in TASKS],
+        alpha=schedule.GetOutputPort("alpha"),
     )
     return ScenarioSetup(
-        built=built, commands=[], duration=duration,
-        targets={"head": X_head, "left_hand": target}, extras={"schedule": schedule},
+        built=built,
+        commands=[],
+        duration=duration,
+        targets={"head": X_head, "left_hand": target},
+        extras={"schedule": schedule},
     )
 
 
@@ -87,7 +98,10 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
     head, lh = TASKS.index("taskHead"), TASKS.index("taskLH")
     path = Path(out_dir) / "priority_switching_errors.png"
     plot_priority_switch(
-        arrays["time"], {"α_lh,head": alpha[:, lh, head], "α_head,lh": alpha[:, head, lh]}, task_errors(arrays), path
+        arrays["time"],
+        {"α_lh,head": alpha[:, lh, head], "α_head,lh": alpha[:, head, lh]},
+        task_errors(arrays),
+        path,
     )
     return {"figure10": path}
 

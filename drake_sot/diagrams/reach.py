@@ -53,7 +53,9 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
         Command(5.0, "rm taskLH", lambda c: sot.rm(c, "taskLH")),
     ]
     return ScenarioSetup(
-        built=built, commands=commands, duration=7.0,
+        built=built,
+        commands=commands,
+        duration=7.0,
         targets={"right_hand": target_rh, "left_hand": target_lh},
     )
 

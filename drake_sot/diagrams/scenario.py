@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pydrake.math import RigidTransform
@@ -83,7 +83,9 @@ def run_scenario(
     """
     unknown = sorted(set(parameters or {}) - set(scenario.parameters))
     if unknown:
-        raise ValueError(f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}")
+        raise ValueError(
+            f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}"
+        )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}))

@@ -45,8 +45,16 @@ MOTION = ("taskCom", "taskRH", "taskLH", "taskRHo", "taskLHo", "taskHead", "task
 FORCES = ("taskRHF", "taskLHF")
 TASKS = MOTION + FORCES
 #: (kp [1/s²], kd [1/s]) per motion task, per unit of task-space inertia.
-GAINS = {"taskCom": (100.0, 20.0), "taskRH": (100.0, 20.0), "taskLH": (100.0, 20.0), "taskRHo": (50.0, 14.0),
-         "taskLHo": (50.0, 14.0), "taskHead": (50.0, 14.0), "taskBack": (25.0, 10.0), "taskPosture": (16.0, 8.0)}
+GAINS = {
+    "taskCom": (100.0, 20.0),
+    "taskRH": (100.0, 20.0),
+    "taskLH": (100.0, 20.0),
+    "taskRHo": (50.0, 14.0),
+    "taskLHo": (50.0, 14.0),
+    "taskHead": (50.0, 14.0),
+    "taskBack": (25.0, 10.0),
+    "taskPosture": (16.0, 8.0),
+}
 FORCE_PI = (0.5, 4.0)  # (kp, ki) of eq. 3
 
 
@@ -62,8 +70,12 @@ class Phase:
 #: The state machine's script: reaching 1.5 s (over the table, then down), contact 2 s, release 1 s.
 PHASES = (
     Phase(0.0, "idle", None),
-    Phase(1.0, "rh-reaching", "right"), Phase(2.5, "rh-contact", "right"), Phase(4.5, "rh-release", "right"),
-    Phase(5.5, "lh-reaching", "left"), Phase(7.0, "lh-contact", "left"), Phase(9.0, "lh-release", "left"),
+    Phase(1.0, "rh-reaching", "right"),
+    Phase(2.5, "rh-contact", "right"),
+    Phase(4.5, "rh-release", "right"),
+    Phase(5.5, "lh-reaching", "left"),
+    Phase(7.0, "lh-contact", "left"),
+    Phase(9.0, "lh-release", "left"),
 )
 DURATION = 10.5
 REST = -TABLE_MASS * 9.81 / STIFFNESS  # [m] the slide's rest position under the table's weight
@@ -73,11 +85,19 @@ def _add_table(plant: MultibodyPlant, info: HumanoidInfo) -> None:
     """The spring-mounted table top (its own model instance) and spheres on the hand tool points."""
     table = plant.AddModelInstance("table")
     depth, width = TABLE_X[1] - TABLE_X[0], 0.9
-    top = plant.AddRigidBody("table_top", table, SpatialInertia.SolidBoxWithMass(TABLE_MASS, depth, width, THICKNESS))
-    base = plant.AddFrame(FixedOffsetFrame(
-        "table_base", plant.world_frame(), RigidTransform([0.5 * sum(TABLE_X), 0.0, SURFACE - THICKNESS / 2])
-    ))
-    slide = plant.AddJoint(PrismaticJoint("table_slide", base, top.body_frame(), [0.0, 0.0, 1.0], damping=DAMPING))
+    top = plant.AddRigidBody(
+        "table_top", table, SpatialInertia.SolidBoxWithMass(TABLE_MASS, depth, width, THICKNESS)
+    )
+    base = plant.AddFrame(
+        FixedOffsetFrame(
+            "table_base",
+            plant.world_frame(),
+            RigidTransform([0.5 * sum(TABLE_X), 0.0, SURFACE - THICKNESS / 2]),
+        )
+    )
+    slide = plant.AddJoint(
+        PrismaticJoint("table_slide", base, top.body_frame(), [0.0, 0.0, 1.0], damping=DAMPING)
+    )
     slide.set_default_translation(REST)  # every context starts with the table at rest on its spring
     plant.AddForceElement(PrismaticSpring(slide, 0.0, STIFFNESS))
     box = Box(depth, width, THICKNESS)
@@ -86,7 +106,10 @@ def _add_table(plant: MultibodyPlant, info: HumanoidInfo) -> None:
     for side in ("right", "left"):
         frame = plant.GetFrameByName(info.frames[f"{side}_hand"], info.model_instance)
         plant.RegisterCollisionGeometry(
-            frame.body(), frame.GetFixedPoseInBodyFrame(), Sphere(HAND_RADIUS), f"{side}_hand_collision",
+            frame.body(),
+            frame.GetFixedPoseInBodyFrame(),
+            Sphere(HAND_RADIUS),
+            f"{side}_hand_collision",
             CoulombFriction(0.8, 0.6),
         )
 
@@ -107,8 +130,12 @@ class TableForce(LeafSystem):
         state = self.DeclareVectorInputPort("table_state", 2)
         ticket = {self.input_port_ticket(state.get_index())}
         force = lambda c: STIFFNESS * (REST - state.Eval(c)[0])  # noqa: E731
-        self.DeclareVectorOutputPort("force", 1, lambda c, out: out.SetFromVector([force(c)]), prerequisites_of_calc=ticket)
-        self.DeclareVectorOutputPort("applied", 1, lambda c, out: out.SetFromVector([-force(c)]), prerequisites_of_calc=ticket)
+        self.DeclareVectorOutputPort(
+            "force", 1, lambda c, out: out.SetFromVector([force(c)]), prerequisites_of_calc=ticket
+        )
+        self.DeclareVectorOutputPort(
+            "applied", 1, lambda c, out: out.SetFromVector([-force(c)]), prerequisites_of_calc=ticket
+        )
 
 
 def initial_alpha() -> np.ndarray:
@@ -155,12 +182,15 @@ def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
     b.log("alpha", schedule.GetOutputPort("alpha"))
     b.log("table_force", force.GetOutputPort("force"))
     built = b.build_generalized(
-        motion=[(name, *GAINS[name]) for name in MOTION], force=[(name, *FORCE_PI) for name in FORCES],
+        motion=[(name, *GAINS[name]) for name in MOTION],
+        force=[(name, *FORCE_PI) for name in FORCES],
         force_inputs={name: (desired.get_output_port(), force.GetOutputPort("applied")) for name in FORCES},
         alpha=schedule.GetOutputPort("alpha"),
     )
     return ScenarioSetup(
-        built=built, commands=_script(built, schedule, X, transition), duration=DURATION,
+        built=built,
+        commands=_script(built, schedule, X, transition),
+        duration=DURATION,
         extras={"schedule": schedule, "transition": transition},
     )
 
@@ -185,26 +215,31 @@ def _script(built, schedule, X, transition: float) -> list[Command]:
             schedule.set(c, k[force], k[force], on, duration=transition)  # activate / deactivate
             schedule.set(c, k[hand], k[force], off, duration=transition)  # the force over the position
             schedule.set(c, k[force], k[hand], on, duration=transition)
+
         return apply
 
     commands = []
     for phase in PHASES:
         side = phase.hand
         if phase.name.endswith("reaching"):
-            commands += [Command(phase.start, f"{phase.name}: over the table", move(side, 0.08)),
-                         Command(phase.start + 0.8, f"{phase.name}: down", move(side, 0.0))]
+            commands += [
+                Command(phase.start, f"{phase.name}: over the table", move(side, 0.08)),
+                Command(phase.start + 0.8, f"{phase.name}: down", move(side, 0.0)),
+            ]
         elif phase.name.endswith("contact"):
             commands.append(Command(phase.start, phase.name, priorities(side, True)))
         elif phase.name.endswith("release"):
-            commands += [Command(phase.start, phase.name, priorities(side, False)),
-                         Command(phase.start, f"{phase.name}: up", move(side, 0.08))]
+            commands += [
+                Command(phase.start, phase.name, priorities(side, False)),
+                Command(phase.start, f"{phase.name}: up", move(side, 0.08)),
+            ]
     return commands
 
 
 def contact_windows(settle: float = 1.0) -> dict[str, tuple[float, float]]:
     """For each hand, the last part of its contact phase, where the force should have settled [s]."""
     out = {}
-    for phase, after in zip(PHASES, PHASES[1:]):
+    for phase, after in zip(PHASES, PHASES[1:], strict=False):
         if phase.name.endswith("contact"):
             out[phase.hand] = (after.start - settle, after.start)
     return out
@@ -216,21 +251,32 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
     k = {name: i for i, name in enumerate(TASKS)}
     alpha = arrays["alpha"].reshape(-1, n, n)
     alphas = {
-        "α_rhf,rhf": alpha[:, k["taskRHF"], k["taskRHF"]], "α_rh,rhf": alpha[:, k["taskRH"], k["taskRHF"]],
-        "α_lhf,lhf": alpha[:, k["taskLHF"], k["taskLHF"]], "α_lh,lhf": alpha[:, k["taskLH"], k["taskLHF"]],
+        "α_rhf,rhf": alpha[:, k["taskRHF"], k["taskRHF"]],
+        "α_rh,rhf": alpha[:, k["taskRH"], k["taskRHF"]],
+        "α_lhf,lhf": alpha[:, k["taskLHF"], k["taskLHF"]],
+        "α_lh,lhf": alpha[:, k["taskLH"], k["taskLHF"]],
     }
-    errors = {name: np.linalg.norm(arrays[f"error/{name}"], axis=1) for name in ("taskCom", "taskRH", "taskLH")}
+    errors = {
+        name: np.linalg.norm(arrays[f"error/{name}"], axis=1) for name in ("taskCom", "taskRH", "taskLH")
+    }
     path = Path(out_dir) / "table_pounding_figures.png"
     plot_table_pounding(
-        arrays["time"], alphas, FORCE, arrays["table_force"][:, 0], errors, np.sum(arrays["tau"] ** 2, axis=1),
-        setup.extras["transition"], path,
+        arrays["time"],
+        alphas,
+        FORCE,
+        arrays["table_force"][:, 0],
+        errors,
+        np.sum(arrays["tau"] ** 2, axis=1),
+        setup.extras["transition"],
+        path,
     )
     return {"figures": path}
 
 
 SCENARIO = Scenario(
     name="table_pounding",
-    description="torque control: press a spring table with each hand in turn, 18 tasks, smooth priority changes (paper 004 4.1)",
+    description="torque control: press a spring table with each hand in turn, 18 tasks, "
+    "smooth priority changes (paper 004 4.1)",
     build=build,
     extra_plots=write_plots,
     parameters=("transition",),

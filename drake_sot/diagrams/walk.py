@@ -31,7 +31,14 @@ from drake_sot.systems.zmp import ZmpEstimator
 TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
 START = 0.5  # [s] when the steps are given
 STACK = (
-    "taskJL", "taskLF", "taskRF", "taskCom", "taskWaist", "taskRHwaist", "taskLHwaist", "taskPosture",
+    "taskJL",
+    "taskLF",
+    "taskRF",
+    "taskCom",
+    "taskWaist",
+    "taskRHwaist",
+    "taskLHwaist",
+    "taskPosture",
 )
 
 
@@ -86,7 +93,10 @@ def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Foot
     and CoM xy (references and velocity feed-forward from the generator), waist
     orientation, both hands held relative to the waist. Returns the generator and the
     initial footprints."""
-    left, right = footstep(b.initial_pose("left_foot"), "left"), footstep(b.initial_pose("right_foot"), "right")
+    left, right = (
+        footstep(b.initial_pose("left_foot"), "left"),
+        footstep(b.initial_pose("right_foot"), "right"),
+    )
     com0 = b.initial_com()
     pg = b.builder.AddSystem(
         PatternGenerator(left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2])
@@ -112,13 +122,18 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     pg, left, right = add_walking(b)
     b.add_posture_task("taskPosture", gain=1.0)
 
-    zmp = b.builder.AddSystem(ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]]))
+    zmp = b.builder.AddSystem(
+        ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]])
+    )
     zmp.set_name("zmp_estimator")
     b.builder.Connect(b.plant.get_reaction_forces_output_port(), zmp.GetInputPort("reaction_forces"))
     b.builder.Connect(b.plant.get_body_poses_output_port(), zmp.GetInputPort("body_poses"))
     for name, port in (
-        ("zmp", zmp.GetOutputPort("zmp")), ("zmp_ref", pg.GetOutputPort("zmp_ref")), ("com_ref", pg.GetOutputPort("com")),
-        ("contacts", pg.GetOutputPort("contacts")), ("phase", pg.GetOutputPort("phase")),
+        ("zmp", zmp.GetOutputPort("zmp")),
+        ("zmp_ref", pg.GetOutputPort("zmp_ref")),
+        ("com_ref", pg.GetOutputPort("com")),
+        ("contacts", pg.GetOutputPort("contacts")),
+        ("phase", pg.GetOutputPort("phase")),
     ):
         b.log(name, port)
     built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True)
@@ -153,7 +168,10 @@ def analyse(built: HumanoidSoT, arrays: dict[str, np.ndarray]) -> WalkAnalysis:
     """Measure soles, CoM and the ZMP's place in the support polygon from the run's logs."""
     plant, info = built.plant, built.info
     context = plant.CreateDefaultContext()
-    frames = {side: plant.GetFrameByName(info.frames[f"{side}_foot"], info.model_instance) for side in ("left", "right")}
+    frames = {
+        side: plant.GetFrameByName(info.frames[f"{side}_foot"], info.model_instance)
+        for side in ("left", "right")
+    }
     T = len(arrays["time"])
     soles = {side: np.zeros((T, 3)) for side in frames}
     com = np.zeros((T, 3))
@@ -179,8 +197,14 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
     analysis = analyse(setup.built, arrays)
     path = Path(out_dir) / "walk_zmp.png"
     plot_walk(
-        arrays["time"], arrays["zmp_ref"], arrays["zmp"], arrays["com_ref"], analysis.com,
-        analysis.polygons, [sole_corners(s.x, s.y, s.yaw, SOLE) for s in setup.extras["steps"]], path,
+        arrays["time"],
+        arrays["zmp_ref"],
+        arrays["zmp"],
+        arrays["com_ref"],
+        analysis.com,
+        analysis.polygons,
+        [sole_corners(s.x, s.y, s.yaw, SOLE) for s in setup.extras["steps"]],
+        path,
     )
     return {"walk_zmp": path}
 

@@ -29,8 +29,15 @@ WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
 FORCE_TASKS = ("taskForce", "taskForceLH")
 STACK = ("taskJL", "taskLF", "taskRF", "taskCom", "taskWaist", "taskRHwaist", "taskLHwaist", "taskPosture")
 #: The partner's grip offsets from where it takes each hand: (time from grip [s], offset [m]).
-PULL_PUSH = ((0.0, (0.0, 0.0, 0.0)), (1.0, (0.08, 0.0, 0.0)), (2.0, (0.08, 0.0, 0.0)), (3.5, (-0.05, 0.0, 0.0)),
-             (4.5, (-0.05, 0.0, 0.0)), (5.5, (0.0, 0.06, 0.0)), (6.5, (0.0, 0.06, 0.0)))
+PULL_PUSH = (
+    (0.0, (0.0, 0.0, 0.0)),
+    (1.0, (0.08, 0.0, 0.0)),
+    (2.0, (0.08, 0.0, 0.0)),
+    (3.5, (-0.05, 0.0, 0.0)),
+    (4.5, (-0.05, 0.0, 0.0)),
+    (5.5, (0.0, 0.06, 0.0)),
+    (6.5, (0.0, 0.06, 0.0)),
+)
 GRIP_AT = 7.0  # [s] the partner takes the hands (the walk ends near 5 s, the switch at the next 1 s check)
 RELEASE_AT = GRIP_AT + 7.0
 ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (60.0, 60.0, 60.0, 4.0, 4.0, 4.0)}
@@ -47,8 +54,15 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     b.add_posture_task("taskPosture", gain=1.0)
 
     # The DecisionServer: every 1 s, is the pattern generator still walking?
-    switch = (Rm("taskRHwaist"), Rm("taskLHwaist"), Push("taskForce"), Up("taskForce"),
-              Push("taskForceLH"), Up("taskForceLH"), SetValue("force_active", np.ones(1)))
+    switch = (
+        Rm("taskRHwaist"),
+        Rm("taskLHwaist"),
+        Push("taskForce"),
+        Up("taskForce"),
+        Push("taskForceLH"),
+        Up("taskForceLH"),
+        SetValue("force_active", np.ones(1)),
+    )
     sequencer = b.builder.AddSystem(
         TaskSequencer(
             [
@@ -56,7 +70,11 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
                 State("walking", transitions=(Transition(Below("in_process", 0.5), "interacting"),)),
                 State("interacting", entry=switch),
             ],
-            "standing", tasks=list(b.tasks), stack=STACK, period=1.0, values={"force_active": np.zeros(1)},
+            "standing",
+            tasks=list(b.tasks),
+            stack=STACK,
+            period=1.0,
+            values={"force_active": np.zeros(1)},
             name="decision_server",
         )
     )
@@ -65,11 +83,18 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
         b.builder.Connect(sequencer.GetOutputPort("force_active"), admittance.GetInputPort("active"))
 
     # The partner holds the bodies below the wrist sensors (the hands).
-    hands = [b.plant.GetJointByName(b.info.force_sensors[f"{side}_wrist"]).child_body().name() for side in ("right", "left")]
-    partner = b.builder.AddSystem(Partner(b.plant, {hand: [Hold(GRIP_AT, RELEASE_AT, PULL_PUSH)] for hand in hands}))
+    hands = [
+        b.plant.GetJointByName(b.info.force_sensors[f"{side}_wrist"]).child_body().name()
+        for side in ("right", "left")
+    ]
+    partner = b.builder.AddSystem(
+        Partner(b.plant, {hand: [Hold(GRIP_AT, RELEASE_AT, PULL_PUSH)] for hand in hands})
+    )
     partner.set_name("partner")
     b.builder.Connect(b.plant.get_body_poses_output_port(), partner.GetInputPort("body_poses"))
-    b.builder.Connect(b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities"))
+    b.builder.Connect(
+        b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities")
+    )
     b.builder.Connect(partner.GetOutputPort("spatial_forces"), b.plant.get_applied_spatial_force_input_port())
 
     b.log("partner_forces", partner.GetOutputPort("forces"))
@@ -79,15 +104,23 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     b.log("in_process", pg.GetOutputPort("in_process"))
     b.log("transitions", sequencer.GetOutputPort("transitions"))
     built = b.build(
-        stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, stack_source=sequencer.GetOutputPort("stack")
+        stack=STACK,
+        load=pg.GetOutputPort("load"),
+        dynamic_feedforward=True,
+        stack_source=sequencer.GetOutputPort("stack"),
     )
     steps = forward_steps(left, right, n=4, stride=0.15)
     return ScenarioSetup(
         built=built,
         commands=[Command(0.0, f"walk {len(steps)} steps", lambda c: pg.add_steps(c, steps))],
         duration=RELEASE_AT + 1.0,
-        extras={"pattern_generator": pg, "sequencer": sequencer, "admittances": admittances, "steps": steps,
-                "hands": hands},
+        extras={
+            "pattern_generator": pg,
+            "sequencer": sequencer,
+            "admittances": admittances,
+            "steps": steps,
+            "hands": hands,
+        },
     )
 
 
@@ -96,7 +129,10 @@ def hand_positions(setup: ScenarioSetup, arrays: dict[str, np.ndarray]) -> dict[
     built = setup.built
     plant, info = built.plant, built.info
     context = plant.CreateDefaultContext()
-    frames = {side: plant.GetFrameByName(info.frames[f"{side}_hand"], info.model_instance) for side in ("right", "left")}
+    frames = {
+        side: plant.GetFrameByName(info.frames[f"{side}_hand"], info.model_instance)
+        for side in ("right", "left")
+    }
     out = {side: np.zeros((len(arrays["time"]), 3)) for side in frames}
     for k, q in enumerate(arrays["q"]):
         plant.SetPositions(context, info.model_instance, q)

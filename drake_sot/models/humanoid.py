@@ -66,6 +66,7 @@ from pydrake.multibody.tree import (
     WeldJoint,
 )
 
+
 class _Link(NamedTuple):
     """A rigid link: one uniform-density shape is both its inertia and its visual."""
 
@@ -427,15 +428,25 @@ def load_humanoid(
         model_instance=instance,
         base_body="pelvis",
         actuated_joints=tuple(j.name for j in JOINTS),
-        frames=MappingProxyType({
-            "pelvis": "pelvis", "torso": "torso", "head": "head",
-            "left_foot": "l_sole", "right_foot": "r_sole",
-            "left_hand": "l_hand_tool", "right_hand": "r_hand_tool",
-        }),  # fmt: skip
-        force_sensors=MappingProxyType({
-            "left_ankle": "l_ankle_ft", "right_ankle": "r_ankle_ft",
-            "left_wrist": "l_wrist_ft", "right_wrist": "r_wrist_ft",
-        }),  # fmt: skip
+        frames=MappingProxyType(
+            {
+                "pelvis": "pelvis",
+                "torso": "torso",
+                "head": "head",
+                "left_foot": "l_sole",
+                "right_foot": "r_sole",
+                "left_hand": "l_hand_tool",
+                "right_hand": "r_hand_tool",
+            }
+        ),  # fmt: skip
+        force_sensors=MappingProxyType(
+            {
+                "left_ankle": "l_ankle_ft",
+                "right_ankle": "r_ankle_ft",
+                "left_wrist": "l_wrist_ft",
+                "right_wrist": "r_wrist_ft",
+            }
+        ),  # fmt: skip
         half_sitting=MappingProxyType({j.name: j.half_sitting for j in JOINTS}),
         mass=sum(link.mass for link in LINKS),
     )
@@ -476,7 +487,9 @@ def half_sitting_configuration(plant: MultibodyPlant, info: HumanoidInfo) -> np.
         plant.GetFrameByName(info.frames[foot], info.model_instance).CalcPoseInWorld(context).translation()[2]
         for foot in ("left_foot", "right_foot")
     ]
-    plant.SetFloatingBaseBodyPoseInWorldFrame(context, pelvis, RigidTransform([0.0, 0.0, -np.mean(sole_heights)]))
+    plant.SetFloatingBaseBodyPoseInWorldFrame(
+        context, pelvis, RigidTransform([0.0, 0.0, -np.mean(sole_heights)])
+    )
     return plant.GetPositions(context)
 
 

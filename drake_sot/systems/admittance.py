@@ -47,10 +47,14 @@ def _six(name: str, value, positive: bool, allow_inf: bool = False) -> np.ndarra
     elif a.size == 2:
         a = np.repeat(a, 3)
     elif a.size != 6:
-        raise ValueError(f"{name} must be a scalar, a (translation, rotation) pair or 6 values, got {a.size} values")
+        raise ValueError(
+            f"{name} must be a scalar, a (translation, rotation) pair or 6 values, got {a.size} values"
+        )
     finite = np.all(np.isfinite(a) | (allow_inf & (a == np.inf)))
     if not finite or np.any(a <= 0.0 if positive else a < 0.0) or np.any(np.isnan(a)):
-        raise ValueError(f"{name} must be {'> 0' if positive else '>= 0'}{' (inf allowed)' if allow_inf else ''}, got {a}")
+        raise ValueError(
+            f"{name} must be {'> 0' if positive else '>= 0'}{' (inf allowed)' if allow_inf else ''}, got {a}"
+        )
     return a
 
 
@@ -161,8 +165,10 @@ class AdmittanceController(LeafSystem):
             raise ValueError(f"period must be a finite value > 0, got {period!r}")
         self._period = float(period)
         self.dynamics = MassDamperSpring(
-            _six("mass", mass, positive=True), _six("damping", damping, positive=False),
-            _six("stiffness", stiffness, positive=False), self._period,
+            _six("mass", mass, positive=True),
+            _six("damping", damping, positive=False),
+            _six("stiffness", stiffness, positive=False),
+            self._period,
         )
         if not (np.isfinite(hand_mass) and hand_mass >= 0.0):
             raise ValueError(f"hand_mass must be a finite value >= 0 [kg], got {hand_mass!r}")
@@ -175,7 +181,9 @@ class AdmittanceController(LeafSystem):
             raise ValueError(f"g must be 3 finite numbers [m/s^2], got {g!r}")
         limits = np.asarray(max_velocity, dtype=float).reshape(-1)
         if limits.size not in (2, 6):
-            raise ValueError(f"max_velocity must be a (linear, angular) pair or 6 values, got {limits.size} values")
+            raise ValueError(
+                f"max_velocity must be a (linear, angular) pair or 6 values, got {limits.size} values"
+            )
         self._norm_limits = limits.size == 2
         self._v_max = _six("max_velocity", limits, positive=True, allow_inf=True)
         if not (np.isfinite(max_force) and max_force > 0.0):
@@ -197,13 +205,18 @@ class AdmittanceController(LeafSystem):
 
         ticket = {self.discrete_state_ticket(self._state)}
         self.DeclareAbstractOutputPort(
-            "pose_des", lambda: AbstractValue.Make(RigidTransform()),
-            lambda c, value: value.set_value(self._pose(self._x(c))), prerequisites_of_calc=ticket,
+            "pose_des",
+            lambda: AbstractValue.Make(RigidTransform()),
+            lambda c, value: value.set_value(self._pose(self._x(c))),
+            prerequisites_of_calc=ticket,
         )
 
         def vector(name: str, fn) -> None:
             self.DeclareVectorOutputPort(
-                name, len(fn(x0)), lambda c, out: out.SetFromVector(fn(self._x(c))), prerequisites_of_calc=ticket
+                name,
+                len(fn(x0)),
+                lambda c, out: out.SetFromVector(fn(self._x(c))),
+                prerequisites_of_calc=ticket,
             )
 
         vector("velocity_des", lambda x: x[_V])
@@ -249,7 +262,8 @@ class AdmittanceController(LeafSystem):
         X = port.Eval(context)
         if not np.all(np.isfinite(X.GetAsMatrix4())):
             raise RuntimeError(
-                f"{self.get_name()!r}: input {port.get_name()!r} is not finite at t = {context.get_time():.4f} s"
+                f"{self.get_name()!r}: input {port.get_name()!r} is not finite "
+                f"at t = {context.get_time():.4f} s"
             )
         return X
 

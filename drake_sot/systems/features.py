@@ -71,7 +71,8 @@ class _Feature(LeafSystem):
             prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
         )
         self.DeclareVectorOutputPort(
-            "error", m,
+            "error",
+            m,
             lambda context, out: out.SetFromVector(feature.Eval(context).error),
             prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
         )
@@ -129,7 +130,11 @@ class FeatureGeneric(_Feature):
     _jacobian_port = "jacobianIN"
 
     def __init__(
-        self, size: int, *, selection: fmath.SelectionLike = None, name: str | None = None,
+        self,
+        size: int,
+        *,
+        selection: fmath.SelectionLike = None,
+        name: str | None = None,
         desired: np.ndarray | None = None,
     ) -> None:
         if size < 1:
@@ -137,14 +142,18 @@ class FeatureGeneric(_Feature):
         super().__init__(size, selection, name)
         self._s = self.DeclareVectorInputPort(self._value_port, size)
         self._J = self.DeclareAbstractInputPort(self._jacobian_port, AbstractValue.Make(np.zeros((size, 0))))
-        self._declare_desired("sdes", self._check_desired(np.zeros(size) if desired is None else desired), size)
+        self._declare_desired(
+            "sdes", self._check_desired(np.zeros(size) if desired is None else desired), size
+        )
         self._sdes_dot = self.DeclareVectorInputPort("sdes_dot", size)
         self._declare_outputs()
 
     def _check_desired(self, value) -> np.ndarray:
         value = np.asarray(value, dtype=float).reshape(-1)
         if value.shape != (self._size,) or not np.all(np.isfinite(value)):
-            raise ValueError(f"{self.get_name()!r}: desired value {value} must be {self._size} finite numbers")
+            raise ValueError(
+                f"{self.get_name()!r}: desired value {value} must be {self._size} finite numbers"
+            )
         return value
 
     def _compute(self, context):
@@ -174,14 +183,20 @@ class FeatureCoM(FeatureGeneric):
     _jacobian_port = "Jcom"
 
     def __init__(
-        self, *, selection: fmath.SelectionLike = None, name: str | None = None, desired: np.ndarray | None = None
+        self,
+        *,
+        selection: fmath.SelectionLike = None,
+        name: str | None = None,
+        desired: np.ndarray | None = None,
     ) -> None:
         super().__init__(3, selection=selection, name=name, desired=desired)
 
 
 def _check_pose(owner: LeafSystem, value) -> RigidTransform:
     if not isinstance(value, RigidTransform):
-        raise TypeError(f"{owner.get_name()!r}: desired pose must be a RigidTransform, got {type(value).__name__}")
+        raise TypeError(
+            f"{owner.get_name()!r}: desired pose must be a RigidTransform, got {type(value).__name__}"
+        )
     if not np.all(np.isfinite(value.GetAsMatrix4())):
         raise ValueError(f"{owner.get_name()!r}: desired pose is not finite")
     return value
@@ -190,11 +205,15 @@ def _check_pose(owner: LeafSystem, value) -> RigidTransform:
 class _PoseFeature(_Feature):
     """A 6D feature on an operational point: inputs ``position``, ``Jq``, ``position_des``."""
 
-    def __init__(self, selection: fmath.SelectionLike, name: str | None, desired: RigidTransform | None) -> None:
+    def __init__(
+        self, selection: fmath.SelectionLike, name: str | None, desired: RigidTransform | None
+    ) -> None:
         super().__init__(6, selection, name)
         self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
         self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
-        self._declare_desired("position_des", _check_pose(self, RigidTransform() if desired is None else desired), None)
+        self._declare_desired(
+            "position_des", _check_pose(self, RigidTransform() if desired is None else desired), None
+        )
 
     def _check_desired(self, value) -> RigidTransform:
         return _check_pose(self, value)
@@ -216,7 +235,10 @@ class FeaturePoint6d(_PoseFeature):
     """
 
     def __init__(
-        self, *, selection: fmath.SelectionLike = None, name: str | None = None,
+        self,
+        *,
+        selection: fmath.SelectionLike = None,
+        name: str | None = None,
         desired: RigidTransform | None = None,
     ) -> None:
         super().__init__(selection, name, desired)
@@ -228,8 +250,12 @@ class FeaturePoint6d(_PoseFeature):
         X_des = self._desired(context)
         velocity_des = self._velocity_des.Eval(context) if self._velocity_des.HasValue(context) else None
         return fmath.point6d(
-            X.rotation().matrix(), X.translation(), self._J.Eval(context),
-            X_des.rotation().matrix(), X_des.translation(), velocity_des,
+            X.rotation().matrix(),
+            X.translation(),
+            self._J.Eval(context),
+            X_des.rotation().matrix(),
+            X_des.translation(),
+            velocity_des,
         )
 
 
@@ -249,7 +275,10 @@ class FeaturePoint6dRelative(_PoseFeature):
     """
 
     def __init__(
-        self, *, selection: fmath.SelectionLike = None, name: str | None = None,
+        self,
+        *,
+        selection: fmath.SelectionLike = None,
+        name: str | None = None,
         desired: RigidTransform | None = None,
     ) -> None:
         super().__init__(selection, name, desired)
@@ -261,9 +290,14 @@ class FeaturePoint6dRelative(_PoseFeature):
         X_a, X_b = self._pose.Eval(context), self._pose_ref.Eval(context)
         X_des = self._desired(context)
         e, J = fmath.point6d_relative(
-            X_a.rotation().matrix(), X_a.translation(), self._J.Eval(context),
-            X_b.rotation().matrix(), X_b.translation(), self._J_ref.Eval(context),
-            X_des.rotation().matrix(), X_des.translation(),
+            X_a.rotation().matrix(),
+            X_a.translation(),
+            self._J.Eval(context),
+            X_b.rotation().matrix(),
+            X_b.translation(),
+            self._J_ref.Eval(context),
+            X_des.rotation().matrix(),
+            X_des.translation(),
         )
         return e, J, np.zeros(6)
 
@@ -285,8 +319,13 @@ class FeaturePosture(_Feature):
     """
 
     def __init__(
-        self, plant: MultibodyPlant, joints: Sequence[str] | None = None, *,
-        selection: fmath.SelectionLike = None, name: str | None = None, desired: np.ndarray | None = None,
+        self,
+        plant: MultibodyPlant,
+        joints: Sequence[str] | None = None,
+        *,
+        selection: fmath.SelectionLike = None,
+        name: str | None = None,
+        desired: np.ndarray | None = None,
     ) -> None:
         names = list(joints) if joints is not None else _one_dof_joint_names(plant)
         unknown = [j for j in names if not plant.HasJointNamed(j)]
@@ -348,7 +387,11 @@ class FeatureJointLimits(_Feature):
     """
 
     def __init__(
-        self, plant: MultibodyPlant, joints: Sequence[str] | None = None, *, margin: float = 0.02,
+        self,
+        plant: MultibodyPlant,
+        joints: Sequence[str] | None = None,
+        *,
+        margin: float = 0.02,
         name: str | None = None,
     ) -> None:
         names = list(joints) if joints is not None else _one_dof_joint_names(plant)

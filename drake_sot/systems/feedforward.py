@@ -56,7 +56,9 @@ class TorqueFeedforward(LeafSystem):
                 f"TorqueFeedforward: {nv} velocities for {len(actuated_joints)} actuated "
                 "joints; expected a fixed base or one free flyer with every joint actuated"
             )
-        self._v_index = np.array([plant.GetJointByName(j).velocity_start() for j in actuated_joints], dtype=int)
+        self._v_index = np.array(
+            [plant.GetJointByName(j).velocity_start() for j in actuated_joints], dtype=int
+        )
         self._contacts = [plant.GetFrameByName(name) for name in contact_frames]
         self._q = self.DeclareVectorInputPort("q", plant.num_positions())
         self._v = self.DeclareVectorInputPort("v", nv)
@@ -82,12 +84,18 @@ class TorqueFeedforward(LeafSystem):
         load = self._optional(self._load, context, np.ones(len(self._contacts)))
         loaded = [(frame, w) for frame, w in zip(self._contacts, load, strict=True) if w > 0.0]
         world = plant.world_frame()
-        J = np.vstack(
-            [
-                plant.CalcJacobianSpatialVelocity(plant_context, JacobianWrtVariable.kV, frame, np.zeros(3), world, world)
-                for frame, _ in loaded
-            ]
-        ) if loaded else np.zeros((0, nv))
+        J = (
+            np.vstack(
+                [
+                    plant.CalcJacobianSpatialVelocity(
+                        plant_context, JacobianWrtVariable.kV, frame, np.zeros(3), world, world
+                    )
+                    for frame, _ in loaded
+                ]
+            )
+            if loaded
+            else np.zeros((0, nv))
+        )
         tau_joints, _ = contact_torques(tau_id, J, self._n_base, np.array([w for _, w in loaded]))
         # tau_joints follows the v layout after the base; reorder to actuator order.
         output.SetFromVector(tau_joints[self._v_index - self._n_base])

@@ -40,12 +40,16 @@ class ForceSensor(LeafSystem):
         super().__init__()
         if not plant.HasJointNamed(weld_joint_name):
             welds = [
-                plant.get_joint(j).name() for j in plant.GetJointIndices() if isinstance(plant.get_joint(j), WeldJoint)
+                plant.get_joint(j).name()
+                for j in plant.GetJointIndices()
+                if isinstance(plant.get_joint(j), WeldJoint)
             ]
             raise ValueError(f"ForceSensor: no joint {weld_joint_name!r}; the weld joints are {welds}")
         joint = plant.GetJointByName(weld_joint_name)
         if not isinstance(joint, WeldJoint):
-            raise TypeError(f"ForceSensor: joint {weld_joint_name!r} is a {type(joint).__name__}, not a WeldJoint")
+            raise TypeError(
+                f"ForceSensor: joint {weld_joint_name!r} is a {type(joint).__name__}, not a WeldJoint"
+            )
         self.set_name(name or weld_joint_name)
         self._plant = plant
         self._joint = joint
@@ -54,7 +58,10 @@ class ForceSensor(LeafSystem):
             "reaction_forces", plant.get_reaction_forces_output_port().Allocate()
         )
         self.DeclareVectorOutputPort(
-            "wrench", 6, self._calc_wrench, prerequisites_of_calc={self.input_port_ticket(self._forces.get_index())}
+            "wrench",
+            6,
+            self._calc_wrench,
+            prerequisites_of_calc={self.input_port_ticket(self._forces.get_index())},
         )
 
     @property
@@ -78,8 +85,9 @@ class ForceSensor(LeafSystem):
         output.SetFromVector(np.concatenate((F.rotational(), F.translational())))
 
 
-
-def payload(plant: MultibodyPlant, weld_joint_name: str, plant_context: Context | None = None) -> tuple[float, np.ndarray]:
+def payload(
+    plant: MultibodyPlant, weld_joint_name: str, plant_context: Context | None = None
+) -> tuple[float, np.ndarray]:
     """``(mass [kg], centre of mass (3,) [m] in Jc)`` of everything below a sensor weld.
 
     The weld's child body and every body attached to it further down the tree (e.g.

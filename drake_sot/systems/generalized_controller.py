@@ -79,7 +79,11 @@ def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np
 
 
 def _inertia_weighted(
-    J: np.ndarray, tasks: Sequence[slice], M: np.ndarray, accelerations: np.ndarray, blocks: np.ndarray,
+    J: np.ndarray,
+    tasks: Sequence[slice],
+    M: np.ndarray,
+    accelerations: np.ndarray,
+    blocks: np.ndarray,
     rank_threshold: float,
 ) -> np.ndarray:
     """``Λ_i a_i`` for every task i at once, ``Λ_i = (J_i M⁻¹ J_iᵀ)⁺`` its task-space inertia.
@@ -109,7 +113,9 @@ def _inertia_weighted(
     if info == 0 and (factor.diagonal() ** 2 >= _INDEPENDENT * diagonal).all():
         return _POTRS(factor, a, lower=True)[0]
     M_inv = _POTRS(L, np.eye(M.shape[0]), lower=True)[0]
-    return np.concatenate([_task_inertia(J[rows], M_inv, rank_threshold) @ accelerations[rows] for rows in tasks])
+    return np.concatenate(
+        [_task_inertia(J[rows], M_inv, rank_threshold) @ accelerations[rows] for rows in tasks]
+    )
 
 
 class GeneralizedHierarchyController(LeafSystem):
@@ -179,13 +185,16 @@ class GeneralizedHierarchyController(LeafSystem):
         self._nq, self._nv, self._na = nq, nv, na
         self._n_base = nv - na
         if self._n_base not in (0, 6):
-            raise ValueError(f"{nv} velocities for {na} actuated joints: expected a fixed base or one free flyer")
+            raise ValueError(
+                f"{nv} velocities for {na} actuated joints: expected a fixed base or one free flyer"
+            )
         joints = [plant.GetJointByName(j) for j in actuated_joints]
         self._v_act = np.array([j.velocity_start() for j in joints], dtype=int)  # actuator k -> v index
         self._q_act = np.array([j.position_start() for j in joints], dtype=int)
         effort = (
             np.array([plant.GetJointActuatorByName(j).effort_limit() for j in actuated_joints])
-            if effort_limits is None else np.asarray(effort_limits, dtype=float)
+            if effort_limits is None
+            else np.asarray(effort_limits, dtype=float)
         )
         self._motion, self._force = list(motion_tasks), list(force_tasks)
         goals = [t.task for t in self._motion] + [t.task for t in self._force]
@@ -201,11 +210,17 @@ class GeneralizedHierarchyController(LeafSystem):
         self._motion_blocks = scipy.linalg.block_diag(*[np.ones((m, m)) for m in motion_dims]) > 0.0
         self._contacts = list(contacts)
         self._contact_frames = [plant.GetFrameByName(c.frame) for c in self._contacts]
-        self._contact_offsets = [np.asarray(c.points, dtype=float).reshape(-1, 3).T for c in self._contacts]  # (3, k)
-        cones = [FrictionCone(mu=c.mu, facets=c.facets, min_normal_force=c.min_normal_force) for c in self._contacts]
+        self._contact_offsets = [
+            np.asarray(c.points, dtype=float).reshape(-1, 3).T for c in self._contacts
+        ]  # (3, k)
+        cones = [
+            FrictionCone(mu=c.mu, facets=c.facets, min_normal_force=c.min_normal_force)
+            for c in self._contacts
+        ]
         # One 3-D contact force task per point: (name, cone), in the order of the stacked Jacobian rows.
         self._contact_points = [
-            (f"contact{k}_{p}", cone) for k, (c, cone) in enumerate(zip(self._contacts, cones, strict=True))
+            (f"contact{k}_{p}", cone)
+            for k, (c, cone) in enumerate(zip(self._contacts, cones, strict=True))
             for p in range(len(c.points))
         ]
         self._weights = dict(weights or {})
@@ -228,8 +243,10 @@ class GeneralizedHierarchyController(LeafSystem):
         n_t = len(self._names)
         self._alpha = self.DeclareVectorInputPort("alpha", n_t * n_t)
         self._force_ports = [
-            (self.DeclareVectorInputPort(f"{t.task.get_name()}_desired", t.task.dimension),
-             self.DeclareVectorInputPort(f"{t.task.get_name()}_measured", t.task.dimension))
+            (
+                self.DeclareVectorInputPort(f"{t.task.get_name()}_desired", t.task.dimension),
+                self.DeclareVectorInputPort(f"{t.task.get_name()}_measured", t.task.dimension),
+            )
             for t in self._force
         ]
         m_total = sum(self._dims)
@@ -241,8 +258,13 @@ class GeneralizedHierarchyController(LeafSystem):
         self._x_status = self.DeclareDiscreteState(1)
         self._x_integral = self.DeclareDiscreteState(sum(t.task.dimension for t in self._force) or 1)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        for name, index in (("tau", self._x_tau), ("wrenches", self._x_wrench), ("errors", self._x_error),
-                            ("contact_forces", self._x_contact), ("status", self._x_status)):
+        for name, index in (
+            ("tau", self._x_tau),
+            ("wrenches", self._x_wrench),
+            ("errors", self._x_error),
+            ("contact_forces", self._x_contact),
+            ("status", self._x_status),
+        ):
             self.DeclareStateOutputPort(name, index)
 
     @property
@@ -270,8 +292,9 @@ class GeneralizedHierarchyController(LeafSystem):
             # eq. 2 with K_P = k_p Λ, K_D = k_d Λ: w^d = Λ (−k_p e − k_d J v), all motion tasks at once.
             J_motion = np.concatenate(jacobians[:n_motion])
             acceleration = -self._kp_rows * np.concatenate(errors) - self._kd_rows * (J_motion @ v)
-            wrench = _inertia_weighted(J_motion, self._motion_slices, M, acceleration, self._motion_blocks,
-                                       self._rank_threshold)
+            wrench = _inertia_weighted(
+                J_motion, self._motion_slices, M, acceleration, self._motion_blocks, self._rank_threshold
+            )
             desired = [wrench[sl] for sl in self._motion_slices]
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
         offset = 0
@@ -299,9 +322,13 @@ class GeneralizedHierarchyController(LeafSystem):
         if solution.status == "optimal":
             tau_v = solution.tau
             wrenches = np.concatenate([solution.wrenches[n] for n in self._names])
-            # The contact task's wrench is what the robot applies on the ground: the ground's force is its opposite.
-            contact = -np.concatenate([solution.wrenches[t.name] for t in tasks[len(self._names):]]) \
-                if self._contacts else np.zeros(0)
+            # The contact task's wrench is what the robot applies on the ground:
+            # the ground's force is its opposite.
+            contact = (
+                -np.concatenate([solution.wrenches[t.name] for t in tasks[len(self._names) :]])
+                if self._contacts
+                else np.zeros(0)
+            )
             status = STATUS_OPTIMAL
         else:
             tau_v = self._fallback(q, v, g, contact_jacobians)

@@ -79,7 +79,9 @@ class Integrator(LeafSystem):
         self.DeclareVectorOutputPort(
             "vdot", nv, lambda c, out: out.SetFromVector(self._x(c)[nq + nv :]), prerequisites_of_calc=ticket
         )
-        self.DeclareVectorOutputPort("state_des", 2 * len(joints), self._calc_state_des, prerequisites_of_calc=ticket)
+        self.DeclareVectorOutputPort(
+            "state_des", 2 * len(joints), self._calc_state_des, prerequisites_of_calc=ticket
+        )
 
     def _x(self, context: Context) -> np.ndarray:
         return context.get_discrete_state(self._state).get_value()
@@ -94,11 +96,15 @@ class Integrator(LeafSystem):
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         qdot = self._qdot.Eval(context)
         if not np.all(np.isfinite(qdot)):
-            raise RuntimeError(f"{self.get_name()!r}: input 'qdot' holds NaN or Inf at t = {context.get_time():.4f} s")
+            raise RuntimeError(
+                f"{self.get_name()!r}: input 'qdot' holds NaN or Inf at t = {context.get_time():.4f} s"
+            )
         x = self._x(context)
         q, v = x[: self._nq], x[self._nq : self._nq + self._nv]
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate((integrate(q, qdot, self._period, self._floating), qdot, (qdot - v) / self._period))
+            np.concatenate(
+                (integrate(q, qdot, self._period, self._floating), qdot, (qdot - v) / self._period)
+            )
         )
 
     def _calc_state_des(self, context: Context, output: BasicVector) -> None:

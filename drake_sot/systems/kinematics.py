@@ -48,7 +48,9 @@ class RobotKinematics(LeafSystem):
         q_ticket = {self.input_port_ticket(self._q_port.get_index())}
         self.DeclareVectorOutputPort("com", 3, self._calc_com, prerequisites_of_calc=q_ticket)
         self.DeclareAbstractOutputPort(
-            "Jcom", lambda: AbstractValue.Make(np.zeros((3, nv))), self._calc_jcom,
+            "Jcom",
+            lambda: AbstractValue.Make(np.zeros((3, nv))),
+            self._calc_jcom,
             prerequisites_of_calc=q_ticket,
         )
 
@@ -89,17 +91,25 @@ class RobotKinematics(LeafSystem):
             self._update(context)
             value.set_value(
                 self._plant.CalcJacobianSpatialVelocity(
-                    self._plant_context, JacobianWrtVariable.kV, frame,
-                    np.zeros(3), self._world, self._world,
+                    self._plant_context,
+                    JacobianWrtVariable.kV,
+                    frame,
+                    np.zeros(3),
+                    self._world,
+                    self._world,
                 )
             )
 
         self.DeclareAbstractOutputPort(
-            name, lambda: AbstractValue.Make(RigidTransform()), calc_pose,
+            name,
+            lambda: AbstractValue.Make(RigidTransform()),
+            calc_pose,
             prerequisites_of_calc=q_ticket,
         )
         self.DeclareAbstractOutputPort(
-            "J" + name, lambda: AbstractValue.Make(np.zeros((6, nv))), calc_jacobian,
+            "J" + name,
+            lambda: AbstractValue.Make(np.zeros((6, nv))),
+            calc_jacobian,
             prerequisites_of_calc=q_ticket,
         )
 

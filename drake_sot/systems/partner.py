@@ -78,14 +78,16 @@ class Partner(LeafSystem):
         self._script = [tuple(segments) for segments in script.values()]
         for name, segments in script.items():
             ordered = sorted(segments, key=lambda s: s.start)
-            for a, b in zip(ordered, ordered[1:]):
+            for a, b in zip(ordered, ordered[1:], strict=False):
                 if b.start < a.end:
                     raise ValueError(f"partner script for {name!r}: {a} and {b} overlap")
             for s in segments:
                 if not s.end > s.start:
                     raise ValueError(f"partner script for {name!r}: {s} ends before it starts")
         k = len(self._bodies)
-        self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
+        self._poses = self.DeclareAbstractInputPort(
+            "body_poses", plant.get_body_poses_output_port().Allocate()
+        )
         self._velocities = self.DeclareAbstractInputPort(
             "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate()
         )

@@ -55,7 +55,7 @@ class _Walk:
     controller: PreviewController
     com_height: float
 
-    def __deepcopy__(self, memo) -> "_Walk":
+    def __deepcopy__(self, memo) -> _Walk:
         return self
 
 
@@ -108,7 +108,9 @@ class PatternGenerator(LeafSystem):
         super().__init__()
         self.set_name(name)
         if left.side != "left" or right.side != "right":
-            raise ValueError(f"initial footprints must be a left and a right one, got {left.side!r}, {right.side!r}")
+            raise ValueError(
+                f"initial footprints must be a left and a right one, got {left.side!r}, {right.side!r}"
+            )
         self._dt = dt
         self._q, self._r = q, r
         self._limits = limits
@@ -120,10 +122,19 @@ class PatternGenerator(LeafSystem):
         self._walk = self.DeclareAbstractState(
             Value[object](
                 _Walk(
-                    samples=standing, k=0, x=x0, error_sum=controller.initial_error_sum(x0, _window(standing.zmp, 0, controller.N)),
+                    samples=standing,
+                    k=0,
+                    x=x0,
+                    error_sum=controller.initial_error_sum(x0, _window(standing.zmp, 0, controller.N)),
                     feet={"left": left, "right": right},
-                    last_side=None, stop_start=0, walk_end=0, landings=(), velocity=None, timing=timing,
-                    controller=controller, com_height=com_height,
+                    last_side=None,
+                    stop_start=0,
+                    walk_end=0,
+                    landings=(),
+                    velocity=None,
+                    timing=timing,
+                    controller=controller,
+                    com_height=com_height,
                 )
             )
         )
@@ -137,8 +148,10 @@ class PatternGenerator(LeafSystem):
 
         def pose(name, fn):
             self.DeclareAbstractOutputPort(
-                name, lambda: AbstractValue.Make(RigidTransform()),
-                lambda c, value: value.set_value(fn(self._state(c))), prerequisites_of_calc=ticket,
+                name,
+                lambda: AbstractValue.Make(RigidTransform()),
+                lambda c, value: value.set_value(fn(self._state(c))),
+                prerequisites_of_calc=ticket,
             )
 
         vector("com", 3, lambda w: np.array([w.x[0, 0], w.x[0, 1], w.com_height]))
@@ -199,7 +212,9 @@ class PatternGenerator(LeafSystem):
             raise ValueError(f"velocity {velocity} must be finite")
         if velocity == (0.0, 0.0, 0.0):
             if walk.velocity is not None:
-                walk = self._append(replace(walk, velocity=None), [self._next_footprint(walk, (0.0, 0.0, 0.0))])
+                walk = self._append(
+                    replace(walk, velocity=None), [self._next_footprint(walk, (0.0, 0.0, 0.0))]
+                )
             self._set(context, walk)
             return
         # Check the steps this velocity makes, from both feet, before accepting it.
@@ -267,7 +282,14 @@ class PatternGenerator(LeafSystem):
         if walk.k < walk.walk_end or walk.velocity is not None:
             raise ValueError(f"{field} can change only while standing (the preview gains depend on it)")
         c = walk.controller
-        params = {"dt": c.dt, "z_c": c.z_c, "horizon": c.horizon, "q": self._q, "r": self._r, field: values[0]}
+        params = {
+            "dt": c.dt,
+            "z_c": c.z_c,
+            "horizon": c.horizon,
+            "q": self._q,
+            "r": self._r,
+            field: values[0],
+        }
         controller = PreviewController(**params)
         height = values[0] if field == "z_c" else walk.com_height
         # New gains: restart the integral action without a kick from the current state.
@@ -293,7 +315,9 @@ class PatternGenerator(LeafSystem):
         samples = _head(walk.samples, cut)
         feet = dict(walk.feet)
         if len(samples) < cut:
-            samples = samples.concatenate(stand_segment(feet["left"], feet["right"], (cut - len(samples)) * self._dt, self._dt))
+            samples = samples.concatenate(
+                stand_segment(feet["left"], feet["right"], (cut - len(samples)) * self._dt, self._dt)
+            )
         zmp = samples.zmp[-1]
         landings = [landing for landing in walk.landings if landing[0] < cut]
         dt = self._dt
@@ -303,7 +327,9 @@ class PatternGenerator(LeafSystem):
             landings.append((len(samples) - 1, step))  # the touch-down sample
             feet[step.side] = step
             zmp = segment.zmp[-1]
-        return self._close(replace(walk, feet=feet, last_side=steps[-1].side, landings=tuple(landings)), samples, zmp)
+        return self._close(
+            replace(walk, feet=feet, last_side=steps[-1].side, landings=tuple(landings)), samples, zmp
+        )
 
     def _close(self, walk: _Walk, samples: Segment, zmp: np.ndarray) -> _Walk:
         stop = stop_segment(walk.feet["left"], walk.feet["right"], zmp, walk.timing, self._dt, hold=0.0)
@@ -416,6 +442,10 @@ def _head(samples: Segment, n: int) -> Segment:
 def _drop_before(walk: _Walk, k: int) -> _Walk:
     samples = Segment(**{f: getattr(walk.samples, f)[k:] for f in walk.samples.__dataclass_fields__})
     return replace(
-        walk, samples=samples, k=0, stop_start=walk.stop_start - k, walk_end=max(walk.walk_end - k, 0),
+        walk,
+        samples=samples,
+        k=0,
+        stop_start=walk.stop_start - k,
+        walk_end=max(walk.walk_end - k, 0),
         landings=tuple((i - k, step) for i, step in walk.landings if i > k),
     )

@@ -30,7 +30,9 @@ class PrioritySchedule(LeafSystem):
         self._n = len(schedule.task_names)
         self._schedule = self.DeclareAbstractState(Value[object](schedule))
         self.DeclareVectorOutputPort(
-            "alpha", self._n * self._n, self._calc_alpha,
+            "alpha",
+            self._n * self._n,
+            self._calc_alpha,
             prerequisites_of_calc={self.time_ticket(), self.abstract_state_ticket(self._schedule)},
         )
 

@@ -162,7 +162,9 @@ class Below:
         _check_name(self.port, "Below.port")
         _check_port_size(self.size, f"Below({self.port!r})")
         if not (math.isfinite(self.threshold) and self.threshold > 0.0):
-            raise ValueError(f"Below({self.port!r}): threshold {self.threshold} must be finite and > 0 (a norm is >= 0)")
+            raise ValueError(
+                f"Below({self.port!r}): threshold {self.threshold} must be finite and > 0 (a norm is >= 0)"
+            )
 
 
 @dataclass(frozen=True)
@@ -210,7 +212,8 @@ class Transition:
     def __post_init__(self) -> None:
         if not isinstance(self.guard, _GUARDS):
             raise TypeError(
-                f"Transition guard must be one of {', '.join(g.__name__ for g in _GUARDS)}, got {self.guard!r}"
+                f"Transition guard must be one of {', '.join(g.__name__ for g in _GUARDS)}, "
+                f"got {self.guard!r}"
             )
         _check_name(self.target, "Transition.target")
 
@@ -230,7 +233,9 @@ class State:
     def __post_init__(self) -> None:
         _check_name(self.name, "State.name")
         entry = (self.entry,) if isinstance(self.entry, _ACTIONS) else tuple(self.entry)
-        transitions = (self.transitions,) if isinstance(self.transitions, Transition) else tuple(self.transitions)
+        transitions = (
+            (self.transitions,) if isinstance(self.transitions, Transition) else tuple(self.transitions)
+        )
         for action in entry:
             if not isinstance(action, _ACTIONS):
                 raise TypeError(
@@ -425,7 +430,9 @@ class TaskSequencer(LeafSystem):
             self._states[state.name] = state
         known_states = ", ".join(self._states)
         if initial not in self._states:
-            raise ValueError(f"sequencer {name!r}: initial state {initial!r} does not exist; states: {known_states}")
+            raise ValueError(
+                f"sequencer {name!r}: initial state {initial!r} does not exist; states: {known_states}"
+            )
         self._initial = initial
 
         # --- outputs set by SetValue: kinds and sizes from the initial values
@@ -470,7 +477,9 @@ class TaskSequencer(LeafSystem):
                 guard = transition.guard
                 if isinstance(guard, Timeout):
                     continue
-                previous = guard_sizes.setdefault(guard.port, (guard.size, f"{guard!r} in state {state.name!r}"))
+                previous = guard_sizes.setdefault(
+                    guard.port, (guard.size, f"{guard!r} in state {state.name!r}")
+                )
                 if previous[0] != guard.size:
                     raise ValueError(
                         f"{where}: guard {guard!r} reads input port {guard.port!r} of size {guard.size}, "
@@ -498,27 +507,35 @@ class TaskSequencer(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(self._period, 0.0, self._tick)
         ticket = {self.abstract_state_ticket(self._machine)}
         self.DeclareAbstractOutputPort(
-            "stack", lambda: AbstractValue.Make(()),
-            lambda c, v: v.set_value(self._record(c).stack), prerequisites_of_calc=ticket,
+            "stack",
+            lambda: AbstractValue.Make(()),
+            lambda c, v: v.set_value(self._record(c).stack),
+            prerequisites_of_calc=ticket,
         )
         self.DeclareAbstractOutputPort(
-            "state", lambda: AbstractValue.Make(""),
-            lambda c, v: v.set_value(self._record(c).state), prerequisites_of_calc=ticket,
+            "state",
+            lambda: AbstractValue.Make(""),
+            lambda c, v: v.set_value(self._record(c).state),
+            prerequisites_of_calc=ticket,
         )
         self.DeclareVectorOutputPort(
-            "transitions", 1,
-            lambda c, out: out.SetAtIndex(0, float(self._record(c).count)), prerequisites_of_calc=ticket,
+            "transitions",
+            1,
+            lambda c, out: out.SetAtIndex(0, float(self._record(c).count)),
+            prerequisites_of_calc=ticket,
         )
         for key, value in initial_values.items():
             if key in self._vector_sizes:
                 self.DeclareVectorOutputPort(
-                    key, self._vector_sizes[key],
+                    key,
+                    self._vector_sizes[key],
                     lambda c, out, key=key: out.SetFromVector(self._record(c).values[key]),
                     prerequisites_of_calc=ticket,
                 )
             else:
                 self.DeclareAbstractOutputPort(
-                    key, lambda value=value: AbstractValue.Make(value),
+                    key,
+                    lambda value=value: AbstractValue.Make(value),
                     lambda c, v, key=key: v.set_value(self._record(c).values[key]),
                     prerequisites_of_calc=ticket,
                 )
@@ -535,7 +552,9 @@ class TaskSequencer(LeafSystem):
                 f"but its initial value has size {size}"
             )
         if not np.all(np.isfinite(array)):
-            raise ValueError(f"sequencer {self.get_name()!r}: {what} for output {key!r} holds NaN or Inf: {array}")
+            raise ValueError(
+                f"sequencer {self.get_name()!r}: {what} for output {key!r} holds NaN or Inf: {array}"
+            )
         return array
 
     def _check_set_value(self, where: str, action: SetValue, initial_values: dict) -> SetValue:
@@ -549,10 +568,12 @@ class TaskSequencer(LeafSystem):
             if not _is_vector(action.value):
                 raise ValueError(f"{where}: {action!r}: output {key!r} is a vector, got {action.value!r}")
             # The validated, read-only vector, in a copy of the action (the user's is left alone).
-            return SetValue(key, self._checked_vector(key, action.value, self._vector_sizes[key], f"{where}: SetValue"))
+            return SetValue(
+                key, self._checked_vector(key, action.value, self._vector_sizes[key], f"{where}: SetValue")
+            )
         if not isinstance(action.value, type(initial_values[key])):
             # ValueError like every other inconsistency of the definition (see the class docstring).
-            raise ValueError(  # noqa: TRY004
+            raise ValueError(
                 f"{where}: {action!r}: output {key!r} carries {type(initial_values[key]).__name__}, "
                 f"got {type(action.value).__name__}"
             )
@@ -596,8 +617,14 @@ class TaskSequencer(LeafSystem):
 
     # --- the machine --------------------------------------------------------------------
     def _enter(
-        self, state_name: str, stack: tuple[str, ...], values: Mapping[str, object], time: float, count: int,
-        *, static: bool = False,
+        self,
+        state_name: str,
+        stack: tuple[str, ...],
+        values: Mapping[str, object],
+        time: float,
+        count: int,
+        *,
+        static: bool = False,
     ) -> _Machine:
         """Run ``state_name``'s entry actions on copies of ``stack`` and ``values``."""
         new_values = None
@@ -655,7 +682,9 @@ class TaskSequencer(LeafSystem):
         for transition in self._states[record.state].transitions:
             if self._holds(transition.guard, context, record):
                 state.get_mutable_abstract_state(self._machine).set_value(
-                    self._enter(transition.target, record.stack, record.values, context.get_time(), record.count + 1)
+                    self._enter(
+                        transition.target, record.stack, record.values, context.get_time(), record.count + 1
+                    )
                 )
                 return
 

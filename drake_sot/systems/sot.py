@@ -87,7 +87,8 @@ class StackOfTasks(LeafSystem):
             start += m
         self._ports = {
             task_name: self.DeclareAbstractInputPort(
-                task_name, AbstractValue.Make(TaskSignal(task_name, np.zeros(0), np.zeros((0, nv)), np.zeros(0)))
+                task_name,
+                AbstractValue.Make(TaskSignal(task_name, np.zeros(0), np.zeros((0, nv)), np.zeros(0))),
             )
             for task_name in dims
         }
@@ -139,7 +140,8 @@ class StackOfTasks(LeafSystem):
         """The ``stack`` input's value, validated (RuntimeError: it is a run-time signal)."""
         if not isinstance(value, (tuple, list)) or not all(isinstance(n, str) for n in value):
             raise RuntimeError(
-                f"{self.get_name()!r}: input port {STACK_PORT!r} must carry a tuple of task names, got {value!r}"
+                f"{self.get_name()!r}: input port {STACK_PORT!r} must carry a tuple of task names, "
+                f"got {value!r}"
             )
         stack = tuple(value)
         unknown = [n for n in stack if n not in self._dims]
@@ -182,7 +184,9 @@ class StackOfTasks(LeafSystem):
         return context.get_abstract_state(self._stack).get_value()
 
     def _set(self, context: Context, stack: tuple[str, ...]) -> None:
-        own_context(self, context).get_mutable_abstract_state(self._stack).set_value(self._checked_stack(stack))
+        own_context(self, context).get_mutable_abstract_state(self._stack).set_value(
+            self._checked_stack(stack)
+        )
 
     def push(self, context: Context, task_name: str) -> None:
         """Add a task at the lowest priority. Refuses an unknown task or one already in the stack."""
@@ -245,11 +249,15 @@ class StackOfTasks(LeafSystem):
                     f"expected ({m},) / ({m}, {self._nv})"
                 )
             if not (np.all(np.isfinite(signal.jacobian)) and np.all(np.isfinite(signal.edot_des))):
-                raise RuntimeError(f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s")
+                raise RuntimeError(
+                    f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s"
+                )
             errors[self._slices[task_name]] = signal.error
             levels.append((signal.jacobian, signal.edot_des))
         # Shapes and finiteness were checked above, with the task's name.
-        result = solve_strict(levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False)
+        result = solve_strict(
+            levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
+        )
         qdot = result.qdot if levels else np.zeros(self._nv)
         discrete_state.get_mutable_vector(self._qdot).SetFromVector(qdot)
         discrete_state.get_mutable_vector(self._errors).SetFromVector(errors)

@@ -28,7 +28,8 @@ class StackHistory(LeafSystem):
         self._history = self.DeclareAbstractState(Value[object](()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
         self.DeclareAbstractOutputPort(
-            "history", lambda: Value[object](()),
+            "history",
+            lambda: Value[object](()),
             lambda context, value: value.set_value(context.get_abstract_state(self._history).get_value()),
             prerequisites_of_calc={self.abstract_state_ticket(self._history)},
         )
@@ -41,14 +42,16 @@ class StackHistory(LeafSystem):
         history = context.get_abstract_state(self._history).get_value()
         stack = tuple(self._stack.Eval(context))
         if not history or history[-1][1] != stack:
-            state.get_mutable_abstract_state(self._history).set_value(history + ((context.get_time(), stack),))
+            state.get_mutable_abstract_state(self._history).set_value(
+                history + ((context.get_time(), stack),)
+            )
 
 
 def stack_changes(history) -> list[tuple[float, str]]:
     """``(time, label)`` of each change after the first stack; the label lists the tasks
     added (+) and removed (−), or says ``reordered``."""
     changes = []
-    for (_, before), (t, after) in zip(history, history[1:]):
+    for (_, before), (t, after) in zip(history, history[1:], strict=False):
         added = [f"+{task}" for task in after if task not in before]
         removed = [f"−{task}" for task in before if task not in after]
         changes.append((t, " ".join(added + removed) or "reordered"))

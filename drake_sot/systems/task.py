@@ -77,15 +77,20 @@ class Task(LeafSystem):
         name = feature.get_name()
         if name == GAIN_PORT:
             raise ValueError(
-                f"task {self.get_name()!r}: a feature cannot be named {GAIN_PORT!r} (the name of the gain input port)"
+                f"task {self.get_name()!r}: a feature cannot be named {GAIN_PORT!r} "
+                "(the name of the gain input port)"
             )
         if self.HasInputPort(name):
             raise ValueError(f"task {self.get_name()!r} already has a feature named {name!r}")
         port = self.DeclareAbstractInputPort(
             name, AbstractValue.Make(FeatureSignal(np.zeros(0), np.zeros((0, 0)), np.zeros(0)))
         )
-        rows = None if selection is None else fmath.selection_indices(
-            selection, feature.dimension, name=f"selection of {name!r} in task {self.get_name()!r}"
+        rows = (
+            None
+            if selection is None
+            else fmath.selection_indices(
+                selection, feature.dimension, name=f"selection of {name!r} in task {self.get_name()!r}"
+            )
         )
         self._features.append((port, feature.dimension if rows is None else int(rows.size), rows))
         return port
@@ -95,9 +100,12 @@ class Task(LeafSystem):
         context = own_context(self, context)
         if self._gain_input.HasValue(context):
             raise ValueError(
-                f"task {self.get_name()!r}: the gain comes from input port {GAIN_PORT!r}; change its source instead"
+                f"task {self.get_name()!r}: the gain comes from input port {GAIN_PORT!r}; "
+                "change its source instead"
             )
-        context.get_mutable_abstract_parameter(self._gain).set_value(validate_gain(gain, name=self.get_name()))
+        context.get_mutable_abstract_parameter(self._gain).set_value(
+            validate_gain(gain, name=self.get_name())
+        )
 
     def gain(self, context: Context) -> Gain:
         """λ now: the ``gain`` input's value when connected, else the parameter (own or root context)."""
@@ -108,7 +116,8 @@ class Task(LeafSystem):
             value = float(self._gain_input.Eval(context)[0])
             if not (math.isfinite(value) and value > 0.0):
                 raise RuntimeError(
-                    f"task {self.get_name()!r}: gain {value} on input port {GAIN_PORT!r} must be finite and > 0"
+                    f"task {self.get_name()!r}: gain {value} on input port {GAIN_PORT!r} "
+                    "must be finite and > 0"
                 )
             return value
         return context.get_abstract_parameter(self._gain).get_value()

@@ -35,7 +35,9 @@ class ZmpEstimator(LeafSystem):
         min_force: below this total normal force [N] the ZMP is undefined (NaN).
     """
 
-    def __init__(self, plant: MultibodyPlant, sensor_joints: Sequence[str], *, min_force: float = 20.0) -> None:
+    def __init__(
+        self, plant: MultibodyPlant, sensor_joints: Sequence[str], *, min_force: float = 20.0
+    ) -> None:
         super().__init__()
         self._joints = [plant.GetJointByName(name) for name in sensor_joints]
         self._X_BJ = [j.frame_on_child().GetFixedPoseInBodyFrame() for j in self._joints]
@@ -45,19 +47,27 @@ class ZmpEstimator(LeafSystem):
         ]
         self._p_BoBcm = [j.child_body().default_spatial_inertia().get_com() for j in self._joints]
         self._min_force = min_force
-        self._forces = self.DeclareAbstractInputPort("reaction_forces", plant.get_reaction_forces_output_port().Allocate())
-        self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
+        self._forces = self.DeclareAbstractInputPort(
+            "reaction_forces", plant.get_reaction_forces_output_port().Allocate()
+        )
+        self._poses = self.DeclareAbstractInputPort(
+            "body_poses", plant.get_body_poses_output_port().Allocate()
+        )
         self._cache = self.DeclareCacheEntry(
             "zmp_and_force",
             ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(3)), calc=self._calc),
             prerequisites_of_calc={self.all_input_ports_ticket()},
         )
         self.DeclareVectorOutputPort(
-            "zmp", 2, lambda c, out: out.SetFromVector(self._cache.Eval(c)[:2]),
+            "zmp",
+            2,
+            lambda c, out: out.SetFromVector(self._cache.Eval(c)[:2]),
             prerequisites_of_calc={self._cache.ticket()},
         )
         self.DeclareVectorOutputPort(
-            "normal_force", 1, lambda c, out: out.SetFromVector(self._cache.Eval(c)[2:]),
+            "normal_force",
+            1,
+            lambda c, out: out.SetFromVector(self._cache.Eval(c)[2:]),
             prerequisites_of_calc={self._cache.ticket()},
         )
 
@@ -76,4 +86,6 @@ class ZmpEstimator(LeafSystem):
             points += [X_WJ.translation(), X_WB @ p_BoBcm]
             forces += [-R @ F.translational(), -weight]
             torques += [-R @ F.rotational(), np.zeros(3)]
-        value.set_value(zmp_from_wrenches(np.array(points), np.array(forces), np.array(torques), self._min_force))
+        value.set_value(
+            zmp_from_wrenches(np.array(points), np.array(forces), np.array(torques), self._min_force)
+        )

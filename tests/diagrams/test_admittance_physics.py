@@ -19,14 +19,19 @@ def pulled():
     b.add_com_task("taskCom", gain=3.0)
     b.add_admittance_task(
         # Stiff in rotation: the push acts at the hand body's origin, 7 cm from the tool point.
-        "taskForce", "right", mass=(4.0, 4.0, 4.0, 0.2, 0.2, 0.2), damping=(DAMPING, DAMPING, DAMPING, 40.0, 40.0, 40.0)
+        "taskForce",
+        "right",
+        mass=(4.0, 4.0, 4.0, 0.2, 0.2, 0.2),
+        damping=(DAMPING, DAMPING, DAMPING, 40.0, 40.0, 40.0),
     )
     b.add_op_point_task("taskLH", "left_hand", gain=5.0)
     b.add_posture_task("taskPosture")
     hand_body = b.plant.GetJointByName(b.info.force_sensors["right_wrist"]).child_body().name()
     partner = b.builder.AddSystem(Partner(b.plant, {hand_body: [Push(*PULL, (FORCE, 0.0, 0.0))]}))
     b.builder.Connect(b.plant.get_body_poses_output_port(), partner.GetInputPort("body_poses"))
-    b.builder.Connect(b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities"))
+    b.builder.Connect(
+        b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities")
+    )
     b.builder.Connect(partner.GetOutputPort("spatial_forces"), b.plant.get_applied_spatial_force_input_port())
     built = b.build(stack=["taskLF", "taskRF", "taskCom", "taskForce", "taskLH", "taskPosture"])
     simulator = built.create_simulator()
@@ -34,7 +39,10 @@ def pulled():
     for t in (0.9, 2.0, 3.0, 3.7, 4.2):
         simulator.AdvanceTo(t)
         context = simulator.get_context()
-        samples[t] = {key: built.frame_pose(context, key).translation() for key in ("right_hand", "left_hand", "left_foot", "right_foot")}
+        samples[t] = {
+            key: built.frame_pose(context, key).translation()
+            for key in ("right_hand", "left_hand", "left_foot", "right_foot")
+        }
     return samples
 
 

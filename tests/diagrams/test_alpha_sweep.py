@@ -7,7 +7,9 @@ from drake_sot.diagrams import alpha_sweep
 
 def test_corners_of_the_grid_in_parallel(tmp_path):
     seen = []
-    files = alpha_sweep.run(tmp_path, grid=(0.0, 1.0), duration=3.0, workers=2, progress=lambda d, n, w: seen.append((d, n)))
+    files = alpha_sweep.run(
+        tmp_path, grid=(0.0, 1.0), duration=3.0, workers=2, progress=lambda d, n, w: seen.append((d, n))
+    )
     logs = np.load(files["npz"])
     head, lh = logs["head_error"], logs["lh_error"]  # rows α_lh,head, columns α_head,lh
     assert seen[-1] == (4, 4)

@@ -47,12 +47,19 @@ def test_tasks_on_one_frame_can_share_its_pose_feature():
     b.add_op_point_task("taskRH", "right_hand", selection="111000")
     b.add_op_point_task("taskRHo", "right_hand", selection="000111", feature_of="taskRH")
     b.add_posture_task("taskPosture")
-    with pytest.raises(ValueError, match="feature_of='taskPosture': no op-point task of that name; op-point tasks: "
-                                         r"\['taskRH', 'taskRHo'\]"):
+    with pytest.raises(
+        ValueError,
+        match="feature_of='taskPosture': no op-point task of that name; op-point tasks: "
+        r"\['taskRH', 'taskRHo'\]",
+    ):
         b.add_op_point_task("taskX", "right_hand", feature_of="taskPosture")
-    with pytest.raises(ValueError, match="feature_of='taskRH': that task's feature is on frame 'right_hand', not 'left_hand'"):
+    with pytest.raises(
+        ValueError, match="feature_of='taskRH': that task's feature is on frame 'right_hand', not 'left_hand'"
+    ):
         b.add_op_point_task("taskX", "left_hand", feature_of="taskRH")
-    with pytest.raises(ValueError, match="feature_of='taskRH': the desired pose is that of the shared feature"):
+    with pytest.raises(
+        ValueError, match="feature_of='taskRH': the desired pose is that of the shared feature"
+    ):
         b.add_op_point_task("taskX", "right_hand", feature_of="taskRH", desired=RigidTransform())
     built = b.build(stack=["taskRH", "taskRHo", "taskPosture"])
     assert built.features["taskRH"] is built.features["taskRHo"]
@@ -62,7 +69,11 @@ def test_tasks_on_one_frame_can_share_its_pose_feature():
     shift = np.array([0.03, -0.02, 0.05])
     built.features["taskRH"].set_desired(context, RigidTransform(X0.rotation(), X0.translation() + shift))
     rh = built.tasks["taskRH"].GetOutputPort("task").Eval(built.tasks["taskRH"].GetMyContextFromRoot(context))
-    rho = built.tasks["taskRHo"].GetOutputPort("task").Eval(built.tasks["taskRHo"].GetMyContextFromRoot(context))
+    rho = (
+        built.tasks["taskRHo"]
+        .GetOutputPort("task")
+        .Eval(built.tasks["taskRHo"].GetMyContextFromRoot(context))
+    )
     np.testing.assert_allclose(rh.error, -shift, atol=1e-12)  # e = p - p*
     np.testing.assert_allclose(rho.error, np.zeros(3), atol=1e-12)  # same orientation
     assert rh.jacobian.shape == rho.jacobian.shape == (3, built.control_plant.num_velocities())

@@ -12,7 +12,10 @@ def runs(tmp_path_factory):
     out = {}
     for transition in (0.6, 0.015):
         output = run_scenario(
-            tp.SCENARIO, tmp_path_factory.mktemp(f"tp{transition}"), record=False, parameters={"transition": transition}
+            tp.SCENARIO,
+            tmp_path_factory.mktemp(f"tp{transition}"),
+            record=False,
+            parameters={"transition": transition},
         )
         assert output.result.completed, output.result.failure
         out[transition] = output
@@ -20,7 +23,7 @@ def runs(tmp_path_factory):
 
 
 def _contact_phases():
-    return [(p, nxt) for p, nxt in zip(tp.PHASES, tp.PHASES[1:]) if p.name.endswith("contact")]
+    return [(p, nxt) for p, nxt in zip(tp.PHASES, tp.PHASES[1:], strict=False) if p.name.endswith("contact")]
 
 
 @pytest.mark.parametrize("transition", [0.6, 0.015])
@@ -31,8 +34,14 @@ def test_balance_without_foot_slip(runs, transition):
     soles = []
     for qk in q[::20]:
         built.plant.SetPositions(context, built.info.model_instance, qk)
-        soles.append([built.plant.GetFrameByName(built.info.frames[f], built.info.model_instance)
-                      .CalcPoseInWorld(context).translation()[:2] for f in ("left_foot", "right_foot")])
+        soles.append(
+            [
+                built.plant.GetFrameByName(built.info.frames[f], built.info.model_instance)
+                .CalcPoseInWorld(context)
+                .translation()[:2]
+                for f in ("left_foot", "right_foot")
+            ]
+        )
     soles = np.array(soles)
     assert np.max(np.linalg.norm(soles - soles[0], axis=2)) < 0.005
     assert q[:, 6].min() > 0.6

@@ -48,7 +48,9 @@ def test_each_foot_lands_on_its_footprint(walk_run):
     settle = 10  # 50 ms after touch-down
     for k, step in zip(landings, steps, strict=True):
         x, y, yaw = analysis.soles[step.side][k + settle]
-        assert math.hypot(x - step.x, y - step.y) < 0.02, f"{step.side} foot landed {math.hypot(x - step.x, y - step.y):.3f} m off"
+        assert math.hypot(x - step.x, y - step.y) < 0.02, (
+            f"{step.side} foot landed {math.hypot(x - step.x, y - step.y):.3f} m off"
+        )
         assert abs(math.degrees(math.remainder(yaw - step.yaw, 2 * math.pi))) < 3.0
 
 

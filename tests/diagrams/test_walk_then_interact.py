@@ -57,6 +57,10 @@ def test_hands_comply_with_the_partner_and_the_robot_stays_up(case_study):
 
 def test_artefacts(case_study):
     _, out_dir = case_study
-    for name in ("walk_then_interact.svg", "walk_then_interact.png", "walk_then_interact.npz",
-                 "walk_then_interact_hands.png"):
+    for name in (
+        "walk_then_interact.svg",
+        "walk_then_interact.png",
+        "walk_then_interact.npz",
+        "walk_then_interact_hands.png",
+    ):
         assert (out_dir / name).stat().st_size > 1000, name

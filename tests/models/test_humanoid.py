@@ -43,7 +43,7 @@ HRP2_LEG = (0.0, 0.0, -0.453786, 0.872665, -0.418879, 0.0)
 HALF_SITTING = dict(
     zip(ACTUATOR_ORDER, HRP2_LEG + HRP2_LEG + (0.0, 0.0) + (0.0, 0.0)
         + (0.261799, -0.174533, 0.0, -0.523599, 0.0, 0.0)
-        + (0.261799, 0.174533, 0.0, -0.523599, 0.0, 0.0) + (0.1, 0.1))
+        + (0.261799, 0.174533, 0.0, -0.523599, 0.0, 0.0) + (0.1, 0.1), strict=False)
 )  # fmt: skip
 #: HRP-2 leg: thigh 0.30 m, shank 0.30 m, ankle 0.105 m above the sole.
 HRP2_PELVIS_HEIGHT = 0.105 + 0.30 * math.cos(0.453786) + 0.30 * math.cos(0.872665 - 0.453786)
@@ -157,7 +157,7 @@ def standing(world):
         q = plant.GetPositions(context)
         record["joint_error"] = max(record["joint_error"], np.abs(_joint_positions(plant, q - q0)).max())
         record["pelvis_dz"] = max(record["pelvis_dz"], abs(q[6] - q0[6]))
-        for sole, start in zip(soles, sole_start):
+        for sole, start in zip(soles, sole_start, strict=False):
             X = sole.CalcPoseInWorld(context)
             record["slide"] = max(record["slide"], np.linalg.norm((X.translation() - start)[:2]))
             record["sole_tilt"] = max(record["sole_tilt"], _tilt(X.rotation()))
@@ -179,7 +179,9 @@ def test_actuators_are_the_30_hrp2_joints_in_order(control):
     assert isinstance(info, HumanoidInfo)
     assert info.actuated_joints == ACTUATOR_ORDER
     assert plant.num_actuators() == 30 == plant.num_actuated_dofs()
-    assert plant.GetActuatorNames(info.model_instance, add_model_instance_prefix=False) == list(ACTUATOR_ORDER)
+    assert plant.GetActuatorNames(info.model_instance, add_model_instance_prefix=False) == list(
+        ACTUATOR_ORDER
+    )
     for k, name in enumerate(ACTUATOR_ORDER):
         actuator = plant.GetJointActuatorByName(name)
         assert actuator.joint().name() == name and actuator.input_start() == k
@@ -220,7 +222,9 @@ def test_half_sitting_angles_and_limits_are_hrp2(control):
     assert knee.position_lower_limits()[0] == pytest.approx(0.0, abs=0.01)
     assert knee.position_upper_limits()[0] == pytest.approx(2.6, abs=0.05)
     hip = plant.GetJointByName("l_hip_pitch")
-    assert (hip.position_lower_limits()[0], hip.position_upper_limits()[0]) == pytest.approx((-2.2, 0.7), abs=0.05)
+    assert (hip.position_lower_limits()[0], hip.position_upper_limits()[0]) == pytest.approx(
+        (-2.2, 0.7), abs=0.05
+    )
 
 
 def test_bodies_frames_and_force_sensors_exist(control):

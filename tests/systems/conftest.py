@@ -10,4 +10,3 @@ def control_model():
     """(plant, info, q0) of the embedded humanoid's controller model."""
     plant, info = make_control_model()
     return plant, info, half_sitting_configuration(plant, info)
-

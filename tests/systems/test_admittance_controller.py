@@ -52,7 +52,13 @@ class Bench:
 
     def __init__(self, rng=None, **kwargs):
         rng = rng or np.random.default_rng(0)
-        args = {"mass": (M_LIN, M_ROT), "damping": (B_LIN, B_ROT), "hand_mass": HAND_MASS, "hand_com": HAND_COM, "period": DT}
+        args = {
+            "mass": (M_LIN, M_ROT),
+            "damping": (B_LIN, B_ROT),
+            "hand_mass": HAND_MASS,
+            "hand_com": HAND_COM,
+            "period": DT,
+        }
         args.update(kwargs)
         self.c = AdmittanceController(**args)
         self.context = self.c.CreateDefaultContext()
@@ -115,7 +121,9 @@ def test_a_constant_force_moves_the_reference_along_it_at_f_over_b():
     T = steps * DT
     np.testing.assert_allclose(bench.out("wrench_external"), np.concatenate((np.zeros(3), f)), atol=1e-10)
     p0 = bench.X_WH.translation()
-    np.testing.assert_allclose(bench.pose.translation() - p0, x_closed(M_LIN, B_LIN, f, T), rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(
+        bench.pose.translation() - p0, x_closed(M_LIN, B_LIN, f, T), rtol=1e-6, atol=1e-12
+    )
     np.testing.assert_allclose(bench.velocity[:3], v_closed(M_LIN, B_LIN, f, T), rtol=1e-6, atol=1e-12)
     np.testing.assert_allclose(bench.velocity[:3], f / B_LIN, rtol=1e-6)
     # The force acts at the hand origin: no torque, the orientation stays.
@@ -166,7 +174,9 @@ def test_the_reference_wrench_adds_to_the_measured_one():
         benches[key] = bench
     split = benches["split"]
     p0 = split.X_WH.translation()
-    np.testing.assert_allclose(split.pose.translation() - p0, x_closed(M_LIN, B_LIN, f_meas + f_ref, T), rtol=1e-6)
+    np.testing.assert_allclose(
+        split.pose.translation() - p0, x_closed(M_LIN, B_LIN, f_meas + f_ref, T), rtol=1e-6
+    )
     np.testing.assert_allclose(split.velocity[3:], v_closed(M_ROT, B_ROT, tau_ref, T), rtol=1e-6)
     # wrench_external reports the measured part only.
     np.testing.assert_allclose(split.out("wrench_external")[3:], f_meas, atol=1e-10)
@@ -215,8 +225,11 @@ def test_faulty_readings_never_reach_the_reference():
     held = bench.pose
     assert np.linalg.norm(bench.velocity) > 0.05
     good = bench.out("wrench_external").copy()
-    for bad, code in ((np.array([0.0, 0.0, 0.0, np.nan, 0.0, 0.0]), 1), (np.array([0, 0, 0, 0, 0, np.inf]), 1),
-                      (np.concatenate((np.zeros(3), [0.0, 1500.0, 0.0])), 2)):
+    for bad, code in (
+        (np.array([0.0, 0.0, 0.0, np.nan, 0.0, 0.0]), 1),
+        (np.array([0, 0, 0, 0, 0, np.inf]), 1),
+        (np.concatenate((np.zeros(3), [0.0, 1500.0, 0.0])), 2),
+    ):
         bench.fix("wrench", bad)
         for _ in range(10):
             bench.step()
@@ -235,7 +248,9 @@ def test_faulty_readings_never_reach_the_reference():
     assert bench.out("fault")[0] == 0
     np.testing.assert_allclose(bench.out("wrench_external"), good, atol=1e-10)
     np.testing.assert_allclose(bench.velocity[:3], v_closed(M_LIN, B_LIN, f, DT), rtol=1e-9, atol=1e-15)
-    np.testing.assert_allclose(bench.pose.translation() - held.translation(), x_closed(M_LIN, B_LIN, f, DT), rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(
+        bench.pose.translation() - held.translation(), x_closed(M_LIN, B_LIN, f, DT), rtol=1e-9, atol=1e-15
+    )
 
 
 def test_inactive_follows_the_hand_and_activation_starts_from_it():
@@ -261,7 +276,9 @@ def test_inactive_follows_the_hand_and_activation_starts_from_it():
     steps = 30
     bench.step(steps)
     T = steps * DT
-    np.testing.assert_allclose(bench.pose.translation() - X_start.translation(), x_closed(M_LIN, B_LIN, f, T), rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(
+        bench.pose.translation() - X_start.translation(), x_closed(M_LIN, B_LIN, f, T), rtol=1e-6, atol=1e-12
+    )
     np.testing.assert_allclose(bench.velocity[:3], v_closed(M_LIN, B_LIN, f, T), rtol=1e-6, atol=1e-12)
 
 
@@ -286,9 +303,13 @@ def test_initialization_and_no_direct_feedthrough():
     c.GetInputPort("sensor_pose").FixValue(context, X)
     c.GetInputPort("wrench").FixValue(context, np.zeros(6))
     simulator.Initialize()
-    np.testing.assert_allclose(c.GetOutputPort("pose_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12)
+    np.testing.assert_allclose(
+        c.GetOutputPort("pose_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12
+    )
     simulator.AdvanceTo(0.1)
-    np.testing.assert_allclose(c.GetOutputPort("pose_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12)
+    np.testing.assert_allclose(
+        c.GetOutputPort("pose_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12
+    )
 
 
 def test_bad_arguments_and_inputs_are_named():
@@ -322,14 +343,24 @@ def two_body_plant(time_step=1e-3):
     """
     plant = MultibodyPlant(time_step)
     arm = plant.AddRigidBody("arm", SpatialInertia.SolidBoxWithMass(1.0, 0.1, 0.1, 0.1))
-    hand_inertia = SpatialInertia.SolidBoxWithMass(HAND_MASS, 0.08, 0.06, 0.1).Shift(-np.array([0.03, -0.01, -0.05]))
-    hand = plant.AddRigidBody("hand", hand_inertia)  # centre of mass at (0.03, -0.01, -0.05) in the hand frame
-    plant.WeldFrames(plant.world_frame(), arm.body_frame(), RigidTransform(RollPitchYaw(0.3, -0.2, 0.5), [0, 0, 1]))
+    hand_inertia = SpatialInertia.SolidBoxWithMass(HAND_MASS, 0.08, 0.06, 0.1).Shift(
+        -np.array([0.03, -0.01, -0.05])
+    )
+    hand = plant.AddRigidBody(
+        "hand", hand_inertia
+    )  # centre of mass at (0.03, -0.01, -0.05) in the hand frame
+    plant.WeldFrames(
+        plant.world_frame(), arm.body_frame(), RigidTransform(RollPitchYaw(0.3, -0.2, 0.5), [0, 0, 1])
+    )
     parent = plant.AddFrame(
-        FixedOffsetFrame("ft_parent", arm.body_frame(), RigidTransform(RollPitchYaw(0.1, 0.4, -0.3), [0.05, 0, -0.1]))
+        FixedOffsetFrame(
+            "ft_parent", arm.body_frame(), RigidTransform(RollPitchYaw(0.1, 0.4, -0.3), [0.05, 0, -0.1])
+        )
     )
     child = plant.AddFrame(
-        FixedOffsetFrame("ft_child", hand.body_frame(), RigidTransform(RollPitchYaw(-0.5, 0.2, 0.1), [0.0, 0.03, 0.04]))
+        FixedOffsetFrame(
+            "ft_child", hand.body_frame(), RigidTransform(RollPitchYaw(-0.5, 0.2, 0.1), [0.0, 0.03, 0.04])
+        )
     )
     plant.AddJoint(WeldJoint("ft", parent, child, RigidTransform()))
     plant.Finalize()
@@ -367,14 +398,19 @@ def test_force_sensor_reads_what_the_parent_applies_on_the_child():
     simulator.AdvanceTo(0.003)
     np.testing.assert_allclose(sensor.GetOutputPort("wrench").Eval(sc), hand_at_rest, atol=1e-9)
     # The wrist holds the hand up: the force on the hand points up in world.
-    np.testing.assert_allclose(R @ sensor.GetOutputPort("wrench").Eval(sc)[3:], [0, 0, HAND_MASS * 9.81], atol=1e-9)
+    np.testing.assert_allclose(
+        R @ sensor.GetOutputPort("wrench").Eval(sc)[3:], [0, 0, HAND_MASS * 9.81], atol=1e-9
+    )
     # Push the hand at a point off its origin: the reading changes by what the wrist resists.
     f_push, p_push_B = np.array([3.0, -2.0, 5.0]), np.array([0.02, 0.04, -0.09])
     plant.get_applied_spatial_force_input_port().FixValue(pc, [push(hand, p_push_B, f_push)])
     simulator.AdvanceTo(0.006)
     p_push = X_WB @ p_push_B
     expected = reading(
-        X_WJ, X_WJ.translation(), f_ext=f_push, tau_ext=np.cross(p_push - X_WJ.translation(), f_push),
+        X_WJ,
+        X_WJ.translation(),
+        f_ext=f_push,
+        tau_ext=np.cross(p_push - X_WJ.translation(), f_push),
         com=X_WJ.inverse() @ p_com,
     )
     np.testing.assert_allclose(sensor.GetOutputPort("wrench").Eval(sc), expected, atol=1e-9)
@@ -408,7 +444,9 @@ def test_sensor_and_admittance_recover_the_push_on_a_plant():
     plant.get_applied_spatial_force_input_port().FixValue(pc, [push(hand, p_push_B, f_push)])
     simulator.AdvanceTo(0.0201)  # the tick at 20 ms reads the sample of the step that ended at 20 ms
     tau_push = np.cross(X_WB @ p_push_B - X_WH.translation(), f_push)
-    np.testing.assert_allclose(admittance.GetOutputPort("wrench_external").Eval(ac), np.concatenate((tau_push, f_push)), atol=1e-9)
+    np.testing.assert_allclose(
+        admittance.GetOutputPort("wrench_external").Eval(ac), np.concatenate((tau_push, f_push)), atol=1e-9
+    )
 
 
 def test_force_sensor_payload_of_the_humanoid_wrist_includes_the_gripper(control_model):

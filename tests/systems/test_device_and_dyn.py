@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from feature_bench import random_configuration
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 
@@ -10,7 +11,6 @@ from drake_sot.statics import contact_torques
 from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
-from feature_bench import random_configuration
 
 
 def test_integrator_integrates_on_the_manifold(control_model):
@@ -61,9 +61,13 @@ def test_dyn_operational_points_match_the_plant(control_model):
     frame = plant.GetFrameByName(info.frames["right_foot"])
     X = dyn.GetOutputPort("rleg").Eval(context)
     np.testing.assert_allclose(X.GetAsMatrix4(), frame.CalcPoseInWorld(pc).GetAsMatrix4(), atol=1e-14)
-    J = plant.CalcJacobianSpatialVelocity(pc, JacobianWrtVariable.kV, frame, np.zeros(3), plant.world_frame(), plant.world_frame())
+    J = plant.CalcJacobianSpatialVelocity(
+        pc, JacobianWrtVariable.kV, frame, np.zeros(3), plant.world_frame(), plant.world_frame()
+    )
     np.testing.assert_allclose(dyn.GetOutputPort("Jrleg").Eval(context), J, atol=1e-14)
-    np.testing.assert_allclose(dyn.GetOutputPort("com").Eval(context), plant.CalcCenterOfMassPositionInWorld(pc), atol=1e-14)
+    np.testing.assert_allclose(
+        dyn.GetOutputPort("com").Eval(context), plant.CalcCenterOfMassPositionInWorld(pc), atol=1e-14
+    )
 
 
 def test_contact_torques_at_rest_balance_the_robot_by_inverse_dynamics(control_model):
@@ -76,7 +80,12 @@ def test_contact_torques_at_rest_balance_the_robot_by_inverse_dynamics(control_m
     plant.SetPositions(context, q)
     soles = [plant.GetFrameByName(info.frames[k]) for k in ("left_foot", "right_foot")]
     world = plant.world_frame()
-    J = np.vstack([plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, f, np.zeros(3), world, world) for f in soles])
+    J = np.vstack(
+        [
+            plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, f, np.zeros(3), world, world)
+            for f in soles
+        ]
+    )
     tau, f = contact_torques(-plant.CalcGravityGeneralizedForces(context), J)
     forces = MultibodyForces(plant)
     plant.CalcForceElementsContribution(context, forces)  # gravity (not included by inverse dynamics)
@@ -95,7 +104,9 @@ def test_contact_torques_at_rest_balance_the_robot_by_inverse_dynamics(control_m
 
 def test_gravity_feedforward_in_actuator_order(control_model):
     plant, info, q0 = control_model
-    feedforward = TorqueFeedforward(plant, info.actuated_joints, [info.frames["left_foot"], info.frames["right_foot"]])
+    feedforward = TorqueFeedforward(
+        plant, info.actuated_joints, [info.frames["left_foot"], info.frames["right_foot"]]
+    )
     context = feedforward.CreateDefaultContext()
     feedforward.GetInputPort("q").FixValue(context, q0)
     tau = feedforward.GetOutputPort("tau").Eval(context)

@@ -7,6 +7,7 @@ cancels); the feature's J v must equal d e / dε.
 
 import numpy as np
 import pytest
+from feature_bench import FeatureBench, random_configuration, retract
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import DiagramBuilder
 
@@ -18,7 +19,6 @@ from drake_sot.systems.features import (
     FeaturePoint6dRelative,
     FeaturePosture,
 )
-from feature_bench import FeatureBench, random_configuration, retract
 
 EPS = 1e-6
 
@@ -158,7 +158,10 @@ def test_posture_jacobian(control_model):
     bench = FeatureBench(plant, [feature], q_inputs=[feature]).build()
     q = random_configuration(plant, q0, rng)
     signal = fd_check(bench, feature, plant, q, rng)
-    expected = [q[plant.GetJointByName(j).position_start()] - q0[plant.GetJointByName(j).position_start()] for j in joints]
+    expected = [
+        q[plant.GetJointByName(j).position_start()] - q0[plant.GetJointByName(j).position_start()]
+        for j in joints
+    ]
     np.testing.assert_allclose(signal.error, expected, atol=1e-15)
 
 

@@ -7,12 +7,12 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_sot.models import half_sitting_configuration, make_control_model, sole_corner_points
 from drake_sot.systems.features import FeaturePoint6d, FeaturePosture
 from drake_sot.systems.generalized_controller import (
-    _inertia_weighted,
     STATUS_INFEASIBLE,
     STATUS_OPTIMAL,
     ContactPoints,
     GeneralizedHierarchyController,
     MotionTask,
+    _inertia_weighted,
 )
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.task import Task
@@ -28,20 +28,30 @@ def _controller(fixed_base: bool, *, hand: bool = True, min_normal_force: float 
     plant.SetPositions(context0, q0)
     X_lh = plant.GetFrameByName(info.frames["left_hand"]).CalcPoseInWorld(context0)
     lh = builder.AddSystem(FeaturePoint6d(name="f_lh", selection="111000", desired=X_lh))
-    posture = builder.AddSystem(FeaturePosture(plant, list(info.actuated_joints), name="f_posture", desired=q0))
+    posture = builder.AddSystem(
+        FeaturePosture(plant, list(info.actuated_joints), name="f_posture", desired=q0)
+    )
     tasks = {}
     for name, feature in (("taskLH", lh), ("taskPosture", posture)):
         tasks[name] = builder.AddSystem(Task(name))
         builder.Connect(feature.GetOutputPort("feature"), tasks[name].add(feature))
     builder.Connect(dyn.GetOutputPort("lh"), lh.GetInputPort("position"))
     builder.Connect(dyn.GetOutputPort("Jlh"), lh.GetInputPort("Jq"))
-    contacts = [] if fixed_base else [
-        ContactPoints(info.frames[f], sole_corner_points(), min_normal_force=min_normal_force)
-        for f in ("left_foot", "right_foot")
+    contacts = (
+        []
+        if fixed_base
+        else [
+            ContactPoints(info.frames[f], sole_corner_points(), min_normal_force=min_normal_force)
+            for f in ("left_foot", "right_foot")
+        ]
+    )
+    motion = ([MotionTask(tasks["taskLH"], 100.0, 20.0)] if hand else []) + [
+        MotionTask(tasks["taskPosture"], 16.0, 8.0)
     ]
-    motion = ([MotionTask(tasks["taskLH"], 100.0, 20.0)] if hand else []) + [MotionTask(tasks["taskPosture"], 16.0, 8.0)]
     controller = builder.AddSystem(
-        GeneralizedHierarchyController(plant, info.actuated_joints, motion_tasks=motion, contacts=contacts, q_posture=q0, **kwargs)
+        GeneralizedHierarchyController(
+            plant, info.actuated_joints, motion_tasks=motion, contacts=contacts, q_posture=q0, **kwargs
+        )
     )
     for name in controller.task_names:
         builder.Connect(tasks[name].GetOutputPort("task"), controller.GetInputPort(name))
@@ -64,7 +74,9 @@ def _controller(fixed_base: bool, *, hand: bool = True, min_normal_force: float 
 def _tick(controller, diagram, context):
     c = controller.GetMyMutableContextFromRoot(context)
     c.SetDiscreteState(controller.EvalUniquePeriodicDiscreteUpdate(c))
-    return {name: controller.GetOutputPort(name).Eval(c) for name in ("tau", "status", "contact_forces", "errors")}
+    return {
+        name: controller.GetOutputPort(name).Eval(c) for name in ("tau", "status", "contact_forces", "errors")
+    }
 
 
 def _gravity_in_actuator_order(plant, info, q):
@@ -116,10 +128,15 @@ def test_infeasible_qp_falls_back_to_gravity_compensation_and_posture():
     from pydrake.multibody.tree import JacobianWrtVariable
 
     world = plant.world_frame()
-    J = np.vstack([
-        plant.CalcJacobianTranslationalVelocity(context_p, JacobianWrtVariable.kV, plant.GetFrameByName(info.frames[f]), p, world, world)
-        for f in ("left_foot", "right_foot") for p in sole_corner_points()
-    ])
+    J = np.vstack(
+        [
+            plant.CalcJacobianTranslationalVelocity(
+                context_p, JacobianWrtVariable.kV, plant.GetFrameByName(info.frames[f]), p, world, world
+            )
+            for f in ("left_foot", "right_foot")
+            for p in sole_corner_points()
+        ]
+    )
     f = np.linalg.lstsq(J[:, :6].T, g[:6], rcond=None)[0]
     tau_v = g[6:] - J[:, 6:].T @ f
     expected = np.array([tau_v[plant.GetJointByName(j).velocity_start() - 6] for j in info.actuated_joints])

@@ -21,7 +21,9 @@ def _floating_ball(script):
     plant.Finalize()
     partner = builder.AddSystem(Partner(plant, script))
     builder.Connect(plant.get_body_poses_output_port(), partner.GetInputPort("body_poses"))
-    builder.Connect(plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities"))
+    builder.Connect(
+        plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities")
+    )
     builder.Connect(partner.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
     simulator = Simulator(builder.Build())
     return plant, partner, simulator
@@ -38,11 +40,15 @@ def test_push_accelerates_the_body_by_f_over_m():
     # 4 N on 2 kg for 0.5 s: x = a t² / 2 = 0.25 m (forces held per 5 ms tick: within 2 %).
     assert _position(plant, simulator)[0] == pytest.approx(0.5 * 2.0 * 0.5**2, rel=0.02)
     simulator.AdvanceTo(1.0)
-    np.testing.assert_array_equal(partner.GetOutputPort("forces").Eval(partner.GetMyContextFromRoot(simulator.get_context())), 0.0)
+    np.testing.assert_array_equal(
+        partner.GetOutputPort("forces").Eval(partner.GetMyContextFromRoot(simulator.get_context())), 0.0
+    )
 
 
 def test_hold_pulls_the_body_to_the_moving_grip():
-    script = {"ball": [Hold(0.0, 5.0, ((0.0, (0, 0, 0)), (1.0, (0.1, -0.05, 0.0))), stiffness=200.0, damping=40.0)]}
+    script = {
+        "ball": [Hold(0.0, 5.0, ((0.0, (0, 0, 0)), (1.0, (0.1, -0.05, 0.0))), stiffness=200.0, damping=40.0)]
+    }
     plant, partner, simulator = _floating_ball(script)
     simulator.AdvanceTo(4.0)
     np.testing.assert_allclose(_position(plant, simulator), [0.1, -0.05, 0.0], atol=2e-3)

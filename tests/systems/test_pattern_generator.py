@@ -56,7 +56,9 @@ def test_steps_follow_the_plan_and_never_enter_the_preview_window():
         assert _out(pg, context, "phase")[0] == (1 if stance == "left" else 2)
         stance_sole = _out(pg, context, f"{stance}_foot").translation()
         np.testing.assert_allclose(_out(pg, context, "zmp_ref"), stance_sole[:2], atol=1e-9)
-        assert _out(pg, context, f"{step.side}_foot").translation()[2] == pytest.approx(TIMING.step_height, rel=1e-3)
+        assert _out(pg, context, f"{step.side}_foot").translation()[2] == pytest.approx(
+            TIMING.step_height, rel=1e-3
+        )
         np.testing.assert_array_equal(_out(pg, context, "contacts"), [stance == "left", stance == "right"])
         sim.AdvanceTo(t + 1e-9)
         X = _out(pg, context, f"{step.side}_foot")
@@ -73,7 +75,9 @@ def test_stepseq_is_relative_to_the_other_foot():
     landings = [s for _, s in pg.planned_landings(context)]
     assert landings[0] == Footstep(0.2, -0.095, 0.0, "right")
     # Left foot: 0.2 ahead and 0.19 to the left of the right footprint, turned by 0.3 rad.
-    assert (landings[1].x, landings[1].y, landings[1].yaw, landings[1].side) == pytest.approx((0.4, 0.095, 0.3, "left"))
+    assert (landings[1].x, landings[1].y, landings[1].yaw, landings[1].side) == pytest.approx(
+        (0.4, 0.095, 0.3, "left")
+    )
 
 
 def test_parsecmd_timing_and_model_verbs():
@@ -86,7 +90,7 @@ def test_parsecmd_timing_and_model_verbs():
     sim.AdvanceTo(0.1)
     assert _out(pg, context, "com")[2] == pytest.approx(0.8)
     pg.parsecmd(context, ":stepseq 0.1 -0.19 0")
-    (t_land, _), = pg.planned_landings(context)
+    ((t_land, _),) = pg.planned_landings(context)
     # One horizon (1.2 s) of standing, then 0.12 s double support and 0.78 s single support.
     assert t_land == pytest.approx(0.1 + 1.2 + 0.12 + 0.78 - 0.005, abs=0.011)
     with pytest.raises(ValueError, match="only while standing"):
@@ -132,7 +136,10 @@ def test_velocity_mode_keeps_four_footprints_ahead_and_steers():
     feet = pg.footprints(context)
     assert min(f.yaw for f in feet.values()) > 1.0  # it turned (0.3 rad/s, 0.24 rad per step)
     # The waist reference turns with the feet.
-    yaw = math.atan2(_out(pg, context, "waist").rotation().matrix()[1, 0], _out(pg, context, "waist").rotation().matrix()[0, 0])
+    yaw = math.atan2(
+        _out(pg, context, "waist").rotation().matrix()[1, 0],
+        _out(pg, context, "waist").rotation().matrix()[0, 0],
+    )
     assert yaw > 0.5
     pg.set_velocity(context, 0.0, 0.0, 0.0)
     last = pg.planned_landings(context)[-1][0]

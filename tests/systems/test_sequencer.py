@@ -61,8 +61,15 @@ class _Rig:
         builder = DiagramBuilder()
         self.sot = builder.AddSystem(StackOfTasks(NV, {n: 1 for n in TASKS}, period=PERIOD))
         self.seq = builder.AddSystem(
-            TaskSequencer(states, initial, tasks=self.sot.task_names, stack=stack, period=period,
-                          values=values or {}, **kwargs)
+            TaskSequencer(
+                states,
+                initial,
+                tasks=self.sot.task_names,
+                stack=stack,
+                period=period,
+                values=values or {},
+                **kwargs,
+            )
         )
         builder.Connect(self.seq.GetOutputPort("stack"), self.sot.GetInputPort("stack"))
         self.diagram = builder.Build()
@@ -102,8 +109,11 @@ class _Rig:
 
 def test_initial_entry_actions_apply_at_t0():
     states = [
-        State("s0", entry=(Push("c"), Push("b"), Up("b"), SetValue("ref", [4.0, 5.0])),
-              transitions=(Transition(Timeout(0.05), "s1"),)),
+        State(
+            "s0",
+            entry=(Push("c"), Push("b"), Up("b"), SetValue("ref", [4.0, 5.0])),
+            transitions=(Transition(Timeout(0.05), "s1"),),
+        ),
         State("s1"),
     ]
     rig = _Rig(states, stack=("a",), values={"ref": np.zeros(2)})
@@ -230,12 +240,24 @@ def test_set_value_drives_a_reference_and_a_gain():
     builder.Connect(feature.GetOutputPort("feature"), task.add(feature))
     states = [
         State("s0", entry=(SetValue("gain", 2.0),), transitions=(Transition(Timeout(0.02), "s1"),)),
-        State("s1", entry=(SetValue("ref", [1.0, -1.0]), SetValue("gain", 5.0), SetValue("pose", RigidTransform([1.0, 2.0, 3.0])))),
+        State(
+            "s1",
+            entry=(
+                SetValue("ref", [1.0, -1.0]),
+                SetValue("gain", 5.0),
+                SetValue("pose", RigidTransform([1.0, 2.0, 3.0])),
+            ),
+        ),
     ]
-    seq = builder.AddSystem(TaskSequencer(
-        states, "s0", tasks=("t",), period=PERIOD,
-        values={"ref": [0.0, 0.0], "gain": 1.0, "pose": RigidTransform()},
-    ))
+    seq = builder.AddSystem(
+        TaskSequencer(
+            states,
+            "s0",
+            tasks=("t",),
+            period=PERIOD,
+            values={"ref": [0.0, 0.0], "gain": 1.0, "pose": RigidTransform()},
+        )
+    )
     builder.Connect(seq.GetOutputPort("ref"), feature.GetInputPort("sdes"))
     builder.Connect(seq.GetOutputPort("gain"), task.GetInputPort("gain"))
     diagram = builder.Build()
@@ -272,7 +294,14 @@ def test_sot_refuses_context_commands_while_driven():
     rig.simulator.Initialize()
     assert rig.sot.is_driven(rig.context)
     assert rig.sot.list(rig.context) == ("a", "b")
-    for command, args in (("push", ("c",)), ("pop", ()), ("rm", ("a",)), ("up", ("b",)), ("down", ("a",)), ("clear", ())):
+    for command, args in (
+        ("push", ("c",)),
+        ("pop", ()),
+        ("rm", ("a",)),
+        ("up", ("b",)),
+        ("down", ("a",)),
+        ("clear", ()),
+    ):
         with pytest.raises(ValueError, match=f"cannot {command}: the stack is driven by input port 'stack'"):
             getattr(rig.sot, command)(rig.context, *args)
     assert rig.stack == ("a", "b")
@@ -280,7 +309,10 @@ def test_sot_refuses_context_commands_while_driven():
 
 def test_unknown_task_is_refused_at_construction_with_the_known_names():
     for action in (Push("taskXX"), Rm("taskXX"), Up("taskXX"), Down("taskXX")):
-        states = [State("s0", transitions=(Transition(Timeout(1.0), "s1"),)), State("s1", entry=(Push("a"), action))]
+        states = [
+            State("s0", transitions=(Transition(Timeout(1.0), "s1"),)),
+            State("s1", entry=(Push("a"), action)),
+        ]
         with pytest.raises(ValueError, match=r"state 's1'.*unknown task 'taskXX'; known tasks: a, b, c"):
             TaskSequencer(states, "s0", tasks=TASK_NAMES)
     with pytest.raises(ValueError, match="initial stack .* unknown task.*'z'; known tasks: a, b, c"):
@@ -290,24 +322,62 @@ def test_unknown_task_is_refused_at_construction_with_the_known_names():
 @pytest.mark.parametrize(
     "states, initial, kwargs, message",
     [
-        ([State("s0", transitions=(Transition(Timeout(1), "nowhere"),))], "s0", {},
-         "transition to unknown state 'nowhere'; states: s0"),
+        (
+            [State("s0", transitions=(Transition(Timeout(1), "nowhere"),))],
+            "s0",
+            {},
+            "transition to unknown state 'nowhere'; states: s0",
+        ),
         ([State("s0"), State("s0")], "s0", {}, "two states are named 's0'"),
         ([State("s0")], "start", {}, "initial state 'start' does not exist; states: s0"),
         ([], "s0", {}, "at least one state"),
-        ([State("s0", entry=(SetValue("ref", 1.0),))], "s0", {},
-         "sets output 'ref', which has no initial value"),
-        ([State("s0", entry=(SetValue("ref", [1.0, 2.0]),))], "s0", {"values": {"ref": [0.0, 0.0, 0.0]}},
-         "has size 2, but its initial value has size 3"),
+        (
+            [State("s0", entry=(SetValue("ref", 1.0),))],
+            "s0",
+            {},
+            "sets output 'ref', which has no initial value",
+        ),
+        (
+            [State("s0", entry=(SetValue("ref", [1.0, 2.0]),))],
+            "s0",
+            {"values": {"ref": [0.0, 0.0, 0.0]}},
+            "has size 2, but its initial value has size 3",
+        ),
         ([State("s0", entry=(SetValue("ref", [np.nan]),))], "s0", {"values": {"ref": 0.0}}, "NaN or Inf"),
-        ([State("s0", entry=(SetValue("pose", 1.0),))], "s0", {"values": {"pose": RigidTransform()}},
-         "carries RigidTransform, got float"),
+        (
+            [State("s0", entry=(SetValue("pose", 1.0),))],
+            "s0",
+            {"values": {"pose": RigidTransform()}},
+            "carries RigidTransform, got float",
+        ),
         ([State("s0")], "s0", {"values": {"ref": 0.0}}, "values 'ref' are set by no SetValue"),
-        ([State("s0", entry=(SetValue("stack", 1.0),))], "s0", {"values": {"stack": 1.0}}, "'stack' is reserved"),
-        ([State("s0", transitions=(Transition(Below("e", 0.1, size=3), "s0"), Transition(Above("e", 1.0), "s0")))],
-         "s0", {}, "reads it with size 3"),
+        (
+            [State("s0", entry=(SetValue("stack", 1.0),))],
+            "s0",
+            {"values": {"stack": 1.0}},
+            "'stack' is reserved",
+        ),
+        (
+            [
+                State(
+                    "s0",
+                    transitions=(
+                        Transition(Below("e", 0.1, size=3), "s0"),
+                        Transition(Above("e", 1.0), "s0"),
+                    ),
+                )
+            ],
+            "s0",
+            {},
+            "reads it with size 3",
+        ),
         ([State("s0", entry=(Rm("a"),))], "s0", {}, r"Rm\(task='a'\) fails on the stack \(\)"),
-        ([State("s0", entry=(Pop(),))], "s0", {"stack": ("a",), "period": 0.0}, "period 0.0 must be finite and > 0"),
+        (
+            [State("s0", entry=(Pop(),))],
+            "s0",
+            {"stack": ("a",), "period": 0.0},
+            "period 0.0 must be finite and > 0",
+        ),
         ([State("s0")], "s0", {"tasks": ("a", "a")}, "holds a name twice"),
     ],
 )
@@ -338,12 +408,16 @@ def test_a_command_that_fails_on_some_path_is_refused_with_the_path():
         State("walking", entry=(Push("b"),), transitions=(Transition(Timeout(1), "grasp"),)),
         State("grasp", entry=(Rm("b"), Push("c"))),
     ]
-    with pytest.raises(ValueError, match=r"idle → grasp would fail: Rm\(task='b'\): task 'b' is not in the stack \('a',\)"):
+    with pytest.raises(
+        ValueError, match=r"idle → grasp would fail: Rm\(task='b'\): task 'b' is not in the stack \('a',\)"
+    ):
         TaskSequencer(states, "idle", tasks=TASK_NAMES, stack=("a",))
     # Without the path check the same error comes at run time, naming state, action and stack.
     rig = _Rig(states, initial="idle", stack=("a",), guards={"go": 1.0, "walk": 0.0}, check_paths=False)
     rig.simulator.Initialize()
-    with pytest.raises(RuntimeError, match=r"entering state 'grasp': entry action Rm\(task='b'\) fails on the stack \('a',\)"):
+    with pytest.raises(
+        RuntimeError, match=r"entering state 'grasp': entry action Rm\(task='b'\) fails on the stack \('a',\)"
+    ):
         rig.run(0.005)
 
 

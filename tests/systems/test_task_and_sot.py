@@ -165,7 +165,11 @@ class _CountingTask(LeafSystem):
         super().__init__()
         self.calls = 0
         self._name = name
-        self.DeclareAbstractOutputPort("task", lambda: AbstractValue.Make(TaskSignal(name, np.zeros(1), np.zeros((1, NV)), np.zeros(1))), self._calc)
+        self.DeclareAbstractOutputPort(
+            "task",
+            lambda: AbstractValue.Make(TaskSignal(name, np.zeros(1), np.zeros((1, NV)), np.zeros(1))),
+            self._calc,
+        )
 
     def _calc(self, context, value):
         self.calls += 1
@@ -210,7 +214,9 @@ def test_stack_input_drives_the_stack_and_is_validated():
         sot.clear(context)
     # Bad stacks on the input name the culprits and list the known tasks.
     sot.GetInputPort("stack").FixValue(context, ("a", "zz", "b", "a"))
-    with pytest.raises(RuntimeError, match=r"unknown task\(s\) 'zz' and task\(s\) listed twice 'a'; known tasks: a, b, c"):
+    with pytest.raises(
+        RuntimeError, match=r"unknown task\(s\) 'zz' and task\(s\) listed twice 'a'; known tasks: a, b, c"
+    ):
         _tick(sot, context)
     with pytest.raises(RuntimeError, match="unknown task"):
         sot.GetOutputPort("stack").Eval(context)
@@ -241,7 +247,9 @@ def test_task_gain_input():
         task.set_gain(context, 2.0)
     for bad in (0.0, -1.0, np.nan, np.inf):
         task.GetInputPort("gain").FixValue(context, [bad])
-        with pytest.raises(RuntimeError, match="task 't': gain .* on input port 'gain' must be finite and > 0"):
+        with pytest.raises(
+            RuntimeError, match="task 't': gain .* on input port 'gain' must be finite and > 0"
+        ):
             task.GetOutputPort("task").Eval(context)
     with pytest.raises(ValueError, match="cannot be named 'gain'"):
         task.add(FeatureGeneric(1, name="gain"))

@@ -10,9 +10,13 @@ from drake_sot.systems.zmp import ZmpEstimator
 
 def test_zmp_formula_on_a_hand_example():
     # 100 N straight down at (0.1, 0.2) plus a pure moment of 5 N·m about x: the ZMP moves by 5/100 in y.
-    z = zmp_from_wrenches(np.array([[0.1, 0.2, 0.3]]), np.array([[0.0, 0.0, 100.0]]), np.array([[5.0, 0.0, 0.0]]))
+    z = zmp_from_wrenches(
+        np.array([[0.1, 0.2, 0.3]]), np.array([[0.0, 0.0, 100.0]]), np.array([[5.0, 0.0, 0.0]])
+    )
     np.testing.assert_allclose(z, [0.1, 0.25, 100.0])
-    assert np.isnan(zmp_from_wrenches(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), 5.0)[0])
+    assert np.isnan(
+        zmp_from_wrenches(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), 5.0)[0]
+    )
 
 
 def _contact_cop(plant, plant_context):
@@ -33,7 +37,9 @@ def test_sensor_zmp_matches_the_contact_centre_of_pressure():
     com_des = b.initial_com() + [0.03, 0.025, 0.0]  # lean forward and to the left
     b.add_com_task("taskCom", gain=3.0, desired=com_des)
     b.add_posture_task("taskPosture")
-    zmp = b.builder.AddSystem(ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]]))
+    zmp = b.builder.AddSystem(
+        ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]])
+    )
     b.builder.Connect(b.plant.get_reaction_forces_output_port(), zmp.GetInputPort("reaction_forces"))
     b.builder.Connect(b.plant.get_body_poses_output_port(), zmp.GetInputPort("body_poses"))
     built = b.build(stack=["taskLF", "taskRF", "taskCom", "taskPosture"])
