@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg.lapack
 
-from drake_sot.linalg import SvdSplit, _nonnegative
+from drake_sot.linalg import SvdSplit
+from drake_sot.validation import nonnegative
 
 __all__ = [
     "HierarchyResult",
@@ -143,8 +144,8 @@ def solve_strict(
             names the level index and the shapes), or ``rank_threshold`` or
             ``damping`` is negative or not finite.
     """
-    rank_threshold = _nonnegative("rank_threshold", rank_threshold)
-    damping = _nonnegative("damping", damping)
+    rank_threshold = nonnegative("rank_threshold", rank_threshold)
+    damping = nonnegative("damping", damping)
     if validate:
         checked, qdot0 = _validate(levels, qdot0)
     else:
@@ -429,7 +430,7 @@ def generalized_projector(
             with different column counts (messages name the task index and
             shapes), or a negative ``rank_threshold``.
     """
-    tol = _nonnegative("rank_threshold", rank_threshold)
+    tol = nonnegative("rank_threshold", rank_threshold)
     if validate:
         jacobians, _ = _jacobians(jacobians)
         alpha = _alphas(alpha_row)
@@ -465,7 +466,7 @@ def generalized_projectors(
     Raises:
         ValueError: as :func:`generalized_projector`, or ``alpha`` not (n, n).
     """
-    tol = _nonnegative("rank_threshold", rank_threshold)
+    tol = nonnegative("rank_threshold", rank_threshold)
     jacobians, stacked = _jacobians(jacobians)
     a = np.asarray(alpha, dtype=float)
     n = len(jacobians)

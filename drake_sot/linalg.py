@@ -2,11 +2,20 @@
 
 Every function takes a Jacobian-like matrix ``J`` of shape ``(m, n)`` (m task
 rows, n joints) and works from one singular value decomposition.  A singular
-value is *kept* when it is strictly greater than ``rank_threshold`` (an
-absolute value, in the units of ``J``); the others are treated as exact zeros.
-The original Stack of Tasks calls this threshold the "damping" of its
-pseudo-inverse, although it truncates rather than damps; true damping (damped
-least squares) is :func:`damped_pinv`.
+value ``s_k`` is *kept* when it is strictly greater than
+
+    max(rank_threshold, max(m, n) · eps · s_max)
+
+and the others are treated as exact zeros.  ``rank_threshold`` is an absolute
+value in the units of ``J`` (the original Stack of Tasks calls it the "damping"
+of its pseudo-inverse, although it truncates rather than damps; true damping,
+damped least squares, is :func:`damped_pinv`).  The second term is the
+relative floor below which a singular value is rounding noise (``eps`` the
+float64 machine epsilon, ``s_max`` the largest singular value): the floor of
+LAPACK's and numpy's ``matrix_rank``/``pinv``.  Without it, a rank decision
+compares a float to exactly zero and depends on the last bits of a BLAS
+result: the second singular value of [[1, 1], [1, 1]] comes out as 0 or as
+3e-17 depending on the library, and its inverse as 0 or as 3e16.
 """
 
 from __future__ import annotations
@@ -16,32 +25,26 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from drake_sot.validation import matrix, nonnegative
+
 __all__ = [
     "SvdSplit",
     "damped_pinv",
     "null_space_basis",
     "pinv",
     "rank",
+    "rank_floor",
     "weighted_pinv",
 ]
 
 
-def _matrix(name: str, value: np.ndarray) -> np.ndarray:
-    """Return ``value`` as a finite 2-D float array or raise ValueError naming ``name``."""
-    a = np.asarray(value, dtype=float)
-    if a.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D matrix, got shape {a.shape}")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name} of shape {a.shape} contains NaN or Inf")
-    return a
+_EPS = float(np.finfo(float).eps)
 
 
-def _nonnegative(name: str, value: float) -> float:
-    """Return ``value`` as a float or raise ValueError if it is negative or not finite."""
-    v = float(value)
-    if not (np.isfinite(v) and v >= 0.0):
-        raise ValueError(f"{name} must be a finite value >= 0, got {value!r}")
-    return v
+def rank_floor(shape: tuple[int, int], s_max: float) -> float:
+    """The relative floor ``max(m, n) · eps · s_max`` below which a singular value of a
+    matrix of ``shape`` whose largest singular value is ``s_max`` is rounding noise."""
+    return max(shape) * _EPS * s_max
 
 
 @dataclass(frozen=True)
@@ -58,7 +61,8 @@ class SvdSplit:
         U: (m, p) left singular vectors.
         s: (p,) singular values, descending.
         Vt: (k, k) right singular vectors (rows).
-        rank: number of singular values > the rank threshold.
+        rank: number of singular values > max(rank threshold, relative floor)
+            (see the module docstring).
     """
 
     U: np.ndarray
@@ -68,13 +72,15 @@ class SvdSplit:
 
     @classmethod
     def of(cls, A: np.ndarray, rank_threshold: float = 1e-6) -> SvdSplit:
-        """Decompose ``A`` (m, k); singular values <= ``rank_threshold`` count as zero.
+        """Decompose ``A`` (m, k); singular values <= ``max(rank_threshold,
+        max(m, k)·eps·s_max)`` count as zero.
 
         ``A`` is assumed finite (validate with the public functions first).
         """
         m, k = A.shape
         U, s, Vt = np.linalg.svd(A, full_matrices=m < k)
-        return cls(U=U, s=s, Vt=Vt, rank=int(np.count_nonzero(s > rank_threshold)))
+        floor = max(rank_threshold, rank_floor(A.shape, float(s[0]))) if s.size else rank_threshold
+        return cls(U=U, s=s, Vt=Vt, rank=int(np.count_nonzero(s > floor)))
 
     def _inverse_values(self, damping: float) -> np.ndarray:
         """(rank,) inverted kept singular values: 1/s, or s/(s^2 + damping^2)."""
@@ -103,12 +109,12 @@ class SvdSplit:
 def pinv(J: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:
     """Rank-revealing Moore-Penrose pseudo-inverse of ``J`` (m, n) -> (n, m).
 
-    Singular values <= ``rank_threshold`` (absolute) are treated as zero.  This
-    threshold is what the original SoT calls the "damping" of its
-    pseudo-inverse.
+    Singular values <= ``rank_threshold`` (absolute) or below the relative floor
+    (module docstring) are treated as zero.  This threshold is what the original
+    SoT calls the "damping" of its pseudo-inverse.
     """
-    J = _matrix("J", J)
-    return SvdSplit.of(J, _nonnegative("rank_threshold", rank_threshold)).pinv()
+    J = matrix("J", J)
+    return SvdSplit.of(J, nonnegative("rank_threshold", rank_threshold)).pinv()
 
 
 def damped_pinv(J: np.ndarray, damping: float) -> np.ndarray:
@@ -116,11 +122,12 @@ def damped_pinv(J: np.ndarray, damping: float) -> np.ndarray:
 
     Computed by SVD as ``V diag(s / (s^2 + damping^2)) U^T``, which stays
     bounded (by ``1 / (2 damping)``) near singularities.  ``damping = 0`` gives
-    the exact pseudo-inverse in which only exactly-zero singular values are
-    dropped.
+    the Moore-Penrose pseudo-inverse in which the singular values below the
+    relative floor ``max(m, n)·eps·s_max`` (rounding noise, see the module
+    docstring) are dropped, as ``numpy.linalg.pinv`` does.
     """
-    J = _matrix("J", J)
-    return SvdSplit.of(J, 0.0).pinv(_nonnegative("damping", damping))
+    J = matrix("J", J)
+    return SvdSplit.of(J, 0.0).pinv(nonnegative("damping", damping))
 
 
 def weighted_pinv(J: np.ndarray, W: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:
@@ -137,8 +144,8 @@ def weighted_pinv(J: np.ndarray, W: np.ndarray, rank_threshold: float = 1e-6) ->
         ValueError: non-finite input, ``W`` not (n, n), not symmetric, or not
             positive definite.
     """
-    J = _matrix("J", J)
-    W = _matrix("W", W)
+    J = matrix("J", J)
+    W = matrix("W", W)
     n = J.shape[1]
     if W.shape != (n, n):
         raise ValueError(f"W must have shape ({n}, {n}) to match J of shape {J.shape}, got {W.shape}")
@@ -149,18 +156,18 @@ def weighted_pinv(J: np.ndarray, W: np.ndarray, rank_threshold: float = 1e-6) ->
     except np.linalg.LinAlgError as err:
         raise ValueError(f"W must be symmetric positive definite: Cholesky failed ({err})") from None
     G = scipy.linalg.solve_triangular(L, J.T, lower=True).T  # J L^-T, (m, n)
-    G_pinv = SvdSplit.of(G, _nonnegative("rank_threshold", rank_threshold)).pinv()
+    G_pinv = SvdSplit.of(G, nonnegative("rank_threshold", rank_threshold)).pinv()
     return scipy.linalg.solve_triangular(L, G_pinv, lower=True, trans="T")
 
 
 def null_space_basis(J: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:
     """Orthonormal basis ``Z`` of ker J for ``J`` (m, n): shape (n, n - rank), ``J Z = 0``, ``Z^T Z = I``."""
-    J = _matrix("J", J)
-    return SvdSplit.of(J, _nonnegative("rank_threshold", rank_threshold)).null_basis()
+    J = matrix("J", J)
+    return SvdSplit.of(J, nonnegative("rank_threshold", rank_threshold)).null_basis()
 
 
 def rank(J: np.ndarray, rank_threshold: float = 1e-6) -> int:
-    """Number of singular values of ``J`` (m, n) strictly greater than ``rank_threshold``."""
-    J = _matrix("J", J)
-    threshold = _nonnegative("rank_threshold", rank_threshold)
-    return int(np.count_nonzero(np.linalg.svd(J, compute_uv=False) > threshold))
+    """Number of singular values of ``J`` (m, n) strictly greater than ``rank_threshold``
+    and than the relative floor (module docstring)."""
+    J = matrix("J", J)
+    return SvdSplit.of(J, nonnegative("rank_threshold", rank_threshold)).rank

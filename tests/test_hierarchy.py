@@ -329,8 +329,8 @@ def test_rank_threshold_drops_small_projected_directions():
         ),
         ([(np.array([[1.0, np.inf]]), np.ones(1))], {}, r"levels\[0\]: J or edot contains NaN or Inf"),
         ([(np.ones((1, 2)), np.ones(1))], {"qdot0": [0.0, np.nan]}, "qdot0 contains NaN or Inf"),
-        ([(np.ones((1, 2)), np.ones(1))], {"damping": -0.1}, "damping must be a finite value >= 0, got -0.1"),
-        ([(np.ones((1, 2)), np.ones(1))], {"rank_threshold": -1.0}, "rank_threshold .* got -1.0"),
+        ([(np.ones((1, 2)), np.ones(1))], {"damping": -0.1}, "damping = -0.1: must be finite and >= 0"),
+        ([(np.ones((1, 2)), np.ones(1))], {"rank_threshold": -1.0}, "rank_threshold = -1.0: must be finite"),
     ],
 )
 def test_invalid_input_names_the_level_and_shapes(levels, kwargs, message):

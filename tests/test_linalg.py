@@ -103,6 +103,33 @@ def test_damped_pinv_with_zero_damping_is_exact_pinv():
     np.testing.assert_allclose(damped_pinv(J, 0.0), np.full((2, 2), 0.25))
 
 
+def penrose_residuals(A: np.ndarray, X: np.ndarray) -> list[float]:
+    """The four Moore-Penrose conditions' residuals, relative to ||A|| and ||X||."""
+    a, x = np.linalg.norm(A, 2), np.linalg.norm(X, 2)
+    return [
+        np.linalg.norm(A @ X @ A - A) / a,
+        np.linalg.norm(X @ A @ X - X) / x,
+        np.linalg.norm((A @ X).T - A @ X),
+        np.linalg.norm((X @ A).T - X @ A),
+    ]
+
+
+@pytest.mark.parametrize("seed", range(5))
+@pytest.mark.parametrize("function", [lambda A: damped_pinv(A, 0.0), lambda A: pinv(A, 0.0)])
+def test_zero_threshold_drops_rounding_noise_of_a_rank_deficient_matrix(function, seed):
+    """A 6x36 matrix of rank 3 built as a product: its singular values 4-6 are rounding
+    noise (~1e-15, their exact value depends on the BLAS). Comparing them to exactly zero
+    inverted them (entries of 6e14, ||A A+ A - A|| = 2); the relative floor drops them, on
+    any BLAS."""
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((6, 3)) @ rng.standard_normal((3, 36))
+    X = function(A)
+    assert max(penrose_residuals(A, X)) < 1e-12
+    np.testing.assert_allclose(X, np.linalg.pinv(A), atol=1e-12 * np.abs(X).max())
+    assert rank(A, 0.0) == 3
+    assert null_space_basis(A, 0.0).shape == (36, 33)
+
+
 # --- weighted_pinv ----------------------------------------------------------------------
 
 
@@ -222,19 +249,19 @@ def test_non_finite_or_non_matrix_input_is_rejected(function):
         function(np.array([[1.0, np.nan], [0.0, 1.0]]))
     with pytest.raises(ValueError, match=r"J of shape \(1, 2\) contains NaN or Inf"):
         function(np.array([[np.inf, 0.0]]))
-    with pytest.raises(ValueError, match=r"J must be a 2-D matrix, got shape \(3,\)"):
+    with pytest.raises(ValueError, match=r"J must be a matrix of shape \(n, n\), got shape \(3,\)"):
         function(np.ones(3))
 
 
 def test_negative_threshold_and_damping_are_rejected():
     J = np.eye(2)
-    with pytest.raises(ValueError, match=r"rank_threshold must be a finite value >= 0, got -0.1"):
+    with pytest.raises(ValueError, match=r"rank_threshold = -0.1: must be finite and >= 0"):
         pinv(J, rank_threshold=-0.1)
-    with pytest.raises(ValueError, match=r"rank_threshold .* got -1e-06"):
+    with pytest.raises(ValueError, match=r"rank_threshold = -1e-06"):
         null_space_basis(J, rank_threshold=-1e-6)
-    with pytest.raises(ValueError, match=r"rank_threshold .* got nan"):
+    with pytest.raises(ValueError, match=r"rank_threshold = nan"):
         rank(J, rank_threshold=float("nan"))
-    with pytest.raises(ValueError, match=r"rank_threshold .* got -1"):
+    with pytest.raises(ValueError, match=r"rank_threshold = -1"):
         weighted_pinv(J, np.eye(2), rank_threshold=-1)
-    with pytest.raises(ValueError, match=r"damping must be a finite value >= 0, got -0.5"):
+    with pytest.raises(ValueError, match=r"damping = -0.5: must be finite and >= 0"):
         damped_pinv(J, -0.5)

@@ -1,0 +1,151 @@
+"""Argument checks, the one place for them (pure: numpy only).
+
+Every check returns the value converted (a float, an int, a float array) or raises
+ValueError naming the argument, the bad value and what was expected. Comparisons are
+written so that NaN fails them — ``not (v > 0)``, never ``v <= 0`` — because every
+comparison with NaN is False. Values are checked here, before they reach Drake: a
+Drake assertion on a bad value raises ``SystemExit``, which ends the interpreter.
+
+Conventions of the messages: ``"{name} = {value!r}: must be ..."``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Literal
+
+import numpy as np
+
+__all__ = [
+    "bounded",
+    "finite",
+    "matrix",
+    "nonnegative",
+    "per_axis",
+    "positive",
+    "positive_int",
+    "vector",
+]
+
+Sign = Literal["any", "nonnegative", "positive"]
+
+
+def _scalar(name: str, value) -> float:
+    """``value`` as a float, or ValueError naming ``name`` (strings, arrays of size > 1, None)."""
+    if isinstance(value, bool) or isinstance(value, str):
+        raise ValueError(f"{name} = {value!r}: must be a number")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: must be a number") from None
+
+
+def finite(name: str, value) -> float:
+    """``value`` as a finite float (not NaN, not ±inf)."""
+    v = _scalar(name, value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} = {value!r}: must be a finite number")
+    return v
+
+
+def positive(name: str, value, *, unit: str = "") -> float:
+    """``value`` as a finite float > 0."""
+    v = _scalar(name, value)
+    if not (math.isfinite(v) and v > 0.0):
+        raise ValueError(f"{name} = {value!r}{_unit(unit)}: must be finite and > 0")
+    return v
+
+
+def nonnegative(name: str, value, *, unit: str = "") -> float:
+    """``value`` as a finite float >= 0."""
+    v = _scalar(name, value)
+    if not (math.isfinite(v) and v >= 0.0):
+        raise ValueError(f"{name} = {value!r}{_unit(unit)}: must be finite and >= 0")
+    return v
+
+
+def bounded(name: str, value, low: float, high: float, *, unit: str = "") -> float:
+    """``value`` as a finite float in [``low``, ``high``]; the message names the bound."""
+    v = _scalar(name, value)
+    if not (low <= v <= high):
+        raise ValueError(f"{name} = {value!r}{_unit(unit)}: must be in [{low:g}, {high:g}]{_unit(unit)}")
+    return v
+
+
+def positive_int(name: str, value, *, minimum: int = 1) -> int:
+    """``value`` as an int >= ``minimum`` (a float with an integer value is accepted, a bool is not)."""
+    if isinstance(value, bool):
+        raise ValueError(f"{name} = {value!r}: must be an integer >= {minimum}")
+    try:
+        v = int(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} = {value!r}: must be an integer >= {minimum}") from None
+    if v != value or not (v >= minimum):
+        raise ValueError(f"{name} = {value!r}: must be an integer >= {minimum}")
+    return v
+
+
+def vector(name: str, value, size: int | None = None) -> np.ndarray:
+    """``value`` as a finite 1-D float array, of length ``size`` when given."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim != 1 or (size is not None and a.shape[0] != size):
+        raise ValueError(f"{name} must have shape {_shape((size,))}, got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} = {a}: contains NaN or Inf (entry {_first_bad(a)})")
+    return a
+
+
+def matrix(name: str, value, shape: Sequence[int | None] | None = None) -> np.ndarray:
+    """``value`` as a finite 2-D float array; ``shape`` may fix either dimension (None: any)."""
+    a = np.asarray(value, dtype=float)
+    want = tuple(shape) if shape is not None else (None, None)
+    if a.ndim != 2 or any(w is not None and w != s for w, s in zip(want, a.shape, strict=False)):
+        raise ValueError(f"{name} must be a matrix of shape {_shape(want)}, got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} of shape {a.shape} contains NaN or Inf (entry {_first_bad(a)})")
+    return a
+
+
+def per_axis(name: str, value, n: int, *, sign: Sign = "any", allow_inf: bool = False) -> np.ndarray:
+    """A per-axis parameter as a float array (n,).
+
+    Accepted: a scalar (the same on every axis), ``n`` values, or — when ``n == 6``, a
+    spatial quantity ordered [3 translation, 3 rotation] or [3 rotation, 3 translation]
+    as the caller documents — a pair (first three axes, last three). ``sign`` asks every
+    value to be > 0 (``"positive"``) or >= 0 (``"nonnegative"``); ``allow_inf`` lets
+    ``+inf`` through (e.g. "no saturation"); NaN never passes.
+    """
+    a = np.asarray(value, dtype=float).reshape(-1)
+    if a.size == 1:
+        a = np.full(n, a[0])
+    elif a.size == 2 and n == 6:
+        a = np.repeat(a, 3)
+    elif a.size != n:
+        pair = ", a pair (3 + 3 axes)" if n == 6 else ""
+        raise ValueError(f"{name} must be a scalar{pair} or {n} values, got {a.size} values")
+    ok = np.isfinite(a) | (allow_inf & (a == np.inf))
+    if sign == "positive":
+        ok &= a > 0.0
+    elif sign == "nonnegative":
+        ok &= a >= 0.0
+    if not ok.all():
+        what = {"any": "finite", "nonnegative": "finite and >= 0", "positive": "finite and > 0"}[sign]
+        if allow_inf:
+            what += " (or +inf)"
+        raise ValueError(f"{name} = {a}: every value must be {what}; entry {int(np.argmin(ok))} is not")
+    return a
+
+
+def _unit(unit: str) -> str:
+    return f" {unit}" if unit else ""
+
+
+def _shape(shape: tuple) -> str:
+    dims = ", ".join("n" if d is None else str(d) for d in shape)
+    return f"({dims},)" if len(shape) == 1 else f"({dims})"
+
+
+def _first_bad(a: np.ndarray) -> str:
+    index = np.unravel_index(int(np.argmin(np.isfinite(a))), a.shape)
+    return "".join(f"[{int(k)}]" for k in index)
