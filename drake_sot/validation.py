@@ -21,6 +21,7 @@ __all__ = [
     "bounded",
     "finite",
     "matrix",
+    "nonempty_string",
     "nonnegative",
     "per_axis",
     "positive",
@@ -135,6 +136,13 @@ def per_axis(name: str, value, n: int, *, sign: Sign = "any", allow_inf: bool = 
             what += " (or +inf)"
         raise ValueError(f"{name} = {a}: every value must be {what}; entry {int(np.argmin(ok))} is not")
     return a
+
+
+def nonempty_string(name: str, value) -> str:
+    """``value`` as a non-empty ``str`` (a task, state or port name; a bytes or None is refused)."""
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{name} = {value!r}: must be a non-empty string")
+    return value
 
 
 def _unit(unit: str) -> str:
