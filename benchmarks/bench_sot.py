@@ -106,7 +106,7 @@ def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, flo
 
     setup = (scenario or reach).build(None)
     duration = duration or setup.duration
-    from drake_sot.diagrams.humanoid import add_humanoid_plant
+    from drake_sot.diagrams.world import add_humanoid_plant
     from drake_sot.models import half_sitting_configuration
 
     # Baseline: the same plant on constant set points.

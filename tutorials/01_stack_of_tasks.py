@@ -36,9 +36,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.models import add_ground, half_sitting_configuration, load_humanoid, make_control_model
+from drake_sot.systems.device import Device
 from drake_sot.systems.features import FeatureGeneric, FeaturePoint6d, FeaturePoint6dRelative
 from drake_sot.systems.feedforward import TorqueFeedforward
-from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.task import Task
@@ -195,7 +195,7 @@ builder.Connect(featureLeftFoot.GetOutputPort("feature"), taskLeftFoot.add(featu
 # * `StackOfTasks` (the paper's `sot`, eq. 8): one input port per task it may ever
 #   use. Which of them act, and in which order, is the *stack*, held in the context —
 #   data, not wiring. It ticks every 5 ms, as on HRP-2.
-# * `Integrator` (the SoT "device"): integrates q̇ into the reference configuration q,
+# * `Device` (the SoT "device"): integrates q̇ into the reference configuration q,
 #   starting in half-sitting. Its `q` feeds `dyn` (the open-loop scheme of a
 #   position-controlled robot) and its `state_des` feeds the plant's PD actuators.
 # * `TorqueFeedforward`: the static joint torques of the reference posture on both
@@ -207,7 +207,7 @@ sot = builder.AddSystem(StackOfTasks(control_plant.num_velocities(), tasks, peri
 for task in tasks:
     builder.Connect(task.GetOutputPort("task"), sot.GetInputPort(task.get_name()))
 
-device = builder.AddSystem(Integrator(control_plant, control_info.actuated_joints, q0, period=0.005))
+device = builder.AddSystem(Device(control_plant, control_info.actuated_joints, q0, period=0.005))
 builder.Connect(sot.GetOutputPort("qdot"), device.GetInputPort("qdot"))
 builder.Connect(device.GetOutputPort("q"), dyn.GetInputPort("q"))
 builder.Connect(device.GetOutputPort("state_des"), plant.get_desired_state_input_port(info.model_instance))

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 from pydrake.systems.framework import Context, Diagram
 
-from drake_sot.diagrams.humanoid import BuiltHumanoid
 from drake_sot.diagrams.run import RunResult
+from drake_sot.diagrams.world import BuiltHumanoid
 
 
 def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None:

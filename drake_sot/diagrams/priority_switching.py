@@ -17,8 +17,8 @@ import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 
-from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.plots import plot_priority_switch
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
@@ -55,7 +55,7 @@ def build_with(
     alpha: AlphaSchedule, meshcat: Meshcat | None = None, duration: float = DURATION
 ) -> ScenarioSetup:
     """The scenario's diagram with a given α schedule (the sweep reuses it with constant α)."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, actuation="torque", fixed_base=True)
+    b = TorqueHumanoidBuilder(meshcat=meshcat, fixed_base=True)
     arm_and_body = [j for j in b.control_info.actuated_joints if not j.endswith("gripper")]
     b.add_joint_limits_task("taskJL", margin=0.05, joints=arm_and_body)
     X_head = b.initial_pose("head")
@@ -66,7 +66,7 @@ def build_with(
     b.add_posture_task("taskPosture")
     schedule = b.builder.AddSystem(PrioritySchedule(alpha))
     b.log("alpha", schedule.GetOutputPort("alpha"))
-    built = b.build_generalized(
+    built = b.build(
         motion=[(name, *GAINS[name]) for name in TASKS],
         alpha=schedule.GetOutputPort("alpha"),
     )

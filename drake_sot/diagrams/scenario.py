@@ -12,8 +12,8 @@ from pydrake.math import RigidTransform
 from pydrake.systems.framework import Context
 
 from drake_sot.diagrams.artifacts import log_arrays, write_npz, write_replay, write_svg
-from drake_sot.diagrams.humanoid import BuiltHumanoid, loopback_meshcat
 from drake_sot.diagrams.run import Command, Progress, RunResult, simulate
+from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.plots import plot_task_errors
 from drake_sot.systems.stack_history import stack_changes
 

@@ -25,9 +25,9 @@ from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, PrismaticSp
 from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
-from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import HumanoidInfo
 from drake_sot.plots import plot_table_pounding
 from drake_sot.systems.priority_schedule import PrioritySchedule
@@ -159,7 +159,7 @@ def initial_alpha() -> np.ndarray:
 
 def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
     """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, actuation="torque", before_finalize=_add_table)
+    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table)
     X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
     b.add_com_task("taskCom", selection="110")
     b.add_op_point_task("taskRH", "right_hand", selection="111000", desired=X["right"])
@@ -181,7 +181,7 @@ def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
     desired = b.builder.AddSystem(ConstantVectorSource([-FORCE]))  # the hand pushes down
     b.log("alpha", schedule.GetOutputPort("alpha"))
     b.log("table_force", force.GetOutputPort("force"))
-    built = b.build_generalized(
+    built = b.build(
         motion=[(name, *GAINS[name]) for name in MOTION],
         force=[(name, *FORCE_PI) for name in FORCES],
         force_inputs={name: (desired.get_output_port(), force.GetOutputPort("applied")) for name in FORCES},

@@ -25,9 +25,9 @@ class TorqueFeedforward(LeafSystem):
     With ``v`` and ``vdot`` unconnected it is the quasi-static (gravity) feed-forward.
 
     Input ports:
-        q: reference configuration (nq,) of ``plant`` (``Integrator.q``).
-        v: reference velocity (nv,) [rad/s, m/s] (``Integrator.v``); optional, zero.
-        vdot: reference acceleration (nv,) (``Integrator.vdot``); optional, zero.
+        q: reference configuration (nq,) of ``plant`` (``Device.q``).
+        v: reference velocity (nv,) [rad/s, m/s] (``Device.v``); optional, zero.
+        vdot: reference acceleration (nv,) (``Device.vdot``); optional, zero.
         load: (k,) one non-negative share per contact frame: 0 when the frame is off
             the ground, and the ground load is distributed in proportion
             (e.g. ``PatternGenerator.load``); optional, equal shares when unconnected.

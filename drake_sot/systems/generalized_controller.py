@@ -272,6 +272,11 @@ class GeneralizedHierarchyController(LeafSystem):
         """The goal-directed tasks, in the order of the alpha matrix's rows and columns."""
         return list(self._names)
 
+    def error_slices(self) -> dict[str, slice]:
+        """Where each goal-directed task's error lies in the ``errors`` output."""
+        ends = np.cumsum(self._dims).tolist()
+        return {n: slice(e - m, e) for n, e, m in zip(self._names, ends, self._dims, strict=True)}
+
     # --- one control tick -------------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         x = self._state.Eval(context)

@@ -1,4 +1,4 @@
-"""Integrator (the SoT device), RobotKinematics (dyn) and the quasi-static feed-forward."""
+"""Device (the SoT device), RobotKinematics (dyn) and the quasi-static feed-forward."""
 
 import numpy as np
 import pytest
@@ -8,14 +8,14 @@ from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 
 from drake_sot.configuration import integrate
 from drake_sot.statics import contact_torques
+from drake_sot.systems.device import Device
 from drake_sot.systems.feedforward import TorqueFeedforward
-from drake_sot.systems.integrator import Integrator
 from drake_sot.systems.kinematics import RobotKinematics
 
 
-def test_integrator_integrates_on_the_manifold(control_model):
+def test_device_integrates_on_the_manifold(control_model):
     plant, info, q0 = control_model
-    device = Integrator(plant, info.actuated_joints, q0, period=0.005)
+    device = Device(plant, info.actuated_joints, q0, period=0.005)
     context = device.CreateDefaultContext()
     rng = np.random.default_rng(0)
     qdot = rng.normal(size=plant.num_velocities())
@@ -34,9 +34,9 @@ def test_integrator_integrates_on_the_manifold(control_model):
         assert state_des[len(info.actuated_joints) + k] == qdot[joint.velocity_start()]
 
 
-def test_integrator_refuses_nan(control_model):
+def test_device_refuses_nan(control_model):
     plant, info, q0 = control_model
-    device = Integrator(plant, info.actuated_joints, q0)
+    device = Device(plant, info.actuated_joints, q0)
     context = device.CreateDefaultContext()
     qdot = np.zeros(plant.num_velocities())
     qdot[7] = np.nan

@@ -1,4 +1,4 @@
-"""``Integrator``: q̇ → the reference configuration, like the original SoT's "device"."""
+"""``Device``: q̇ → the reference configuration, the "device" entity of the original SoT."""
 
 from __future__ import annotations
 
@@ -10,9 +10,10 @@ from pydrake.systems.framework import BasicVector, Context, DiscreteValues, Leaf
 
 from drake_sot.configuration import integrate
 from drake_sot.systems._context import own_context
+from drake_sot.validation import positive
 
 
-class Integrator(LeafSystem):
+class Device(LeafSystem):
     """Integrates the solver's q̇ into the reference configuration q at the control period.
 
     The free flyer moves on SE(3) (quaternion normalised), the joints linearly
@@ -54,12 +55,11 @@ class Integrator(LeafSystem):
         self.set_name(name)
         nq, nv = plant.num_positions(), plant.num_velocities()
         if nq - nv not in (0, 1):
-            raise ValueError(f"Integrator supports one quaternion floating base at most (nq={nq}, nv={nv})")
+            raise ValueError(f"Device supports one quaternion floating base at most (nq={nq}, nv={nv})")
         q0 = np.asarray(q0, dtype=float)
         if q0.shape != (nq,) or not np.all(np.isfinite(q0)):
             raise ValueError(f"q0 must be {nq} finite numbers, got shape {q0.shape}")
-        if period <= 0.0:
-            raise ValueError(f"control period {period} must be > 0")
+        period = positive("period", period, unit="s")
         self._floating = nq == nv + 1
         self._nq, self._nv = nq, nv
         self._period = period

@@ -1,0 +1,361 @@
+"""Tasks by name around the embedded humanoid: the part both closed loops share.
+
+:class:`HumanoidTaskBuilder` puts the simulated world in a ``DiagramBuilder``
+(:func:`~drake_sot.diagrams.world.add_humanoid_plant`), builds the controller's own copy
+of the robot model with its ``RobotKinematics`` (the ``dyn`` entity of Mansard et al.
+2009) and wires features and tasks by name. It does not close the loop: the kinematic
+Stack of Tasks on a position-controlled robot
+(:class:`~drake_sot.diagrams.humanoid.HumanoidSoTBuilder`) and the generalized
+hierarchy on a torque-controlled one
+(:class:`~drake_sot.diagrams.torque_humanoid.TorqueHumanoidBuilder`) do.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+from pydrake.geometry import Meshcat, MeshcatVisualizer, MeshcatVisualizerParams
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
+
+from drake_sot.diagrams.world import add_humanoid_plant
+from drake_sot.features import SelectionLike
+from drake_sot.gains import Gain
+from drake_sot.models import HumanoidInfo, half_sitting_configuration, make_control_model
+from drake_sot.systems.admittance import AdmittanceController
+from drake_sot.systems.features import (
+    FeatureCoM,
+    FeatureJointLimits,
+    FeaturePoint6d,
+    FeaturePoint6dRelative,
+    FeaturePosture,
+    _Feature,
+)
+from drake_sot.systems.force_sensor import ForceSensor, payload
+from drake_sot.systems.kinematics import RobotKinematics
+from drake_sot.systems.task import Task
+from drake_sot.validation import positive
+
+#: Names of the logs every builder writes; :meth:`HumanoidTaskBuilder.log` refuses them.
+RESERVED_LOGS = ("state", "q_ref", "errors", "wrenches", "tau", "status", "contact_forces")
+
+
+class HumanoidTaskBuilder:
+    """Adds features and tasks by name around the embedded humanoid (the loop is closed
+    by a subclass).
+
+    Args:
+        control_period: period of the controller's tick [s] (5 ms as on HRP-2), finite > 0.
+        time_step: physics step of the plant [s], finite > 0.
+        meshcat: a Meshcat to draw in; None for no visualisation. Use
+            :func:`~drake_sot.diagrams.world.loopback_meshcat` for a headless recorder
+            bound to localhost.
+        pd_gains: position-controlled actuators (True) or torque-controlled ones.
+        fixed_base: weld the pelvis in the air (no ground), as the real iCub of Liu,
+            Lober, Padois 2016.
+        before_finalize: adds to the simulated world before it is finalized (see
+            :func:`~drake_sot.diagrams.world.add_humanoid_plant`).
+
+    Raises:
+        ValueError: a period or step that is NaN, infinite or not > 0 (checked before
+            Drake sees it: a Drake assertion ends the interpreter).
+    """
+
+    def __init__(
+        self,
+        *,
+        control_period: float = 0.005,
+        time_step: float = 1e-3,
+        meshcat: Meshcat | None = None,
+        pd_gains: bool,
+        fixed_base: bool = False,
+        before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
+    ) -> None:
+        control_period = positive("control_period", control_period, unit="s")
+        self.fixed_base = fixed_base
+        self.builder = DiagramBuilder()
+        self.plant, self.scene_graph, self.info = add_humanoid_plant(
+            self.builder,
+            time_step=time_step,
+            pd_gains=pd_gains,
+            fixed_base=fixed_base,
+            before_finalize=before_finalize,
+        )
+        self.control_plant, self.control_info = make_control_model(fixed_base=fixed_base)
+        self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
+        self.control_period = control_period
+        self.meshcat = meshcat
+        self.dyn = self.builder.AddSystem(RobotKinematics(self.control_plant))
+        self.dyn.set_name("dyn")
+        self.tasks: dict[str, Task] = {}
+        self.features: dict[str, _Feature] = {}
+        self._pose_feature_frames: dict[FeaturePoint6d, str] = {}  # op-point feature -> its frame key
+        self._q_consumers: list = [self.dyn.GetInputPort("q")]
+        self._extra_logs: dict[str, OutputPort] = {}
+        self._probe_context = self.control_plant.CreateDefaultContext()
+        self.control_plant.SetPositions(self._probe_context, self.q0)
+
+    # --- reference values at the initial configuration -----------------------------
+    def initial_pose(self, frame_key: str) -> RigidTransform:
+        """Pose in world of a humanoid frame (logical name) in the initial configuration q0."""
+        return self._frame(frame_key).CalcPoseInWorld(self._probe_context)
+
+    def initial_com(self) -> np.ndarray:
+        """CoM position (3,) [m] in the initial configuration q0."""
+        return self.control_plant.CalcCenterOfMassPositionInWorld(self._probe_context)
+
+    def _frame(self, frame_key: str):
+        if frame_key not in self.control_info.frames:
+            raise KeyError(f"unknown frame {frame_key!r}; known: {', '.join(self.control_info.frames)}")
+        return self.control_plant.GetFrameByName(self.control_info.frames[frame_key])
+
+    # --- tasks -----------------------------------------------------------------------
+    def op_point(self, frame_key: str, frame_name: str | None = None) -> str:
+        """Create (once) an operational point on ``dyn``; returns its name.
+
+        ``frame_key`` is a humanoid frame's logical name (``"right_hand"``), or any new
+        name when ``frame_name`` gives the model's frame.
+        """
+        if frame_key not in self.dyn.operational_points:
+            if frame_name is None:
+                self._frame(frame_key)
+                frame_name = self.control_info.frames[frame_key]
+            self.dyn.add_operational_point(frame_key, frame_name)
+        return frame_key
+
+    def _add_task(
+        self, task_name: str, feature: _Feature, gain: Gain, selection: SelectionLike = None
+    ) -> Task:
+        """A task reading ``feature`` (added to the diagram unless it is there already, shared)."""
+        if task_name in self.tasks:
+            raise ValueError(f"a task named {task_name!r} exists already")
+        if feature not in self.features.values():
+            self.builder.AddSystem(feature)
+        task = self.builder.AddSystem(Task(task_name, gain=gain))
+        self.builder.Connect(feature.GetOutputPort("feature"), task.add(feature, selection=selection))
+        self.tasks[task_name] = task
+        self.features[task_name] = feature
+        return task
+
+    def add_op_point_task(
+        self,
+        task_name: str,
+        frame_key: str,
+        *,
+        selection: SelectionLike = None,
+        gain: Gain = 1.0,
+        desired: RigidTransform | None = None,
+        feature_of: str | None = None,
+    ) -> Task:
+        """A 6D task (``FeaturePoint6d``) on a humanoid frame; holds its initial pose unless ``desired``.
+
+        The feature is 6D and ``selection`` is applied by the task, so that tasks on one
+        frame can share it: ``feature_of`` names an earlier op-point task on the same
+        frame whose feature (and hence desired pose, ``features[feature_of]``) this task
+        reads — e.g. a hand's position, orientation and force tasks at different
+        priorities, one pose error computed per tick. ``desired`` must then be None.
+        """
+        op = self.op_point(frame_key)
+        if feature_of is not None:
+            return self._add_task(
+                task_name, self._shared_pose_feature(feature_of, frame_key, desired), gain, selection
+            )
+        feature = FeaturePoint6d(
+            name=f"feature_{task_name}",
+            desired=self.initial_pose(frame_key) if desired is None else desired,
+        )
+        task = self._add_task(task_name, feature, gain, selection)
+        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        self._pose_feature_frames[feature] = frame_key
+        return task
+
+    def _shared_pose_feature(
+        self, task_name: str, frame_key: str, desired: RigidTransform | None
+    ) -> FeaturePoint6d:
+        feature = self.features.get(task_name)
+        frame = self._pose_feature_frames.get(feature)
+        if frame is None:
+            raise ValueError(
+                f"feature_of={task_name!r}: no op-point task of that name; "
+                f"op-point tasks: "
+                f"{sorted(t for t, f in self.features.items() if f in self._pose_feature_frames)}"
+            )
+        if frame != frame_key:
+            raise ValueError(
+                f"feature_of={task_name!r}: that task's feature is on frame {frame!r}, not {frame_key!r}"
+            )
+        if desired is not None:
+            raise ValueError(
+                f"feature_of={task_name!r}: the desired pose is that of the shared feature; "
+                "set it on features[feature_of], not with desired="
+            )
+        return feature
+
+    def add_relative_task(
+        self,
+        task_name: str,
+        frame_key: str,
+        reference_key: str,
+        *,
+        selection: SelectionLike = None,
+        gain: Gain = 1.0,
+        desired: RigidTransform | None = None,
+    ) -> Task:
+        """A relative 6D task (``FeaturePoint6dRelative``): the pose of ``frame_key`` in
+        ``reference_key`` (e.g. the paper's ``featureTwofeet``); holds the initial relative pose
+        unless ``desired``."""
+        op, ref = self.op_point(frame_key), self.op_point(reference_key)
+        if desired is None:
+            desired = self.initial_pose(reference_key).InvertAndCompose(self.initial_pose(frame_key))
+        feature = FeaturePoint6dRelative(selection=selection, name=f"feature_{task_name}", desired=desired)
+        task = self._add_task(task_name, feature, gain)
+        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        self.builder.Connect(self.dyn.GetOutputPort(ref), feature.GetInputPort("positionRef"))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + ref), feature.GetInputPort("JqRef"))
+        return task
+
+    def add_com_task(
+        self,
+        task_name: str,
+        *,
+        selection: SelectionLike = "110",
+        gain: Gain = 1.0,
+        desired: np.ndarray | None = None,
+    ) -> Task:
+        """A CoM task (``FeatureCoM``, xy by default); holds the initial CoM unless ``desired``."""
+        feature = FeatureCoM(
+            selection=selection,
+            name=f"feature_{task_name}",
+            desired=self.initial_com() if desired is None else desired,
+        )
+        task = self._add_task(task_name, feature, gain)
+        self.builder.Connect(self.dyn.GetOutputPort("com"), feature.GetInputPort("com"))
+        self.builder.Connect(self.dyn.GetOutputPort("Jcom"), feature.GetInputPort("Jcom"))
+        return task
+
+    def add_posture_task(
+        self,
+        task_name: str,
+        joints: Sequence[str] | None = None,
+        *,
+        gain: Gain = 1.0,
+        desired: np.ndarray | None = None,
+    ) -> Task:
+        """A posture task (``FeaturePosture``) on ``joints`` (all actuated joints by default) toward q0."""
+        feature = FeaturePosture(
+            self.control_plant,
+            list(joints) if joints is not None else list(self.control_info.actuated_joints),
+            name=f"feature_{task_name}",
+            desired=self.q0 if desired is None else desired,
+        )
+        task = self._add_task(task_name, feature, gain)
+        self._q_consumers.append(feature.GetInputPort("q"))
+        return task
+
+    def add_admittance_task(
+        self,
+        task_name: str,
+        side: str,
+        *,
+        mass: float | Sequence[float],
+        damping: float | Sequence[float],
+        stiffness: float | Sequence[float] = 0.0,
+        gain: Gain = 5.0,
+        max_velocity=(0.5, 1.0),
+    ) -> AdmittanceController:
+        """A force-based hand task (paper 000 IV-C): the hand's wrist sensor drives an
+        ``AdmittanceController`` whose reference pose and velocity feed a 6D hand task.
+
+        Args:
+            task_name: the task (e.g. the paper's ``taskForce``).
+            side: ``"right"`` or ``"left"``.
+            mass, damping, stiffness: the virtual mass [kg, kg·m²], damping [N·s/m,
+                N·m·s/rad] and stiffness of the admittance, per axis or one value.
+            gain: the hand task's gain [1/s]; max_velocity: saturation (linear, angular).
+        Returns:
+            the controller, whose ``active``, ``wrench_ref`` inputs are left for the
+            scenario to drive (active and zero when unconnected).
+        """
+        if side not in ("right", "left"):
+            raise ValueError(f"side {side!r} must be 'right' or 'left'")
+        sensor_joint = self.info.force_sensors[f"{side}_wrist"]
+        sensor = self.builder.AddSystem(ForceSensor(self.plant, sensor_joint))
+        sensor.set_name(f"{side}_wrist_sensor")
+        self.builder.Connect(
+            self.plant.get_reaction_forces_output_port(), sensor.GetInputPort("reaction_forces")
+        )
+        joint = self.control_plant.GetJointByName(sensor_joint)
+        sensor_op = self.op_point(f"{side}_wrist_sensor", joint.frame_on_child().name())
+        hand_mass, hand_com = payload(self.control_plant, sensor_joint, self._probe_context)
+        admittance = self.builder.AddSystem(
+            AdmittanceController(
+                mass=mass,
+                damping=damping,
+                stiffness=stiffness,
+                hand_mass=hand_mass,
+                hand_com=hand_com,
+                period=self.control_period,
+                max_velocity=max_velocity,
+                name=f"admittance_{task_name}",
+            )
+        )
+        hand = self.op_point(f"{side}_hand")
+        self.builder.Connect(sensor.GetOutputPort("wrench"), admittance.GetInputPort("wrench"))
+        self.builder.Connect(self.dyn.GetOutputPort(sensor_op), admittance.GetInputPort("sensor_pose"))
+        self.builder.Connect(self.dyn.GetOutputPort(hand), admittance.GetInputPort("hand_pose"))
+        self.add_op_point_task(task_name, f"{side}_hand", gain=gain)
+        feature = self.features[task_name]
+        self.builder.Connect(admittance.GetOutputPort("pose_des"), feature.GetInputPort("position_des"))
+        self.builder.Connect(admittance.GetOutputPort("velocity_des"), feature.GetInputPort("velocity_des"))
+        return admittance
+
+    def add_joint_limits_task(
+        self, task_name: str, *, margin: float = 0.02, gain: Gain = 5.0, joints: Sequence[str] | None = None
+    ) -> Task:
+        """A joint-limit task (``FeatureJointLimits``) on ``joints`` (every actuated joint by
+        default); put it at the top of the stack."""
+        feature = FeatureJointLimits(
+            self.control_plant,
+            list(joints) if joints is not None else list(self.control_info.actuated_joints),
+            margin=margin,
+            name=f"feature_{task_name}",
+        )
+        task = self._add_task(task_name, feature, gain)
+        self._q_consumers.append(feature.GetInputPort("q"))
+        return task
+
+    def log(self, name: str, port: OutputPort) -> None:
+        """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""
+        if name in self._extra_logs or name in RESERVED_LOGS:
+            raise ValueError(f"a log named {name!r} exists already")
+        self._extra_logs[name] = port
+
+    def _finish(
+        self, logs: dict[str, OutputPort], log_period: float | None
+    ) -> tuple[Diagram, dict[str, VectorLogSink], MeshcatVisualizer | None]:
+        """Loggers (plant state, ``logs``, the extra ones), the visualizer, and the diagram."""
+        b = self.builder
+        log_period = (
+            self.control_period if log_period is None else positive("log_period", log_period, unit="s")
+        )
+        ports = {
+            "state": self.plant.get_state_output_port(self.info.model_instance),
+            **logs,
+            **self._extra_logs,
+        }
+        loggers = {name: LogVectorOutput(port, b, log_period) for name, port in ports.items()}
+        for name, logger in loggers.items():
+            logger.set_name(f"log_{name}")
+        visualizer = None
+        if self.meshcat is not None:
+            visualizer = MeshcatVisualizer.AddToBuilder(
+                b, self.scene_graph, self.meshcat, MeshcatVisualizerParams(publish_period=1 / 30)
+            )
+        diagram = b.Build()
+        diagram.set_name("drake_sot")
+        return diagram, loggers, visualizer

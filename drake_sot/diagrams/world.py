@@ -1,0 +1,107 @@
+"""The simulated world of every scenario: the humanoid in a ``MultibodyPlant`` on the
+ground (or welded in the air), its ``SceneGraph``, a headless Meshcat recorder, and
+:class:`BuiltHumanoid`, what a builder returns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, SceneGraph
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import VectorLogSink
+
+from drake_sot.models import HumanoidInfo, add_ground, load_humanoid, weld_base
+from drake_sot.systems.features import _Feature
+from drake_sot.systems.kinematics import RobotKinematics
+from drake_sot.systems.stack_history import StackHistory
+from drake_sot.systems.task import Task
+from drake_sot.validation import positive
+
+
+@dataclass
+class BuiltHumanoid:
+    """A built diagram and handles on the parts a scenario, a test or a user needs.
+
+    ``error_layout`` says where each task's error lies in the logged ``errors`` (task
+    name → slice), as the controller that produced them declares it; ``stack_history``
+    is the recorded stack when the controller has one (the kinematic SoT).
+    """
+
+    diagram: Diagram
+    plant: MultibodyPlant
+    info: HumanoidInfo
+    control_plant: MultibodyPlant
+    dyn: RobotKinematics
+    tasks: dict[str, Task]
+    features: dict[str, _Feature]
+    loggers: dict[str, VectorLogSink]
+    q0: np.ndarray
+    meshcat: Meshcat | None
+    visualizer: MeshcatVisualizer | None
+    error_layout: dict[str, slice] = field(default_factory=dict)
+    stack_history: StackHistory | None = None
+
+    def create_simulator(self) -> Simulator:
+        """A simulator whose plant starts in the reference configuration q0, at rest."""
+        simulator = Simulator(self.diagram)
+        context = simulator.get_mutable_context()
+        plant_context = self.plant.GetMyMutableContextFromRoot(context)
+        self.plant.SetPositions(plant_context, self.info.model_instance, self.q0)
+        simulator.Initialize()
+        return simulator
+
+    def frame_pose(self, root_context, frame_key: str) -> RigidTransform:
+        """Pose in world of a humanoid frame (logical name, e.g. ``"right_hand"``) in the
+        *simulated* plant."""
+        plant_context = self.plant.GetMyContextFromRoot(root_context)
+        return self.plant.GetFrameByName(
+            self.info.frames[frame_key], self.info.model_instance
+        ).CalcPoseInWorld(plant_context)
+
+    def error_slices(self) -> dict[str, slice]:
+        """Where each task's error lies in the logged ``errors`` (a copy of ``error_layout``)."""
+        return dict(self.error_layout)
+
+
+def add_humanoid_plant(
+    builder: DiagramBuilder,
+    *,
+    time_step: float = 1e-3,
+    pd_gains: bool = True,
+    fixed_base: bool = False,
+    before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
+) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
+    """The simulated world in a finalized ``MultibodyPlant`` (SAP, point contact,
+    ``time_step`` [s]) and its ``SceneGraph``: the humanoid with PD-controlled actuators
+    (or torque-controlled ones, ``pd_gains=False``) on the ground, or with its pelvis
+    welded in the air (``fixed_base``, no ground). ``before_finalize`` may add to the
+    world (a table, collision shapes on the hands) before the plant is finalized.
+
+    Raises ValueError when ``time_step`` is not finite and > 0 (checked here: Drake
+    would end the interpreter on it).
+    """
+    time_step = positive("time_step", time_step, unit="s")
+    config = MultibodyPlantConfig(
+        time_step=time_step, discrete_contact_approximation="sap", contact_model="point"
+    )
+    plant, scene_graph = AddMultibodyPlant(config, builder)
+    info = load_humanoid(plant, pd_gains=pd_gains)
+    if fixed_base:
+        weld_base(plant, info)
+    else:
+        add_ground(plant)
+    if before_finalize is not None:
+        before_finalize(plant, info)
+    plant.Finalize()
+    return plant, scene_graph, info
+
+
+def loopback_meshcat() -> Meshcat:
+    """A Meshcat server bound to localhost on a free port (headless recording; nothing listens outside)."""
+    return Meshcat(MeshcatParams(host="localhost", port=0))
