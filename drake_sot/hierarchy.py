@@ -1,5 +1,5 @@
 """Strict-priority solver of the Stack of Tasks (paper 000, eq. 8-9) and the
-generalized projector of soft priorities (paper 004, eq. 4 and 8).
+generalized projector of soft priorities (Liu, Lober, Padois 2016, eq. 4 and 8).
 
 The recursion of eq. (8),
 
@@ -15,8 +15,8 @@ which gives at once the pseudo-inverse and the basis of what remains free:
 ``Z_i = Z_{i-1} V_i[:, r_i:]``.  The free space shrinks level by level and the
 solver stops doing work once it is empty.
 
-The generalized projector (:func:`generalized_projector`, paper 004 section 3.2)
-replaces the strict order by a priority matrix ``A_i = diag(alpha_ij I_mj)``
+The generalized projector (:func:`generalized_projector`; Liu, Lober, Padois 2016,
+section 3.2) replaces the strict order by a priority matrix ``A_i = diag(alpha_ij I_mj)``
 per task i (eq. 4): ``P_i(A_i) = I - B_i^T A^s_{i,r} B_i`` (eq. 8) projects
 task i completely (alpha = 1), partially (0 < alpha < 1) or not at all
 (alpha = 0) out of the directions of each task j.
@@ -186,7 +186,7 @@ def solve_strict(
 
 
 # --------------------------------------------------------------------------------------
-# Generalized projector (paper 004, section 3.2)
+# Generalized projector (Liu, Lober, Padois 2016, section 3.2)
 # --------------------------------------------------------------------------------------
 
 _GEQP3 = scipy.linalg.lapack.dgeqp3  # column-pivoted Householder QR
@@ -209,7 +209,8 @@ def _alphas(alpha_row: Sequence[float] | np.ndarray, name: str = "alpha_row", nd
 
 
 def priority_matrix(alpha_row: Sequence[float] | np.ndarray, dims: Sequence[int]) -> np.ndarray:
-    """Priority matrix ``A_i = diag(alpha_i1 I_m1, ..., alpha_in I_mn)`` of task i (paper 004, eq. 4).
+    """Priority matrix ``A_i = diag(alpha_i1 I_m1, ..., alpha_in I_mn)`` of task i
+    (Liu, Lober, Padois 2016, eq. 4).
 
     Args:
         alpha_row: (n,) priorities ``alpha_ij`` in [0, 1] of each task j with
@@ -261,17 +262,28 @@ def _jacobians(jacobians: Sequence[np.ndarray]) -> tuple[list[np.ndarray], np.nd
     return checked, stacked
 
 
+def _unit(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(unit, nonzero)``: the rows that are not exactly zero, scaled to unit length, and the
+    (m,) mask of those rows. Each row is first divided by its largest |entry|, so that its
+    squared norm neither overflows (rows of 1e300) nor underflows (rows of 1e-170): the
+    result is the same at every scale."""
+    peak = np.abs(rows).max(axis=1, initial=0.0)
+    nonzero = peak > 0.0  # a zero row (a switched-off component) constrains nothing
+    scaled = rows / np.where(nonzero, peak, 1.0)[:, None]
+    norms = np.sqrt(np.einsum("ij,ij->i", scaled, scaled))  # in [1, sqrt(nv)] for a nonzero row
+    unit = scaled / np.where(nonzero, norms, 1.0)[:, None]
+    return (unit, nonzero) if nonzero.all() else (unit[nonzero], nonzero)
+
+
 def _unit_rows(jacobians: Sequence[np.ndarray], stacked: np.ndarray) -> list[np.ndarray]:
     """Per task, its rows scaled to unit length, exactly-zero rows removed: (m'_j, nv) each.
     ``stacked`` is the vertical stack of ``jacobians``."""
-    norms = np.sqrt(np.einsum("ij,ij->i", stacked, stacked))
-    nonzero = norms > 0.0  # a zero row (a switched-off component) constrains nothing
-    unit = stacked / np.where(nonzero, norms, 1.0)[:, None]
+    unit, nonzero = _unit(stacked)
+    kept = np.concatenate([[0], np.cumsum(nonzero)])
     blocks, begin = [], 0
-    keep_all = bool(nonzero.all())
     for J in jacobians:
         end = begin + J.shape[0]
-        blocks.append(unit[begin:end] if keep_all else unit[begin:end][nonzero[begin:end]])
+        blocks.append(unit[kept[begin] : kept[end]])
         begin = end
     return blocks
 
@@ -301,14 +313,10 @@ def _sorted_rows(
             groups.append((end, alpha[j]))
     rows = jacobians[order[0]] if len(order) == 1 else np.concatenate([jacobians[j] for j in order])
     if normalise:
-        norms = np.sqrt(np.einsum("ij,ij->i", rows, rows))
-        if norms.min() > 0.0:
-            rows = rows / norms[:, None]
-        else:  # some switched-off component (zero row): it constrains nothing
-            nonzero = norms > 0.0
+        rows, nonzero = _unit(rows)
+        if not nonzero.all():  # some switched-off component (zero row): it constrains nothing
             kept = np.concatenate([[0], np.cumsum(nonzero)])
             groups = [(int(kept[e]), a) for e, a in groups]
-            rows = rows[nonzero] / norms[nonzero, None]
             if not rows.shape[0]:
                 return None, []
     return rows, groups
@@ -380,7 +388,8 @@ def generalized_projector(
     rank_threshold: float = 1e-9,
     validate: bool = True,
 ) -> np.ndarray:
-    """Generalized projector ``P_i(A_i) = I - B_i^T A^s_{i,r} B_i`` of task i (paper 004, eq. 8).
+    """Generalized projector ``P_i(A_i) = I - B_i^T A^s_{i,r} B_i`` of task i
+    (Liu, Lober, Padois 2016, eq. 8).
 
     The rows of the augmented Jacobian ``J = (J_1; ...; J_n)`` are sorted by
     decreasing alpha (the diagonal of eq. 4's ``A_i``; stable for equal
@@ -407,7 +416,9 @@ def generalized_projector(
     ``J_j P = (1 - a_1) J_j`` for every task j at the largest alpha ``a_1``).
 
     The rank decisions are scale-free: exactly-zero rows are skipped and the
-    others normalised to unit length, and a row counts as independent of the
+    others normalised to unit length (each divided by its largest |entry| before
+    its norm is taken, so rows of 1e300 or 1e-170 count as the same rows scaled
+    to 1: no overflow, no underflow), and a row counts as independent of the
     rows above it when the distance from its unit vector to their span
     exceeds ``rank_threshold``.  When a row crosses that threshold the
     projector jumps (the rank changes), as any projector does.
@@ -448,7 +459,7 @@ def generalized_projector(
 def generalized_projectors(
     jacobians: Sequence[np.ndarray], alpha: np.ndarray, *, rank_threshold: float = 1e-9
 ) -> np.ndarray:
-    """Generalized projectors of all the tasks at once (paper 004, eq. 8).
+    """Generalized projectors of all the tasks at once (Liu, Lober, Padois 2016, eq. 8).
 
     Same result as ``[generalized_projector(jacobians, alpha[i]) for i in
     range(n)]``, but the input is checked and the rows normalised once, and

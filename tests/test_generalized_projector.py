@@ -318,6 +318,31 @@ def test_rank_threshold_is_relative_to_the_row_norm() -> None:
     )
 
 
+@pytest.mark.parametrize("scale", [1e300, 1e-170, 1e-300])
+def test_rows_of_extreme_scale_count_as_the_same_rows_scaled_to_one(scale: float) -> None:
+    """Rows of 1e300 (squared norm overflows) or 1e-170 (underflows) are neither dropped nor
+    distorted: the projector equals the one of the same rows of entries ~1."""
+    rng = np.random.default_rng(5)
+    unit = [rng.standard_normal((2, 5)), rng.standard_normal((1, 5)), rng.standard_normal((2, 5))]
+    unit[2][1] = 0.0  # a switched-off row: still skipped
+    alpha = np.array([[0.0, 1.0, 0.5], [0.3, 0.0, 1.0], [1.0, 0.7, 0.2]])
+    tiny_or_huge = 2.0 ** np.round(np.log2(scale))  # a power of two: the scaling is exact
+    for k in range(3):  # one task at a time at the extreme scale, then all of them
+        for scaled_tasks in ({k}, {0, 1, 2}):
+            jacobians = [tiny_or_huge * J if j in scaled_tasks else J for j, J in enumerate(unit)]
+            expected = generalized_projectors(unit, alpha)
+            np.testing.assert_allclose(generalized_projectors(jacobians, alpha), expected, atol=1e-12)
+            for i in range(3):
+                np.testing.assert_allclose(
+                    generalized_projector(jacobians, alpha[i]), expected[i], atol=1e-12
+                )
+    # Independently of the code: the strict null-space projector of the first task's rows.
+    big = [1e300 * unit[0], unit[1]]
+    np.testing.assert_allclose(
+        generalized_projector(big, [1.0, 0.0]), null_space_projector(unit[0], 5), atol=1e-12
+    )
+
+
 def test_humanoid_sized_stack_matches_the_papers_construction() -> None:
     """10 tasks of dimensions 2,3,3,3,3,1,1,1,30,5 on 36 joints, with dependent force/back/posture rows."""
     rng = np.random.default_rng(11)
