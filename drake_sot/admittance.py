@@ -26,26 +26,11 @@ import numpy as np
 import scipy.linalg
 
 from drake_sot.linalg import weighted_pinv
+from drake_sot.validation import per_axis, positive, positive_int, vector
 
 __all__ = ["MassDamperSpring", "apparent_inertia", "joint_acceleration"]
 
 ArrayLike = float | np.ndarray | list | tuple
-
-
-def _per_axis(name: str, value: ArrayLike, n: int | None) -> np.ndarray:
-    """``value`` as a finite float array (n,); a scalar is broadcast to n."""
-    a = np.asarray(value, dtype=float)
-    if a.ndim == 0:
-        if n is None:
-            raise ValueError(f"{name} is a scalar: give the number of axes n")
-        a = np.full(n, float(a))
-    if a.ndim != 1 or (n is not None and a.shape != (n,)):
-        raise ValueError(
-            f"{name} must be a scalar or have shape ({n if n is not None else 'n'},), got shape {a.shape}"
-        )
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite, got {a}")
-    return a
 
 
 class MassDamperSpring:
@@ -83,25 +68,18 @@ class MassDamperSpring:
     ) -> None:
         if dt is None:
             raise ValueError("dt (the step [s]) is required")
-        dt = float(dt)
-        if not (np.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a finite value > 0, got {dt!r}")
+        dt = positive("dt", dt, unit="s")
         if n is None:
             sizes = {np.size(v) for v in (mass, damping, stiffness) if np.ndim(v) > 0}
             if len(sizes) > 1:
                 raise ValueError(f"mass, damping and stiffness have different lengths {sorted(sizes)}")
-            n = sizes.pop() if sizes else None
-        elif n < 1:
-            raise ValueError(f"n must be >= 1, got {n}")
-        self.mass = _per_axis("mass", mass, n)
-        self.damping = _per_axis("damping", damping, n)
-        self.stiffness = _per_axis("stiffness", stiffness, n)
-        if np.any(self.mass <= 0.0):
-            raise ValueError(f"mass must be > 0 on every axis, got {self.mass}")
-        if np.any(self.damping < 0.0):
-            raise ValueError(f"damping must be >= 0 on every axis, got {self.damping}")
-        if np.any(self.stiffness < 0.0):
-            raise ValueError(f"stiffness must be >= 0 on every axis, got {self.stiffness}")
+            if not sizes:
+                raise ValueError("mass, damping and stiffness are all scalars: give the number of axes n")
+            n = sizes.pop()
+        n = positive_int("n", n)
+        self.mass = per_axis("mass", mass, n, sign="positive")
+        self.damping = per_axis("damping", damping, n, sign="nonnegative")
+        self.stiffness = per_axis("stiffness", stiffness, n, sign="nonnegative")
         self.n = self.mass.size
         self.dt = dt
         # Augmented per-axis system [y, v, f]: d/dt = [[0, 1, 0], [-K/M, -B/M, 1/M], [0, 0, 0]].
@@ -113,12 +91,6 @@ class MassDamperSpring:
             self._phi[i] = E[:2, :2]
             self._gamma[i] = E[:2, 2]
 
-    def _vector(self, name: str, value) -> np.ndarray:
-        a = np.asarray(value, dtype=float)
-        if a.shape != (self.n,):
-            raise ValueError(f"{name} must have shape ({self.n},), got {a.shape}")
-        return a
-
     def step(
         self, x: np.ndarray, v: np.ndarray, f: np.ndarray, rest: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -127,10 +99,10 @@ class MassDamperSpring:
         ``rest`` (n,) is the spring's rest position (default zero; unused on axes
         with K = 0).
         """
-        x = self._vector("x", x)
-        v = self._vector("v", v)
-        f = self._vector("f", f)
-        r = np.zeros(self.n) if rest is None else self._vector("rest", rest)
+        x = vector("x", x, self.n)
+        v = vector("v", v, self.n)
+        f = vector("f", f, self.n)
+        r = np.zeros(self.n) if rest is None else vector("rest", rest, self.n)
         y = x - r
         phi, gamma = self._phi, self._gamma
         y_next = phi[:, 0, 0] * y + phi[:, 0, 1] * v + gamma[:, 0] * f
@@ -140,7 +112,7 @@ class MassDamperSpring:
     def steady_velocity(self, f: np.ndarray) -> np.ndarray:
         """Velocity (n,) reached under a constant force ``f`` (n,): f / B where K = 0,
         0 where K > 0 (a spring comes to rest), ±inf where K = B = 0 (0 if f = 0 there)."""
-        f = self._vector("f", f)
+        f = vector("f", f, self.n)
         out = np.zeros(self.n)
         drift = self.stiffness == 0.0
         damped = drift & (self.damping > 0.0)
@@ -152,8 +124,8 @@ class MassDamperSpring:
     def equilibrium(self, f: np.ndarray, rest: np.ndarray | None = None) -> np.ndarray:
         """Position (n,) where a constant force ``f`` is balanced by the spring:
         rest + f / K where K > 0; NaN on axes without a spring (no equilibrium)."""
-        f = self._vector("f", f)
-        r = np.zeros(self.n) if rest is None else self._vector("rest", rest)
+        f = vector("f", f, self.n)
+        r = np.zeros(self.n) if rest is None else vector("rest", rest, self.n)
         out = np.full(self.n, np.nan)
         spring = self.stiffness > 0.0
         out[spring] = r[spring] + f[spring] / self.stiffness[spring]

@@ -24,9 +24,10 @@ from drake_sot import so3
 from drake_sot.admittance import MassDamperSpring
 from drake_sot.configuration import quaternion_to_rotation
 from drake_sot.systems._context import own_context
+from drake_sot.validation import nonnegative, per_axis, positive, vector
 
 #: Fault codes of the ``fault`` output.
-FAULT_NONE, FAULT_NOT_FINITE, FAULT_FORCE_LIMIT = 0, 1, 2
+FAULT_NONE, FAULT_NOT_FINITE, FAULT_FORCE_LIMIT, FAULT_TORQUE_LIMIT = 0, 1, 2, 3
 
 # Layout of the discrete state vector.
 _P = slice(0, 3)  # reference position [m], world
@@ -37,25 +38,6 @@ _Q_REST = slice(16, 20)  # spring rest orientation (quaternion)
 _ACTIVE, _FAULT, _SATURATED = 20, 21, 22  # flags of the last update
 _W = slice(23, 29)  # compensated external wrench [τ; f] of the last update
 _SIZE = 29
-
-
-def _six(name: str, value, positive: bool, allow_inf: bool = False) -> np.ndarray:
-    """A per-axis parameter (6,) [3 translation, 3 rotation] from a scalar, a (lin, rot) pair or 6 values."""
-    a = np.asarray(value, dtype=float).reshape(-1)
-    if a.size == 1:
-        a = np.full(6, a[0])
-    elif a.size == 2:
-        a = np.repeat(a, 3)
-    elif a.size != 6:
-        raise ValueError(
-            f"{name} must be a scalar, a (translation, rotation) pair or 6 values, got {a.size} values"
-        )
-    finite = np.all(np.isfinite(a) | (allow_inf & (a == np.inf)))
-    if not finite or np.any(a <= 0.0 if positive else a < 0.0) or np.any(np.isnan(a)):
-        raise ValueError(
-            f"{name} must be {'> 0' if positive else '>= 0'}{' (inf allowed)' if allow_inf else ''}, got {a}"
-        )
-    return a
 
 
 def _quaternion(R: np.ndarray) -> np.ndarray:
@@ -91,10 +73,11 @@ class AdmittanceController(LeafSystem):
     the velocity is scaled down to the limit (direction kept) and so is the motion
     of the period; ``saturated`` reports it for that tick.
 
-    Faults: a non-finite ``wrench`` or ``wrench_ref``, or a measured force norm
-    above ``max_force``, never reaches the reference: the controller holds the last
-    valid reference pose with zero velocity and reports the fault code; it resumes
-    from there (at rest) as soon as the readings are valid again.
+    Faults: a non-finite ``wrench`` or ``wrench_ref``, a measured force norm above
+    ``max_force`` or a measured torque norm above ``max_torque``, never reaches the
+    reference: the controller holds the last valid reference pose with zero velocity
+    and reports the fault code; it resumes from there (at rest) as soon as the
+    readings are valid again.
 
     Timing: a periodic discrete update at ``period`` (offset 0) reads the inputs and
     updates the state; every output is read from the state (no direct feedthrough).
@@ -123,7 +106,8 @@ class AdmittanceController(LeafSystem):
             when that reading was not finite); for logging and plots.
         saturated: (1,) 1 when the last tick limited the velocity, else 0.
         fault: (1,) fault code of the last tick: 0 none, 1 non-finite ``wrench`` or
-            ``wrench_ref``, 2 measured force norm above ``max_force``.
+            ``wrench_ref``, 2 measured force norm above ``max_force``, 3 measured torque
+            norm above ``max_torque``.
 
     Args:
         mass, damping, stiffness: virtual mass [kg | kg m²], damping [N s/m | N m s/rad]
@@ -137,6 +121,7 @@ class AdmittanceController(LeafSystem):
             a (linear, angular) pair, or 6 per-axis limits (then each 3-vector is
             scaled by the smallest ratio, keeping its direction); inf for no limit.
         max_force: largest plausible measured force norm [N].
+        max_torque: largest plausible measured torque norm [N·m] (at the sensor frame).
         g: gravity vector (3,) [m/s²], world.
         name: system name.
 
@@ -156,39 +141,31 @@ class AdmittanceController(LeafSystem):
         period: float = 0.005,
         max_velocity=(0.5, 1.0),
         max_force: float = 1000.0,
+        max_torque: float = 200.0,
         g=(0.0, 0.0, -9.81),
         name: str = "admittance",
     ) -> None:
         super().__init__()
         self.set_name(name)
-        if not (np.isfinite(period) and period > 0.0):
-            raise ValueError(f"period must be a finite value > 0, got {period!r}")
-        self._period = float(period)
+        self._period = positive("period", period, unit="s")
         self.dynamics = MassDamperSpring(
-            _six("mass", mass, positive=True),
-            _six("damping", damping, positive=False),
-            _six("stiffness", stiffness, positive=False),
+            per_axis("mass", mass, 6, sign="positive"),
+            per_axis("damping", damping, 6, sign="nonnegative"),
+            per_axis("stiffness", stiffness, 6, sign="nonnegative"),
             self._period,
         )
-        if not (np.isfinite(hand_mass) and hand_mass >= 0.0):
-            raise ValueError(f"hand_mass must be a finite value >= 0 [kg], got {hand_mass!r}")
-        self._hand_mass = float(hand_mass)
-        self._hand_com = np.asarray(hand_com, dtype=float)
-        if self._hand_com.shape != (3,) or not np.all(np.isfinite(self._hand_com)):
-            raise ValueError(f"hand_com must be 3 finite numbers [m] in the sensor frame, got {hand_com!r}")
-        self._g = np.asarray(g, dtype=float)
-        if self._g.shape != (3,) or not np.all(np.isfinite(self._g)):
-            raise ValueError(f"g must be 3 finite numbers [m/s^2], got {g!r}")
+        self._hand_mass = nonnegative("hand_mass", hand_mass, unit="kg")
+        self._hand_com = vector("hand_com", hand_com, 3)
+        self._g = vector("g", g, 3)
         limits = np.asarray(max_velocity, dtype=float).reshape(-1)
         if limits.size not in (2, 6):
             raise ValueError(
                 f"max_velocity must be a (linear, angular) pair or 6 values, got {limits.size} values"
             )
         self._norm_limits = limits.size == 2
-        self._v_max = _six("max_velocity", limits, positive=True, allow_inf=True)
-        if not (np.isfinite(max_force) and max_force > 0.0):
-            raise ValueError(f"max_force must be a finite value > 0 [N], got {max_force!r}")
-        self._max_force = float(max_force)
+        self._v_max = per_axis("max_velocity", limits, 6, sign="positive", allow_inf=True)
+        self._max_force = positive("max_force", max_force, unit="N")
+        self._max_torque = positive("max_torque", max_torque, unit="N·m")
         self._rotational_spring = bool(np.any(self.dynamics.stiffness[3:] > 0.0))
 
         self._wrench = self.DeclareVectorInputPort("wrench", 6)
@@ -211,7 +188,7 @@ class AdmittanceController(LeafSystem):
             prerequisites_of_calc=ticket,
         )
 
-        def vector(name: str, fn) -> None:
+        def state_output(name: str, fn) -> None:
             self.DeclareVectorOutputPort(
                 name,
                 len(fn(x0)),
@@ -219,10 +196,10 @@ class AdmittanceController(LeafSystem):
                 prerequisites_of_calc=ticket,
             )
 
-        vector("velocity_des", lambda x: x[_V])
-        vector("wrench_external", lambda x: x[_W])
-        vector("saturated", lambda x: x[_SATURATED : _SATURATED + 1])
-        vector("fault", lambda x: x[_FAULT : _FAULT + 1])
+        state_output("velocity_des", lambda x: x[_V])
+        state_output("wrench_external", lambda x: x[_W])
+        state_output("saturated", lambda x: x[_SATURATED : _SATURATED + 1])
+        state_output("fault", lambda x: x[_FAULT : _FAULT + 1])
 
     # --- reading the state --------------------------------------------------------------
     @property
@@ -302,7 +279,11 @@ class AdmittanceController(LeafSystem):
 
         if np.all(np.isfinite(reading)):
             w_ext = self.external_wrench(reading, self._checked_pose(self._sensor_pose, context), p_H)
-            fault = FAULT_FORCE_LIMIT if np.linalg.norm(reading[3:]) > self._max_force else FAULT_NONE
+            fault = FAULT_NONE
+            if not (np.linalg.norm(reading[3:]) <= self._max_force):
+                fault = FAULT_FORCE_LIMIT
+            elif not (np.linalg.norm(reading[:3]) <= self._max_torque):
+                fault = FAULT_TORQUE_LIMIT
         else:
             w_ext = np.full(6, np.nan)
             fault = FAULT_NOT_FINITE

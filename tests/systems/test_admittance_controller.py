@@ -229,6 +229,8 @@ def test_faulty_readings_never_reach_the_reference():
         (np.array([0.0, 0.0, 0.0, np.nan, 0.0, 0.0]), 1),
         (np.array([0, 0, 0, 0, 0, np.inf]), 1),
         (np.concatenate((np.zeros(3), [0.0, 1500.0, 0.0])), 2),
+        # A 1e9 N·m torque reading (a broken sensor) is a fault too: it would rotate the reference.
+        (np.array([0.0, 1e9, 0.0, 0.0, 0.0, 0.0]), 3),
     ):
         bench.fix("wrench", bad)
         for _ in range(10):
@@ -315,13 +317,21 @@ def test_initialization_and_no_direct_feedthrough():
 def test_bad_arguments_and_inputs_are_named():
     ok = {"mass": 1.0, "damping": 10.0, "hand_mass": 0.5, "hand_com": np.zeros(3)}
     for bad, match in (
-        ({"mass": 0.0}, "mass must be > 0"),
-        ({"damping": (1.0, -1.0)}, "damping must be >= 0"),
-        ({"mass": (1.0, 2.0, 3.0)}, "mass must be a scalar, a .* pair or 6 values"),
+        ({"mass": 0.0}, "mass = .*: every value must be finite and > 0"),
+        ({"mass": np.nan}, "mass = .*: every value must be finite and > 0"),
+        ({"damping": (1.0, -1.0)}, "damping = .*: every value must be finite and >= 0; entry 3"),
+        (
+            {"mass": (1.0, 2.0, 3.0)},
+            r"mass must be a scalar, a pair \(3 \+ 3 axes\) or 6 values, got 3 values",
+        ),
         ({"hand_mass": -1.0}, "hand_mass"),
         ({"hand_com": [0.0, 0.0]}, "hand_com"),
         ({"max_velocity": (1.0, 2.0, 3.0)}, "max_velocity"),
-        ({"max_velocity": (0.0, 1.0)}, "max_velocity must be > 0"),
+        ({"max_velocity": (0.0, 1.0)}, "max_velocity = .* must be finite and > 0 \\(or \\+inf\\)"),
+        ({"max_velocity": (np.nan, 1.0)}, "max_velocity"),
+        ({"max_torque": np.nan}, "max_torque = nan"),
+        ({"max_torque": -1.0}, "max_torque = -1.0"),
+        ({"hand_mass": np.nan}, "hand_mass = nan"),
         ({"max_force": np.nan}, "max_force"),
         ({"period": 0.0}, "period"),
     ):
