@@ -2,7 +2,7 @@
 
 On a position-controlled robot a force task is made from a *reference* that obeys
 the dynamics of a virtual mechanical system driven by the measured forces (paper
-000, IV-C, eq. 11; paper 001, III-B, eq. 4, and the master side's eq. 8 with a
+000, IV-C, eq. 11; Evrard et al. 2009, III-B, eq. 4, and the master side's eq. 8 with a
 spring)::
 
     M r̈ + B ṙ + K (r - r_rest) = f
@@ -12,7 +12,7 @@ step (zero-order hold), one independent second-order system per axis (diagonal M
 B, K), as the controller of a 6D point does at its control period.
 
 :func:`joint_acceleration` and :func:`apparent_inertia` are the weighted
-pseudo-inverse form of the same law (paper 000, eq. 12-14): with the joint weight
+pseudo-inverse form of the same law (Mansard et al. 2009, eq. 12-14): with the joint weight
 W = A (the robot's inertia matrix) and M = Λ = (J A⁻¹ Jᵀ)⁻¹ (the apparent inertia
 of the end effector), the kinematic inverse of the admittance reference gives the
 joint motion ``A q̈ = Jᵀ f - Jᵀ B J q̇`` of a gravity-compensated compliant robot.
@@ -166,7 +166,7 @@ def _full_row_rank(J: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def apparent_inertia(J: np.ndarray, A: np.ndarray) -> np.ndarray:
-    """Λ = (J A⁻¹ Jᵀ)⁻¹ (m, m): the inertia of the robot seen at the task point (paper 000, IV-C).
+    """Λ = (J A⁻¹ Jᵀ)⁻¹ (m, m): the inertia of the robot seen at the task point (Mansard et al. 2009, IV-C).
 
     Args:
         J: (m, n) task Jacobian, full row rank.
@@ -180,7 +180,7 @@ def apparent_inertia(J: np.ndarray, A: np.ndarray) -> np.ndarray:
 def joint_acceleration(
     J: np.ndarray, A: np.ndarray, M: np.ndarray, B: np.ndarray, f: np.ndarray, rdot: np.ndarray
 ) -> np.ndarray:
-    """q̈ = A⁻¹Jᵀ(J A⁻¹ Jᵀ)⁻¹ M⁻¹ (f − B ṙ) (n,): paper 000 eq. 13 with the weight W = A.
+    """q̈ = A⁻¹Jᵀ(J A⁻¹ Jᵀ)⁻¹ M⁻¹ (f − B ṙ) (n,): Mansard et al. 2009, eq. 13 with the weight W = A.
 
     The joint acceleration that realises the admittance ``M r̈ + B ṙ = f`` (eq. 11)
     through the A-weighted pseudo-inverse of J (eq. 12), the least-inertia-weighted

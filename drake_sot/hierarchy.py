@@ -1,4 +1,4 @@
-"""Strict-priority solver of the Stack of Tasks (paper 000, eq. 8-9) and the
+"""Strict-priority solver of the Stack of Tasks (Mansard et al. 2009, eq. 8-9) and the
 generalized projector of soft priorities (Liu, Lober, Padois 2016, eq. 4 and 8).
 
 The recursion of eq. (8),
@@ -111,7 +111,7 @@ def solve_strict(
     qdot0: np.ndarray | None = None,
     validate: bool = True,
 ) -> HierarchyResult:
-    """Solve a stack of tasks in strict priority (paper 000, eq. 8-9).
+    """Solve a stack of tasks in strict priority (Mansard et al. 2009, eq. 8-9).
 
     Args:
         levels: ``(J_i, edot_i)`` pairs, highest priority first; ``J_i`` has

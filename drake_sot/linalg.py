@@ -131,7 +131,7 @@ def damped_pinv(J: np.ndarray, damping: float) -> np.ndarray:
 
 
 def weighted_pinv(J: np.ndarray, W: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:
-    """Weighted pseudo-inverse ``W^-1 J^T (J W^-1 J^T)^+`` (paper 000, eq. 12), (m, n) -> (n, m).
+    """Weighted pseudo-inverse ``W^-1 J^T (J W^-1 J^T)^+`` (Mansard et al. 2009, eq. 12), (m, n) -> (n, m).
 
     ``W`` (n, n) is a symmetric positive definite joint weight: ``J^#W y`` is
     the solution of ``J x = y`` (least squares if inconsistent) minimising

@@ -13,7 +13,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class FeatureSignal:
-    """A feature's contribution to a task (paper 000 eq. 5-7).
+    """A feature's contribution to a task (Mansard et al. 2009, eq. 5-7).
 
     Attributes:
         error: ``e = s - s*`` (m,), the selected components only.

@@ -1,4 +1,4 @@
-"""Tests of the strict-priority solver drake_sot.hierarchy.solve_strict (paper 000, eq. 8-9).
+"""Tests of the strict-priority solver drake_sot.hierarchy.solve_strict (Mansard et al. 2009, eq. 8-9).
 
 Random stacks are built so that every projected matrix J_i Z_{i-1} has its
 nonzero singular values in [0.1, 10] and the others zero up to rounding: the

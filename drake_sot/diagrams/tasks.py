@@ -268,7 +268,7 @@ class HumanoidTaskBuilder:
         gain: Gain = 5.0,
         max_velocity=(0.5, 1.0),
     ) -> AdmittanceController:
-        """A force-based hand task (paper 000 IV-C): the hand's wrist sensor drives an
+        """A force-based hand task (Mansard et al. 2009, IV-C): the hand's wrist sensor drives an
         ``AdmittanceController`` whose reference pose and velocity feed a 6D hand task.
 
         Args:

@@ -1,4 +1,4 @@
-"""Scenario ``walk_then_interact``: the case study of paper 000 (IV-B, IV-D).
+"""Scenario ``walk_then_interact``: the case study of Mansard et al. 2009 (IV-B, IV-D).
 
 The robot walks 4 steps to a meeting point under the walking tasks (feet, CoM and
 waist references from the pattern generator, hands carried in the waist frame).
