@@ -1,8 +1,8 @@
-"""Smooth priority and activation transitions alpha(t) (paper 004, eq. 12).
+"""Smooth priority and activation transitions alpha(t) (Liu, Lober, Padois 2016, eq. 12).
 
 A change of the task hierarchy of the generalized projector is a change of
 the priority parameters ``alpha_ij`` (:func:`drake_sot.hierarchy.generalized_projector`).
-Done abruptly it jerks the torques; paper 004 moves each parameter along the
+Done abruptly it jerks the torques; Liu, Lober and Padois move each parameter along the
 raised-cosine profile of eq. 12,
 
     alpha_ij(t) = 0.5 - 0.5 cos(pi (t - t1) / (t2 - t1)),   t in [t1, t2],
@@ -10,7 +10,10 @@ raised-cosine profile of eq. 12,
 whose slope is zero at both ends, and swaps two tasks by moving ``alpha_ij``
 0 -> 1 and ``alpha_ji = 1 - alpha_ij`` 1 -> 0 together.  :func:`smooth_step`
 is the profile; :class:`AlphaSchedule` keeps the (n, n) matrix alpha(t) of
-named tasks and the transitions scheduled on any number of its entries.
+named tasks and the transitions scheduled on any number of its entries (each an
+:class:`AlphaTransition`); :class:`Priorities` is alpha at one instant with its
+task names, the value that travels on ports: its consumers look the tasks up by
+name, never by position.
 """
 
 from __future__ import annotations
@@ -20,19 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["AlphaSchedule", "Transition", "smooth_step"]
+from drake_sot.validation import finite, nonnegative
 
-
-def _finite(name: str, value: float) -> float:
-    """Return ``value`` as a float or raise ValueError if it is not a finite number."""
-    v = float(value)
-    if not np.isfinite(v):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return v
+__all__ = ["AlphaSchedule", "AlphaTransition", "Priorities", "smooth_step"]
 
 
 def smooth_step(t: float | np.ndarray, t1: float, t2: float) -> float | np.ndarray:
-    """Raised-cosine step of paper 004, eq. 12: 0 before ``t1``, 1 after ``t2``.
+    """Raised-cosine step of Liu, Lober, Padois 2016, eq. 12: 0 before ``t1``, 1 after ``t2``.
 
     ``0.5 - 0.5 cos(pi (t - t1) / (t2 - t1))`` on [t1, t2]: continuous with a
     continuous first derivative (zero at ``t1`` and ``t2``; the largest slope,
@@ -51,12 +48,12 @@ def smooth_step(t: float | np.ndarray, t1: float, t2: float) -> float | np.ndarr
     Raises:
         ValueError: ``t2 < t1``, or a non-finite ``t``, ``t1`` or ``t2``.
     """
-    t1 = _finite("t1", t1)
-    t2 = _finite("t2", t2)
+    t1 = finite("t1", t1)
+    t2 = finite("t2", t2)
     if t2 < t1:
         raise ValueError(f"smooth_step needs t2 >= t1, got t1 = {t1}, t2 = {t2}")
     if np.ndim(t) == 0:
-        s = _finite("t", t)
+        s = finite("t", t)
         if s >= t2:
             return 1.0
         if s <= t1:
@@ -71,8 +68,95 @@ def smooth_step(t: float | np.ndarray, t1: float, t2: float) -> float | np.ndarr
     return 0.5 - 0.5 * np.cos(np.pi * u)
 
 
+def _task_names(task_names: Sequence[str]) -> list[str]:
+    """``task_names`` as a list of distinct strings, or TypeError / ValueError naming the bad one."""
+    names = list(task_names)
+    for k, name in enumerate(names):
+        if not isinstance(name, str):
+            raise TypeError(f"task_names[{k}] = {name!r} is not a string")
+    if len(set(names)) != len(names):
+        duplicates = sorted({name for name in names if names.count(name) > 1})
+        raise ValueError(f"task names must be distinct; repeated: {', '.join(map(repr, duplicates))}")
+    return names
+
+
+def _alpha_matrix(what: str, names: Sequence[str], alpha: np.ndarray) -> np.ndarray:
+    """``alpha`` as an (n, n) float array with every value in [0, 1] (n = len(names)), or
+    ValueError naming the first bad entry by position and task names."""
+    n = len(names)
+    a = np.array(alpha, dtype=float)
+    if a.shape != (n, n):
+        raise ValueError(f"{what} has shape {a.shape} but there are {n} tasks; expected ({n}, {n})")
+    ok = (a >= 0.0) & (a <= 1.0)  # NaN fails both
+    if not ok.all():
+        i, j = (int(x) for x in np.argwhere(~ok)[0])
+        raise ValueError(
+            f"{what}[{i}, {j}] (alpha of {names[i]!r} w.r.t. {names[j]!r}) = {float(a[i, j])!r} "
+            "must be finite and in [0, 1]"
+        )
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Priorities:
+    """The priority matrix alpha of named tasks at one instant (Liu, Lober, Padois 2016, eq. 4):
+    what a ``priorities`` port carries (``PrioritySchedule`` → ``GeneralizedHierarchyController``).
+
+    ``alpha[i, j]`` is the priority of task ``task_names[j]`` with respect to task
+    ``task_names[i]`` (1: j strictly above i; 0: i not restricted by j; ``alpha[i, i] = 1``:
+    i deactivated). A consumer never relies on the order: :meth:`in_order` gives alpha in
+    its own task order and refuses names it does not know or misses.
+
+    Attributes:
+        task_names: the n distinct task names, in the order of alpha's rows and columns.
+        alpha: (n, n) values in [0, 1]; stored as a read-only copy.
+
+    Raises:
+        TypeError: a name that is not a string.
+        ValueError: duplicate names, alpha not (n, n), or a value outside [0, 1] or NaN.
+    """
+
+    task_names: tuple[str, ...]
+    alpha: np.ndarray
+
+    def __post_init__(self) -> None:
+        names = tuple(_task_names(self.task_names))
+        alpha = _alpha_matrix("alpha", names, self.alpha)
+        alpha.flags.writeable = False
+        object.__setattr__(self, "task_names", names)
+        object.__setattr__(self, "alpha", alpha)
+
+    def in_order(self, task_names: Sequence[str]) -> np.ndarray:
+        """alpha with rows and columns in the order of ``task_names`` (a new (n, n) array).
+
+        Raises:
+            ValueError: ``task_names`` names a task this value does not hold, or omits one
+                it holds; the message lists both sets of names.
+        """
+        wanted = tuple(task_names)
+        if wanted == self.task_names:
+            return self.alpha.copy()
+        index = {name: k for k, name in enumerate(self.task_names)}
+        known = set(wanted)
+        if (
+            len(known) != len(wanted)
+            or any(name not in index for name in wanted)
+            or len(index) != len(wanted)
+        ):
+            unknown = [name for name in self.task_names if name not in known]
+            missing = [name for name in wanted if name not in index]
+            problems = [f"priorities name unknown task(s) {unknown}"] if unknown else []
+            problems += [f"no priority for task(s) {missing}"] if missing else []
+            raise ValueError(
+                f"{'; '.join(problems) or 'repeated task names'}; known tasks: {', '.join(wanted)} "
+                f"(the priorities are over {', '.join(self.task_names)})"
+            )
+        order = np.array([index[name] for name in wanted])
+        return self.alpha[np.ix_(order, order)]
+
+
 @dataclass(frozen=True)
-class Transition:
+class AlphaTransition:
     """One scheduled move of ``alpha[i, j]`` from ``start_value`` to ``value`` over [start, end].
 
     ``start_value`` is the value the schedule had at ``start`` when the
@@ -96,8 +180,8 @@ class Transition:
 class AlphaSchedule:
     """The (n, n) priority matrix alpha(t) of named tasks and its scheduled transitions.
 
-    ``alpha[i, j]`` is the priority of task j with respect to task i (paper
-    004, eq. 4): 1 when j is strictly above i, 0 when i is not restricted by
+    ``alpha[i, j]`` is the priority of task j with respect to task i (Liu,
+    Lober, Padois 2016, eq. 4): 1 when j is strictly above i, 0 when i is not restricted by
     j; the diagonal ``alpha[i, i]`` is the deactivation of task i (1 = off).
 
     Each entry starts at ``initial[i, j]`` and follows the transitions
@@ -122,28 +206,12 @@ class AlphaSchedule:
     """
 
     def __init__(self, task_names: Sequence[str], initial: np.ndarray) -> None:
-        names = list(task_names)
-        for k, name in enumerate(names):
-            if not isinstance(name, str):
-                raise TypeError(f"task_names[{k}] = {name!r} is not a string")
-        duplicates = sorted({name for name in names if names.count(name) > 1})
-        if duplicates:
-            raise ValueError(f"task names must be distinct; repeated: {', '.join(map(repr, duplicates))}")
-        n = len(names)
-        base = np.array(initial, dtype=float)
-        if base.shape != (n, n):
-            raise ValueError(f"initial has shape {base.shape} but there are {n} tasks; expected ({n}, {n})")
-        bad = np.argwhere(~((base >= 0.0) & (base <= 1.0)))
-        if bad.size:
-            i, j = (int(x) for x in bad[0])
-            raise ValueError(
-                f"initial[{i}, {j}] (alpha of {names[i]!r} w.r.t. {names[j]!r}) = {float(base[i, j])!r} "
-                "must be finite and in [0, 1]"
-            )
+        names = _task_names(task_names)
+        base = _alpha_matrix("initial", names, initial)
         self._names = names
         self._index = {name: k for k, name in enumerate(names)}
         self._base = base
-        self._pairs: dict[tuple[int, int], list[Transition]] = {}
+        self._pairs: dict[tuple[int, int], list[AlphaTransition]] = {}
         self._arrays: tuple[np.ndarray, ...] | None = None  # flat arrays of all transitions, built lazily
 
     # -- names -------------------------------------------------------------------------------
@@ -159,7 +227,7 @@ class AlphaSchedule:
         return self._base.copy()
 
     @property
-    def transitions(self) -> tuple[Transition, ...]:
+    def transitions(self) -> tuple[AlphaTransition, ...]:
         """All the scheduled transitions, by pair then start."""
         return tuple(tr for pair in sorted(self._pairs) for tr in self._pairs[pair])
 
@@ -186,7 +254,9 @@ class AlphaSchedule:
 
     # -- scheduling ----------------------------------------------------------------------------
 
-    def set(self, i: str | int, j: str | int, value: float, *, start: float, duration: float) -> Transition:
+    def set(
+        self, i: str | int, j: str | int, value: float, *, start: float, duration: float
+    ) -> AlphaTransition:
         """Move ``alpha[i, j]`` from its value at ``start`` to ``value`` over [start, start + duration].
 
         ``duration = 0`` switches at ``start`` (``value`` from ``start`` on).
@@ -201,13 +271,11 @@ class AlphaSchedule:
                 this pair (schedule in chronological order).
         """
         a, b = self.index(i), self.index(j)
-        value = _finite("value", value)
+        value = finite("value", value)
         if not 0.0 <= value <= 1.0:
             raise ValueError(f"alpha[{self._names[a]!r}, {self._names[b]!r}] = {value} must be in [0, 1]")
-        start = _finite("start", start)
-        duration = _finite("duration", duration)
-        if duration < 0.0:
-            raise ValueError(f"duration must be >= 0, got {duration}")
+        start = finite("start", start)
+        duration = nonnegative("duration", duration, unit="s")
         trs = self._pairs.get((a, b), [])
         if trs and start < trs[-1].start:
             raise ValueError(
@@ -215,15 +283,15 @@ class AlphaSchedule:
                 f"t = {trs[-1].start}; a new one starting at t = {start} would precede it "
                 "(schedule the transitions of a pair in chronological order)"
             )
-        tr = Transition(a, b, start, start + duration, self.alpha(start, a, b), value)
+        tr = AlphaTransition(a, b, start, start + duration, self.alpha(start, a, b), value)
         self._pairs.setdefault((a, b), []).append(tr)
         self._arrays = None
         return tr
 
     def switch(
         self, i: str | int, j: str | int, *, start: float, duration: float
-    ) -> tuple[Transition, Transition]:
-        """Swap the priorities of tasks i and j: paper 004's priority switch, eq. 12.
+    ) -> tuple[AlphaTransition, AlphaTransition]:
+        """Swap the priorities of tasks i and j: the priority switch of Liu, Lober, Padois 2016, eq. 12.
 
         ``alpha[i, j]`` and ``alpha[j, i]`` exchange the values they have at
         ``start``: with (0, 1) (j is not above i, i is strictly above j), i
@@ -242,7 +310,7 @@ class AlphaSchedule:
         a, b = self.index(i), self.index(j)
         if a == b:
             raise ValueError(f"switch needs two different tasks, got {self._names[a]!r} twice")
-        start = _finite("start", start)
+        start = finite("start", start)
         ab, ba = self.alpha(start, a, b), self.alpha(start, b, a)
         if ab == ba:
             raise ValueError(
@@ -268,7 +336,7 @@ class AlphaSchedule:
     def alpha(self, t: float, i: str | int, j: str | int) -> float:
         """``alpha[i, j]`` at time ``t`` (scalar evaluation of the pair's own transitions)."""
         a, b = self.index(i), self.index(j)
-        t = _finite("t", t)
+        t = finite("t", t)
         value = float(self._base[a, b])
         for tr in self._pairs.get((a, b), ()):
             if tr.start > t:
@@ -296,13 +364,17 @@ class AlphaSchedule:
             self._arrays = (np.array(cols[0], dtype=int),) + tuple(np.array(c, dtype=float) for c in cols[1:])
         return self._arrays
 
+    def priorities(self, t: float) -> Priorities:
+        """alpha at time ``t`` with the task names: the value of a ``priorities`` port."""
+        return Priorities(self.task_names, self.at(t))
+
     def at(self, t: float) -> np.ndarray:
         """(n, n) alpha at time ``t``, all the scheduled pairs evaluated at once.
 
         Raises:
             ValueError: ``t`` not finite.
         """
-        t = _finite("t", t)
+        t = finite("t", t)
         out = self._base.copy()
         if not self._pairs:
             return out

@@ -1,4 +1,5 @@
-"""Tests of drake_sot.transitions: eq. 12's profile and the alpha(t) schedule (paper 004)."""
+"""Tests of drake_sot.transitions: eq. 12's profile, the alpha(t) schedule and named priorities
+(Liu, Lober, Padois 2016)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drake_sot.transitions import AlphaSchedule, smooth_step
+from drake_sot.transitions import AlphaSchedule, AlphaTransition, Priorities, smooth_step
 
 SETTINGS = settings(max_examples=100, deadline=None)
 
@@ -67,8 +68,8 @@ def test_zero_duration_is_a_step_at_t1() -> None:
     "args, match",
     [
         ((0.0, 2.0, 1.0), r"t2 >= t1, got t1 = 2.0, t2 = 1.0"),
-        ((0.0, np.nan, 1.0), r"t1 must be a finite number"),
-        ((np.inf, 0.0, 1.0), r"t must be a finite number"),
+        ((0.0, np.nan, 1.0), r"t1 = nan: must be a finite number"),
+        ((np.inf, 0.0, 1.0), r"t = inf: must be a finite number"),
         ((np.array([0.0, np.nan]), 0.0, 1.0), r"t contains NaN"),
     ],
 )
@@ -210,9 +211,9 @@ def test_validation() -> None:
         s.alpha(0.0, True, 0)
     with pytest.raises(ValueError, match=r"alpha\['a', 'b'\] = 1.1 must be in \[0, 1\]"):
         s.set("a", "b", 1.1, start=0.0, duration=1.0)
-    with pytest.raises(ValueError, match=r"duration must be >= 0"):
+    with pytest.raises(ValueError, match=r"duration = -1.0 s: must be finite and >= 0"):
         s.set("a", "b", 1.0, start=0.0, duration=-1.0)
-    with pytest.raises(ValueError, match=r"start must be a finite number"):
+    with pytest.raises(ValueError, match=r"start = nan: must be a finite number"):
         s.set("a", "b", 1.0, start=np.nan, duration=1.0)
     s.set("a", "b", 1.0, start=2.0, duration=1.0)
     with pytest.raises(ValueError, match=r"chronological order"):
@@ -226,5 +227,65 @@ def test_validation() -> None:
     with pytest.raises(ValueError, match=r"would precede it"):
         s.switch("b", "a", start=1.0, duration=1.0)
     assert len(s.transitions) == 1  # nothing half-scheduled by the refused switch
-    with pytest.raises(ValueError, match=r"t must be a finite number"):
+    with pytest.raises(ValueError, match=r"t = inf: must be a finite number"):
         s.at(np.inf)
+
+
+def test_transitions_are_alpha_transitions() -> None:
+    s = schedule()
+    tr = s.set("lh", "lhf", 0.5, start=1.0, duration=2.0)
+    assert isinstance(tr, AlphaTransition)
+    assert s.transitions == (tr,)
+    assert tr.at(2.0) == pytest.approx(0.25)  # halfway: 0 + 0.5 (0.5 - 0.5 cos(pi / 2))
+
+
+# -------------------------------------------------------------------------------------------
+# Priorities: alpha with its task names
+# -------------------------------------------------------------------------------------------
+
+
+def test_priorities_in_another_order_is_the_permuted_matrix() -> None:
+    alpha = schedule().initial
+    p = Priorities(tuple(NAMES), alpha)
+    order = ["posture", "lhf", "com", "lh"]
+    got = p.in_order(order)
+    for a, i in enumerate(order):  # entry by entry, by name
+        for b, j in enumerate(order):
+            assert got[a, b] == alpha[NAMES.index(i), NAMES.index(j)]
+    np.testing.assert_array_equal(p.in_order(NAMES), alpha)
+    assert not p.alpha.flags.writeable  # the value on a port cannot be changed under a consumer
+
+
+def test_schedule_gives_its_priorities_with_the_names() -> None:
+    s = schedule()
+    s.switch("lh", "lhf", start=0.0, duration=2.0)
+    p = s.priorities(1.0)
+    assert p.task_names == tuple(NAMES)
+    np.testing.assert_array_equal(p.alpha, s.at(1.0))
+
+
+@pytest.mark.parametrize(
+    "order, match",
+    [
+        (["com", "lh", "lhf", "posture", "head"], r"no priority for task\(s\) \['head'\]"),
+        (
+            ["com", "lh", "posture"],
+            r"priorities name unknown task\(s\) \['lhf'\]; known tasks: com, lh, posture",
+        ),
+        (["com", "lh", "lhf", "posture", "lh"], r"repeated task names"),
+    ],
+)
+def test_priorities_refuse_names_that_do_not_match(order, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        Priorities(tuple(NAMES), schedule().initial).in_order(order)
+
+
+def test_priorities_validation() -> None:
+    with pytest.raises(ValueError, match=r"repeated: 'a'"):
+        Priorities(("a", "a"), np.zeros((2, 2)))
+    with pytest.raises(TypeError, match=r"task_names\[1\] = 3 is not a string"):
+        Priorities(("a", 3), np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"alpha has shape \(3, 3\) but there are 2 tasks"):
+        Priorities(("a", "b"), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"alpha\[1, 0\] \(alpha of 'b' w.r.t. 'a'\) = nan"):
+        Priorities(("a", "b"), np.array([[0.0, 0.0], [np.nan, 0.0]]))
