@@ -1,11 +1,12 @@
-"""Quasi-static torque control as one QP over task wrenches (paper 004, eq. 5-11). Pure numpy + daqp.
+"""Quasi-static torque control as one QP over task wrenches (Liu, Lober, Padois 2016, eq. 5-11).
+Pure numpy + daqp.
 
 A floating-base robot has ``n`` generalized velocities: the first ``n_base`` (6 for a
 free flyer) are the unactuated root rows, the other ``n_a = n - n_base`` are actuated.
 Each task ``i`` has a Jacobian ``J_i`` (m_i, n) and a task wrench ``w_i`` (m_i,): the
 wrench the robot applies *on the environment* through the task (for a posture task, a
 joint torque). The generalized force the tasks produce is ``Σ_i P_i J_iᵀ w_i + g``,
-where ``g`` is the gravity term as written on the *left* side of paper eq. 1
+where ``g`` is the gravity term as written on the *left* side of the paper's eq. 1
 (``g = -CalcGravityGeneralizedForces`` in Drake: ``+m·9.81`` on the vertical root row of a
 robot at rest). The hierarchical form (eq. 9-11) is
 
@@ -59,12 +60,16 @@ from dataclasses import dataclass, field
 import daqp
 import numpy as np
 
+from drake_sot.validation import nonnegative, positive_int
+
 __all__ = [
     "FrictionCone",
     "QsProblem",
     "QsSolution",
     "QsTask",
     "QuasiStaticQP",
+    "StaticCapacity",
+    "static_capacity",
 ]
 
 _EQ = 5  # daqp sense flag of an equality row
@@ -74,6 +79,8 @@ _EQ_TOL = 1e-9
 # inequality rows (friction [N], torque bounds [N·m]) absolute, on top of the solver's own
 _INEQ_TOL = 1e-6
 _CACHE_SIZE = 8
+# static_capacity: the largest factor tried on the torque bounds before reporting inf.
+_LARGEST_SCALE = 1e15
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,22 +102,15 @@ class FrictionCone:
     min_normal_force: float = 0.0
 
     def __post_init__(self) -> None:
-        mu = float(self.mu)
-        if not (math.isfinite(mu) and mu >= 0.0):
-            raise ValueError(f"FrictionCone.mu must be a finite value >= 0, got {self.mu!r}")
-        if int(self.facets) != self.facets or self.facets < 3:
-            raise ValueError(f"FrictionCone.facets must be an integer >= 3, got {self.facets!r}")
+        mu = nonnegative("FrictionCone.mu", self.mu)
+        facets = positive_int("FrictionCone.facets", self.facets, minimum=3)
         nrm = np.asarray(self.normal, dtype=float)
         length = float(np.linalg.norm(nrm)) if nrm.shape == (3,) else 0.0
         if nrm.shape != (3,) or not (math.isfinite(length) and length > 1e-12):
-            raise ValueError(f"FrictionCone.normal must be a finite nonzero (3,) vector, got {self.normal!r}")
-        fmin = float(self.min_normal_force)
-        if not (math.isfinite(fmin) and fmin >= 0.0):
-            raise ValueError(
-                f"FrictionCone.min_normal_force must be a finite value >= 0, got {self.min_normal_force!r}"
-            )
+            raise ValueError(f"FrictionCone.normal = {self.normal!r}: must be a finite nonzero (3,) vector")
+        fmin = nonnegative("FrictionCone.min_normal_force", self.min_normal_force, unit="N")
         object.__setattr__(self, "mu", mu)
-        object.__setattr__(self, "facets", int(self.facets))
+        object.__setattr__(self, "facets", facets)
         object.__setattr__(self, "normal", tuple(float(v) for v in nrm / length))
         object.__setattr__(self, "min_normal_force", fmin)
         object.__setattr__(self, "_key", (mu, self.facets, self.normal, fmin))
@@ -284,8 +284,8 @@ class _Layout:
                     )
                 if not weighted and t.projector is not None:
                     raise ValueError(
-                        f"task {t.name!r}: a contact task is never projected (paper 004 §3.3); "
-                        "set projector=None"
+                        f"task {t.name!r}: a contact task is never projected "
+                        "(Liu, Lober, Padois 2016, §3.3); set projector=None"
                     )
         dims = [t.jacobian.shape[0] for t in tasks]
         ends = np.cumsum(dims).tolist()
@@ -341,7 +341,8 @@ class _Layout:
 
 
 class QuasiStaticQP:
-    """Quasi-static whole-body controller QP (paper 004 eq. 9-11, or the eq. 5-7 baseline).
+    """Quasi-static whole-body controller QP (Liu, Lober, Padois 2016, eq. 9-11, or the eq. 5-7
+    baseline).
 
     Args:
         n: number of generalized velocities.
@@ -368,9 +369,11 @@ class QuasiStaticQP:
         solver: str | SolverFn = "daqp",
         warm_start: bool = True,
     ) -> None:
-        if int(n) != n or n < 1 or int(n_base) != n_base or not 0 <= n_base <= n:
-            raise ValueError(f"need integers n >= 1 and 0 <= n_base <= n, got n={n!r}, n_base={n_base!r}")
-        self.n, self.n_base, self.n_a = int(n), int(n_base), int(n - n_base)
+        n = positive_int("n", n)
+        n_base = positive_int("n_base", n_base, minimum=0)
+        if not n_base <= n:
+            raise ValueError(f"n_base = {n_base}: must be <= n = {n}")
+        self.n, self.n_base, self.n_a = n, n_base, n - n_base
         self.tau_min = self._bound("tau_min", tau_min, -np.inf)
         self.tau_max = self._bound("tau_max", tau_max, np.inf)
         if np.any(self.tau_min > self.tau_max):
@@ -615,3 +618,101 @@ class QuasiStaticQP:
             message="",
             iterations=iters,
         )
+
+
+@dataclass(frozen=True)
+class StaticCapacity:
+    """Whether contacts and torque bounds can hold a robot at rest: :func:`static_capacity`.
+
+    Attributes:
+        feasible: the static equilibrium (eq. 9b-c, 11 with no goal task) has a solution.
+        contacts_hold: the contacts alone, without torque bounds, can balance the root rows
+            (always True on a fixed base).
+        tau: (n_a,) [N·m] the static torques: of the least-force solution within the bounds
+            when ``feasible``; within the bounds scaled by ``scale`` when only the torque
+            bounds are too small; NaN when the contacts cannot hold the robot.
+        scale: 1 when feasible; else the smallest factor on every finite bound (scaled about
+            zero) that makes the equilibrium feasible, to 0.1 % (inf when the contacts cannot).
+        exceeded: the actuated rows whose bound ``tau`` exceeds (empty when feasible).
+        message: the QP's diagnosis when the contacts cannot hold the robot, else empty.
+    """
+
+    feasible: bool
+    contacts_hold: bool
+    tau: np.ndarray
+    scale: float
+    exceeded: tuple[int, ...]
+    message: str = ""
+
+
+def static_capacity(
+    contacts: Sequence[QsTask],
+    g: np.ndarray,
+    *,
+    n_base: int,
+    tau_min: np.ndarray | None = None,
+    tau_max: np.ndarray | None = None,
+) -> StaticCapacity:
+    """Can ``contacts`` and the torque bounds hold the robot still, with no goal task at all?
+
+    The quasi-static QP of eq. 9-11 with the contact tasks only (each regularised by its
+    weight, inside its friction cone with its minimum normal force): if it is infeasible,
+    no goal-directed task can make it feasible without a goal wrench that itself carries
+    the robot, so a controller should refuse to start. When the contacts could hold the
+    base without the torque bounds, the bounds are scaled up by bisection to the smallest
+    factor that suffices, which says which joints are too weak and what they need.
+
+    Args:
+        contacts: contact point tasks (``friction`` set, no ``desired``); may be empty.
+        g: (n,) gravity term on the left of eq. 1 at the configuration to hold.
+        n_base, tau_min, tau_max: as in :class:`QuasiStaticQP`.
+
+    Raises:
+        ValueError: as :meth:`QuasiStaticQP.solve`, or a contact task with a ``desired``.
+    """
+    g = np.asarray(g, dtype=float)
+    qp = QuasiStaticQP(g.size, n_base, tau_min, tau_max, warm_start=False)
+    for t in contacts:
+        if t.desired is not None or t.friction is None:
+            raise ValueError(
+                f"task {t.name!r}: static_capacity takes contact tasks only (friction, no desired)"
+            )
+    lo, hi = qp.tau_min, qp.tau_max
+
+    def solve(scale: float) -> np.ndarray | None:
+        """Static torques with the bounds scaled by ``scale`` (inf: no bound), or None if infeasible."""
+        low_s, high_s = (None, None) if math.isinf(scale) else (scale * lo, scale * hi)
+        if not contacts:  # nothing but gravity: tau = g_act, the root rows must vanish
+            if n_base and np.abs(g[:n_base]).max() > _EQ_TOL * (1.0 + np.abs(g).max()):
+                return None
+            tau = g[n_base:].copy()
+            return tau if low_s is None or np.all((low_s <= tau) & (tau <= high_s)) else None
+        sol = QuasiStaticQP(g.size, n_base, low_s, high_s, warm_start=False).solve(contacts, g)
+        return sol.tau if sol.status == "optimal" else None
+
+    tau = solve(1.0)
+    if tau is not None:
+        return StaticCapacity(True, True, tau, 1.0, ())
+    unbounded = solve(np.inf)
+    if unbounded is None:
+        message = (
+            qp.solve(contacts, g).message
+            if contacts
+            else "no contact holds the floating base (its root rows of g are not zero)"
+        )
+        return StaticCapacity(False, False, np.full(qp.n_a, np.nan), np.inf, (), message)
+    low, high, tau = 1.0, 2.0, solve(2.0)
+    while tau is None and high < _LARGEST_SCALE:  # some finite scale suffices unless a bound is 0
+        low, high = high, 2.0 * high
+        tau = solve(high)
+    if tau is None:
+        tau, high = unbounded, np.inf
+    while math.isfinite(high) and high > 1.001 * low:
+        middle = math.sqrt(low * high)
+        found = solve(middle)
+        if found is None:
+            low = middle
+        else:
+            high, tau = middle, found
+    exceeded = tuple(int(k) for k in np.flatnonzero((tau > hi) | (tau < lo)))
+    return StaticCapacity(False, True, tau, high, exceeded)

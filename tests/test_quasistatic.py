@@ -1,4 +1,4 @@
-"""Tests of the quasi-static QP drake_sot.quasistatic (paper 004, eq. 5-11).
+"""Tests of the quasi-static QP drake_sot.quasistatic (Liu, Lober, Padois 2016, eq. 5-11).
 
 Every expected value is computed here independently of the module: equality-constrained
 least squares through its KKT system, Lagrange conditions of a two-variable problem,
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP
+from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, static_capacity
 
 G0 = 9.81
 
@@ -278,6 +278,61 @@ def test_torque_bounds_the_equilibrium_violates_are_infeasible() -> None:
     assert np.isnan(bad.tau).all()
 
 
+# --------------------------------------------------------------------------- static capacity
+def _one_joint_on_four_points(n: int = 7, c: float = 0.2):
+    """One joint whose torque the contact forces fix: tau = c * sum(w_z) + g_act = -c m g + 1."""
+    mass = 10.0
+    tasks = [
+        QsTask(
+            f"c{i}",
+            point_jacobian(p, n, np.array([[0.0], [0.0], [c]])),
+            weight=1e-3,
+            friction=FrictionCone(mu=0.8),
+        )
+        for i, p in enumerate(feet_points()[:4])
+    ]
+    g = gravity_term(n, mass, np.array([0.0, -0.1, 0.0]), np.array([1.0]))
+    return tasks, g, -c * mass * G0 + 1.0
+
+
+def test_static_capacity_within_the_bounds() -> None:
+    tasks, g, required = _one_joint_on_four_points()
+    cap = static_capacity(tasks, g, n_base=6, tau_min=[-20.0], tau_max=[20.0])
+    assert cap.feasible and cap.contacts_hold and cap.scale == 1.0 and cap.exceeded == ()
+    assert cap.tau[0] == pytest.approx(required, abs=1e-9)
+
+
+@pytest.mark.parametrize("bound", [0.01, 5.0, 18.0])
+def test_static_capacity_finds_the_factor_the_bounds_lack(bound: float) -> None:
+    tasks, g, required = _one_joint_on_four_points()  # |required| = 18.62 N·m
+    cap = static_capacity(tasks, g, n_base=6, tau_min=[-bound], tau_max=[bound])
+    assert not cap.feasible and cap.contacts_hold and cap.exceeded == (0,)
+    assert cap.scale == pytest.approx(abs(required) / bound, rel=2e-3)  # bisected to 0.1 %
+    assert cap.tau[0] == pytest.approx(required, abs=1e-9)
+
+
+def test_static_capacity_when_the_contacts_cannot_hold_the_weight() -> None:
+    n, mass = 6, 40.0
+    cone = FrictionCone(mu=0.8, min_normal_force=mass * G0)  # each point >= the whole weight
+    tasks = [
+        QsTask(f"c{i}", point_jacobian(p, n), weight=1e-3, friction=cone) for i, p in enumerate(feet_points())
+    ]
+    cap = static_capacity(tasks, gravity_term(n, mass, np.zeros(3)), n_base=6)
+    assert not cap.feasible and not cap.contacts_hold and cap.scale == np.inf
+    assert np.isnan(cap.tau).all() and cap.message
+
+
+def test_static_capacity_without_contacts() -> None:
+    g_act = np.array([3.0, -8.0])
+    fixed = static_capacity([], g_act, n_base=0, tau_min=[-2.0, -2.0], tau_max=[2.0, 2.0])
+    assert not fixed.feasible and fixed.contacts_hold and fixed.exceeded == (0, 1)
+    assert fixed.scale == pytest.approx(8.0 / 2.0, rel=2e-3)
+    np.testing.assert_array_equal(fixed.tau, g_act)
+    assert static_capacity([], g_act, n_base=0, tau_min=[-9.0, -9.0], tau_max=[9.0, 9.0]).feasible
+    floating = static_capacity([], gravity_term(8, 10.0, np.zeros(3), g_act), n_base=6)
+    assert not floating.contacts_hold and "no contact" in floating.message
+
+
 # --------------------------------------------------------------------------- standing
 def test_standing_on_eight_points_carries_the_weight_evenly() -> None:
     n_a = 4
@@ -461,8 +516,20 @@ def test_bad_input_is_rejected_with_the_task_name() -> None:
         qp.solve([QsTask("hand", J, weight=0.0)], g)
     with pytest.raises(ValueError, match="tau_min > tau_max"):
         QuasiStaticQP(n, tau_min=np.ones(3), tau_max=np.zeros(3))
-    with pytest.raises(ValueError, match="mu"):
+    with pytest.raises(ValueError, match=r"FrictionCone.mu = -1.0: must be finite and >= 0"):
         FrictionCone(mu=-1.0)
+    with pytest.raises(ValueError, match=r"FrictionCone.mu = nan"):
+        FrictionCone(mu=np.nan)
+    with pytest.raises(ValueError, match=r"FrictionCone.min_normal_force = inf N"):
+        FrictionCone(mu=0.5, min_normal_force=np.inf)
+    with pytest.raises(ValueError, match=r"FrictionCone.facets = 2: must be an integer >= 3"):
+        FrictionCone(mu=0.5, facets=2)
+    with pytest.raises(ValueError, match=r"n_base = 7: must be <= n = 6"):
+        QuasiStaticQP(6, 7)
+    with pytest.raises(ValueError, match=r"n = nan"):
+        QuasiStaticQP(np.nan)
+    with pytest.raises(ValueError, match=r"tau_max must be \(3,\) without NaN"):
+        QuasiStaticQP(n, tau_max=[1.0, np.nan, 1.0])
 
 
 def test_structure_change_and_return_reuse_buffers_correctly() -> None:
