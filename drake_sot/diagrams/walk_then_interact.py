@@ -22,8 +22,9 @@ from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk import add_walking, forward_steps
 from drake_sot.plots import plot_interaction
+from drake_sot.sequencing import Above, Below, Push, Rm, SetValue, State, Transition, Up
 from drake_sot.systems.partner import Hold, Partner
-from drake_sot.systems.sequencer import Above, Below, Push, Rm, SetValue, State, TaskSequencer, Transition, Up
+from drake_sot.systems.sequencer import TaskSequencer
 
 WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
 FORCE_TASKS = ("taskForce", "taskForceLH")

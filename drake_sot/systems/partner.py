@@ -1,4 +1,8 @@
-"""A simulated interaction partner: wrenches applied to the robot's hands in the plant.
+"""A simulated interaction partner: forces applied to the robot's hands in the plant.
+
+A partner's script is data: :class:`ConstantForce` segments (a scripted external force,
+e.g. a shove) and :class:`Hold` segments (the partner grips a hand and moves it through a
+spring-damper).
 
 Both systems compute their forces at the control period and hold them in state, so the
 plant's ``applied_spatial_force`` input is a cached value between ticks (no Python per
@@ -16,14 +20,24 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce, MultibodyPlant
 from pydrake.systems.framework import Context, LeafSystem, State
 
+from drake_sot import validation
+
 
 @dataclass(frozen=True)
-class Push:
-    """A constant force [N] (world frame) on a body from ``start`` to ``end`` [s]."""
+class ConstantForce:
+    """A constant force ``force`` (3,) [N] (world frame) on a body from ``start`` to ``end`` [s].
+
+    Raises ValueError for a non-finite time or force component.
+    """
 
     start: float
     end: float
     force: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "start", validation.finite("ConstantForce.start", self.start))
+        object.__setattr__(self, "end", validation.finite("ConstantForce.end", self.end))
+        object.__setattr__(self, "force", tuple(validation.vector("ConstantForce.force", self.force, 3)))
 
 
 @dataclass(frozen=True)
@@ -65,13 +79,17 @@ class Partner(LeafSystem):
 
     Args:
         plant: the simulated plant (finalized).
-        script: body name → a sequence of :class:`Push` and :class:`Hold` segments
+        script: body name → a sequence of :class:`ConstantForce` and :class:`Hold` segments
             (non-overlapping in time).
         period: update period [s] (the control period).
     """
 
     def __init__(
-        self, plant: MultibodyPlant, script: Mapping[str, Sequence[Push | Hold]], *, period: float = 0.005
+        self,
+        plant: MultibodyPlant,
+        script: Mapping[str, Sequence[ConstantForce | Hold]],
+        *,
+        period: float = 0.005,
     ) -> None:
         super().__init__()
         self._bodies = [plant.GetBodyByName(name) for name in script]
@@ -117,7 +135,7 @@ class Partner(LeafSystem):
         forces = np.zeros((len(self._bodies), 3))
         for i, (body, segments) in enumerate(zip(self._bodies, self._script, strict=True)):
             segment = self._active(segments, t)
-            if isinstance(segment, Push):
+            if isinstance(segment, ConstantForce):
                 forces[i] = segment.force
             elif isinstance(segment, Hold):
                 p = poses[int(body.index())].translation()

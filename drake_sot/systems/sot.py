@@ -1,4 +1,5 @@
-"""``StackOfTasks``: the strict-priority solver entity (paper 000 eq. 8-9, III-B.6)."""
+"""``StackOfTasks``: the strict-priority solver entity (Mansard, Stasse, Evrard, Kheddar 2009,
+eq. 8-9 and III-B.6)."""
 
 from __future__ import annotations
 
@@ -8,9 +9,11 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
+from drake_sot import validation
 from drake_sot.hierarchy import solve_strict
 from drake_sot.signals import TaskSignal
-from drake_sot.systems._context import own_context
+from drake_sot.stack import Stack, StackError
+from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.task import Task
 
 #: Name of the optional input port that drives the stack.
@@ -21,11 +24,12 @@ class StackOfTasks(LeafSystem):
     """Combines the tasks of its stack, in priority order, into one joint velocity q̇.
 
     Every task the scenario may ever use is wired in at build time (one input port
-    each); which of them act, and in which order, is the *stack*, held in the context
-    and changed at run time with :meth:`push`, :meth:`pop`, :meth:`rm`, :meth:`up`,
-    :meth:`down` and :meth:`clear`, as in the paper. Index 0 of the stack is the
-    highest priority; ``push`` appends at the lowest. Tasks outside the stack are not
-    evaluated and cost nothing.
+    each); which of them act, and in which order, is the *stack*, a
+    :class:`drake_sot.stack.Stack` value held in the context and changed at run time
+    with :meth:`push`, :meth:`pop`, :meth:`rm`, :meth:`up`, :meth:`down` and
+    :meth:`clear`, as in the paper (the algebra and its errors are ``Stack``'s). Index 0
+    of the stack is the highest priority; ``push`` appends at the lowest. Tasks outside
+    the stack are not evaluated and cost nothing.
 
     On a periodic discrete update (the control period, 5 ms by default as on HRP-2)
     it evaluates the tasks of the stack and solves them with
@@ -39,20 +43,39 @@ class StackOfTasks(LeafSystem):
     refused with a ValueError rather than silently overridden.
 
     Input ports:
-        <task name>: one per declared task, abstract :class:`~drake_sot.signals.TaskSignal`.
-        stack: optional, abstract ``tuple[str, ...]``, the stack to use, highest
+        <task name>: one per declared task, abstract :class:`~drake_sot.signals.TaskSignal`
+            carrying that task's name; e (m,), J (m, nv), ė* (m,) with m the task's
+            dimension.
+        stack: optional, abstract ``tuple[str, ...]``, the active task names, highest
             priority first (the name "stack" is therefore not a valid task name).
             Validated at every tick: an unknown task name or a task listed twice
             raises a RuntimeError naming them and listing the known tasks.
     Output ports:
         qdot: joint velocity (nv,) computed at the last tick [rad/s, m/s] (v layout of the model).
         errors: every declared task's error, concatenated in declaration order
-            (Σ m_i,), NaN for the tasks that were not in the stack at the last tick.
-        stack: abstract ``tuple[str, ...]``, the current stack, highest priority first:
-            the ``stack`` input's value when it is connected, else the context's stack.
+            (Σ m_i,), NaN for the tasks that were not in the stack at the last tick
+            (:meth:`error_slices` gives each task's rows).
+        stack: abstract ``tuple[str, ...]``, the current active task names, highest
+            priority first: the ``stack`` input's value when it is connected, else the
+            context's stack.
 
-    Raises at the tick a RuntimeError naming the task when a task signal has the wrong
-    size or non-finite values.
+    Args:
+        nv: size of q̇ (the model's number of velocities), >= 1.
+        tasks: the tasks (their names and dimensions), or task name → dimension.
+        period: the control period [s], finite and > 0.
+        rank_threshold: singular values at or below it are treated as zero (finite, >= 0;
+            see :func:`~drake_sot.hierarchy.solve_strict`).
+        damping: damped least-squares factor (finite, >= 0; 0 is the exact pseudo-inverse).
+        stack: the initial active tasks, highest priority first.
+        name: the system's name.
+
+    Raises:
+        ValueError: at construction, naming the bad argument (a task name twice, a
+            task named "stack", a dimension < 1, a NaN period, ...); an initial stack
+            naming an unknown task raises :class:`~drake_sot.stack.UnknownTaskError`
+            (a ValueError and a KeyError) listing the known tasks. At the tick, a
+            RuntimeError naming the task when its signal carries another task's name,
+            has the wrong sizes (e, J or ė*), or holds NaN/Inf.
     """
 
     def __init__(
@@ -68,18 +91,30 @@ class StackOfTasks(LeafSystem):
     ) -> None:
         super().__init__()
         self.set_name(name)
-        dims = {t.get_name(): t.dimension for t in tasks} if not isinstance(tasks, Mapping) else dict(tasks)
-        if not dims:
-            raise ValueError("StackOfTasks needs at least one task")
-        if STACK_PORT in dims:
+        where = f"StackOfTasks {name!r}"
+        self._nv = validation.positive_int(f"{where}: nv", nv)
+        if isinstance(tasks, Mapping):
+            pairs = list(tasks.items())
+        else:
+            pairs = [(t.get_name(), t.dimension) for t in tasks]
+        if not pairs:
+            raise ValueError(f"{where} needs at least one task")
+        try:
+            empty = Stack(tuple(task_name for task_name, _ in pairs))
+            initial = empty.with_active(stack)
+        except StackError as error:
+            raise type(error)(f"{where}: {error}") from None
+        if STACK_PORT in empty.tasks:
             raise ValueError(f"{STACK_PORT!r} cannot be a task name: it is the name of the stack input port")
-        if period <= 0.0:
-            raise ValueError(f"control period {period} must be > 0")
-        self._nv = nv
-        self._period = period
-        self._rank_threshold = rank_threshold
-        self._damping = damping
+        dims = {
+            task_name: validation.positive_int(f"{where}: dimension of task {task_name!r}", m)
+            for task_name, m in pairs
+        }
+        self._period = validation.positive(f"{where}: period", period, unit="s")
+        self._rank_threshold = validation.nonnegative(f"{where}: rank_threshold", rank_threshold)
+        self._damping = validation.nonnegative(f"{where}: damping", damping)
         self._dims = dims
+        self._empty = empty
         self._slices: dict[str, slice] = {}
         start = 0
         for task_name, m in dims.items():
@@ -93,16 +128,16 @@ class StackOfTasks(LeafSystem):
             for task_name in dims
         }
         self._stack_input = self.DeclareAbstractInputPort(STACK_PORT, AbstractValue.Make(()))
-        self._stack = self.DeclareAbstractState(AbstractValue.Make(self._checked_stack(tuple(stack))))
+        self._stack = self.DeclareAbstractState(AbstractValue.Make(initial))
         self._qdot = self.DeclareDiscreteState(nv)
         self._errors = self.DeclareDiscreteState(np.full(start, np.nan))
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         self.DeclareStateOutputPort("qdot", self._qdot)
         self.DeclareStateOutputPort("errors", self._errors)
         self.DeclareAbstractOutputPort(
             "stack",
             lambda: AbstractValue.Make(()),
-            lambda context, value: value.set_value(self._current_stack(context)),
+            lambda context, value: value.set_value(self._current_stack(context).active),
             prerequisites_of_calc={
                 self.abstract_state_ticket(self._stack),
                 self.input_port_ticket(self._stack_input.get_index()),
@@ -113,7 +148,7 @@ class StackOfTasks(LeafSystem):
     @property
     def task_names(self) -> tuple[str, ...]:
         """Every declared task, in declaration order."""
-        return tuple(self._dims)
+        return self._empty.tasks
 
     @property
     def period(self) -> float:
@@ -124,45 +159,14 @@ class StackOfTasks(LeafSystem):
         """Where each task's error lies in the ``errors`` output."""
         return dict(self._slices)
 
-    def _known(self, task_name: str) -> str:
-        if task_name not in self._dims:
-            raise KeyError(f"unknown task {task_name!r}; known tasks: {', '.join(self._dims)}")
-        return task_name
-
-    def _checked_stack(self, stack: tuple[str, ...]) -> tuple[str, ...]:
-        for task_name in stack:
-            self._known(task_name)
-        if len(set(stack)) != len(stack):
-            raise ValueError(f"stack {stack} holds a task twice")
-        return stack
-
-    def _checked_input(self, value) -> tuple[str, ...]:
-        """The ``stack`` input's value, validated (RuntimeError: it is a run-time signal)."""
-        if not isinstance(value, (tuple, list)) or not all(isinstance(n, str) for n in value):
-            raise RuntimeError(
-                f"{self.get_name()!r}: input port {STACK_PORT!r} must carry a tuple of task names, "
-                f"got {value!r}"
-            )
-        stack = tuple(value)
-        unknown = [n for n in stack if n not in self._dims]
-        twice = sorted({n for n in stack if stack.count(n) > 1})
-        if unknown or twice:
-            problems = []
-            if unknown:
-                problems.append(f"unknown task(s) {', '.join(map(repr, unknown))}")
-            if twice:
-                problems.append(f"task(s) listed twice {', '.join(map(repr, twice))}")
-            raise RuntimeError(
-                f"{self.get_name()!r}: the stack {stack} on input port {STACK_PORT!r} has "
-                f"{' and '.join(problems)}; known tasks: {', '.join(self._dims)}"
-            )
-        return stack
-
-    def _current_stack(self, context: Context) -> tuple[str, ...]:
-        """The stack in force for this system's own context."""
-        if self._stack_input.HasValue(context):
-            return self._checked_input(self._stack_input.Eval(context))
-        return context.get_abstract_state(self._stack).get_value()
+    def _current_stack(self, context: Context) -> Stack:
+        """The stack in force for this system's own context (the input's, validated, when driven)."""
+        if not self._stack_input.HasValue(context):
+            return context.get_abstract_state(self._stack).get_value()
+        try:
+            return self._empty.with_active(self._stack_input.Eval(context))
+        except StackError as error:
+            raise RuntimeError(f"{self.get_name()!r}: input port {STACK_PORT!r}: {error}") from None
 
     def is_driven(self, context: Context) -> bool:
         """True when the ``stack`` input port is connected (own or root context)."""
@@ -170,70 +174,45 @@ class StackOfTasks(LeafSystem):
 
     # --- the paper's commands, acting on a context --------------------------------
     def list(self, context: Context) -> tuple[str, ...]:
-        """The stack, highest priority first (own or root context); the input's value when driven."""
-        return self._current_stack(own_context(self, context))
+        """The active tasks, highest priority first (own or root context); the input's when driven."""
+        return self._current_stack(own_context(self, context)).active
 
-    def _editable(self, context: Context, command: str) -> tuple[str, ...]:
-        """The context's stack, or a ValueError when the stack is driven by the input port."""
-        context = own_context(self, context)
-        if self._stack_input.HasValue(context):
-            raise ValueError(
-                f"{self.get_name()!r}: cannot {command}: the stack is driven by input port {STACK_PORT!r}; "
-                f"change its source (e.g. the sequencer) instead"
-            )
-        return context.get_abstract_state(self._stack).get_value()
+    def _command(self, context: Context, command: str, *args: str) -> Stack:
+        """Apply ``Stack.<command>(*args)`` to the context's stack; return the stack before.
 
-    def _set(self, context: Context, stack: tuple[str, ...]) -> None:
-        own_context(self, context).get_mutable_abstract_state(self._stack).set_value(
-            self._checked_stack(stack)
-        )
+        Refused (ValueError) while the ``stack`` input drives the stack; the algebra's
+        own errors (:class:`~drake_sot.stack.StackError`, a ValueError) name the task and
+        list the known tasks or the stack.
+        """
+        context = settable_context(self, context, self._stack_input, command=command, what="the stack")
+        before = context.get_abstract_state(self._stack).get_value()
+        after = getattr(before, command)(*args)
+        context.get_mutable_abstract_state(self._stack).set_value(after)
+        return before
 
     def push(self, context: Context, task_name: str) -> None:
         """Add a task at the lowest priority. Refuses an unknown task or one already in the stack."""
-        stack = self._editable(context, "push")
-        if self._known(task_name) in stack:
-            raise ValueError(f"task {task_name!r} is already in the stack {stack}")
-        self._set(context, stack + (task_name,))
+        self._command(context, "push", task_name)
 
     def pop(self, context: Context) -> str:
-        """Remove and return the lowest-priority task (the last pushed)."""
-        stack = self._editable(context, "pop")
-        if not stack:
-            raise IndexError("pop from an empty stack")
-        self._set(context, stack[:-1])
-        return stack[-1]
-
-    def _position(self, context: Context, task_name: str, command: str) -> tuple[tuple[str, ...], int]:
-        stack = self._editable(context, command)
-        if self._known(task_name) not in stack:
-            raise ValueError(f"task {task_name!r} is not in the stack {stack}")
-        return stack, stack.index(task_name)
+        """Remove and return the lowest-priority task (the last pushed); refused on an empty stack."""
+        return self._command(context, "pop").active[-1]
 
     def rm(self, context: Context, task_name: str) -> None:
         """Remove a task wherever it is in the stack."""
-        stack, i = self._position(context, task_name, "rm")
-        self._set(context, stack[:i] + stack[i + 1 :])
+        self._command(context, "rm", task_name)
 
     def up(self, context: Context, task_name: str) -> None:
         """Raise a task's priority by one (no-op at the top)."""
-        stack, i = self._position(context, task_name, "up")
-        if i > 0:
-            s = list(stack)
-            s[i - 1], s[i] = s[i], s[i - 1]
-            self._set(context, tuple(s))
+        self._command(context, "up", task_name)
 
     def down(self, context: Context, task_name: str) -> None:
         """Lower a task's priority by one (no-op at the bottom)."""
-        stack, i = self._position(context, task_name, "down")
-        if i < len(stack) - 1:
-            s = list(stack)
-            s[i], s[i + 1] = s[i + 1], s[i]
-            self._set(context, tuple(s))
+        self._command(context, "down", task_name)
 
     def clear(self, context: Context) -> None:
         """Empty the stack (q̇ becomes zero at the next tick)."""
-        self._editable(context, "clear")
-        self._set(context, ())
+        self._command(context, "clear")
 
     # --- the control law -----------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
@@ -243,10 +222,16 @@ class StackOfTasks(LeafSystem):
         for task_name in stack:
             signal = self._ports[task_name].Eval(context)
             m = self._dims[task_name]
-            if signal.error.shape != (m,) or signal.jacobian.shape != (m, self._nv):
+            if signal.name != task_name:
                 raise RuntimeError(
-                    f"task {task_name!r}: error {signal.error.shape} / Jacobian {signal.jacobian.shape}, "
-                    f"expected ({m},) / ({m}, {self._nv})"
+                    f"{self.get_name()!r}: input port {task_name!r} carries the signal of task "
+                    f"{signal.name!r}: a task is wired into another task's port"
+                )
+            shapes = (signal.error.shape, signal.jacobian.shape, signal.edot_des.shape)
+            if shapes != ((m,), (m, self._nv), (m,)):
+                raise RuntimeError(
+                    f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, "
+                    f"ė* (edot_des) {shapes[2]}; expected ({m},), ({m}, {self._nv}), ({m},)"
                 )
             if not (np.all(np.isfinite(signal.jacobian)) and np.all(np.isfinite(signal.edot_des))):
                 raise RuntimeError(

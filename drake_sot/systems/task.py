@@ -1,4 +1,5 @@
-"""``Task``: features → ``(e, J, ė*)`` with ``ė* = -λ e + feedforward`` (paper 000 eq. 3, 10)."""
+"""``Task``: features → ``(e, J, ė*)`` with ``ė* = -λ e + feedforward`` (Mansard, Stasse, Evrard,
+Kheddar 2009, eq. 3 and 10)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from drake_sot import features as fmath
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain, evaluate_gain, validate_gain
 from drake_sot.signals import FeatureSignal, TaskSignal
-from drake_sot.systems._context import own_context
+from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.features import _Feature
 
 #: Name of the optional input port that drives λ.
@@ -22,7 +23,7 @@ GAIN_PORT = "gain"
 class Task(LeafSystem):
     """A task: the concatenation of one or more features and a gain.
 
-    ``e = [e_1; e_2; ...]`` (paper 000 eq. 10), ``J = [J_1; J_2; ...]`` and the desired
+    ``e = [e_1; e_2; ...]`` (Mansard et al. 2009, eq. 10), ``J = [J_1; J_2; ...]`` and the desired
     error rate ``ė* = -λ e + feedforward`` (eq. 3, plus the feed-forward of moving
     references). λ is a constant or an :class:`~drake_sot.gains.AdaptiveGain` of ‖e‖,
     held in a parameter that :meth:`set_gain` changes at run time, unless the ``gain``
@@ -97,12 +98,7 @@ class Task(LeafSystem):
 
     def set_gain(self, context: Context, gain: Gain) -> None:
         """Change λ at run time (own or root context); refused when the ``gain`` input is connected."""
-        context = own_context(self, context)
-        if self._gain_input.HasValue(context):
-            raise ValueError(
-                f"task {self.get_name()!r}: the gain comes from input port {GAIN_PORT!r}; "
-                "change its source instead"
-            )
+        context = settable_context(self, context, self._gain_input, command="set_gain", what="the gain")
         context.get_mutable_abstract_parameter(self._gain).set_value(
             validate_gain(gain, name=self.get_name())
         )

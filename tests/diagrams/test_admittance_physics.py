@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
-from drake_sot.systems.partner import Partner, Push
+from drake_sot.systems.partner import ConstantForce, Partner
 
 FORCE = 20.0  # [N], forward (+x)
 DAMPING = 400.0  # [N·s/m]: steady speed f/B = 5 cm/s, ~10 cm over the pull, inside the arm's reach
@@ -27,7 +27,7 @@ def pulled():
     b.add_op_point_task("taskLH", "left_hand", gain=5.0)
     b.add_posture_task("taskPosture")
     hand_body = b.plant.GetJointByName(b.info.force_sensors["right_wrist"]).child_body().name()
-    partner = b.builder.AddSystem(Partner(b.plant, {hand_body: [Push(*PULL, (FORCE, 0.0, 0.0))]}))
+    partner = b.builder.AddSystem(Partner(b.plant, {hand_body: [ConstantForce(*PULL, (FORCE, 0.0, 0.0))]}))
     b.builder.Connect(b.plant.get_body_poses_output_port(), partner.GetInputPort("body_poses"))
     b.builder.Connect(
         b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities")

@@ -7,7 +7,7 @@ from pydrake.multibody.tree import SpatialInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_sot.systems.partner import Hold, Partner, Push
+from drake_sot.systems.partner import ConstantForce, Hold, Partner
 from drake_sot.systems.stack_history import stack_changes
 
 MASS = 2.0
@@ -34,8 +34,8 @@ def _position(plant, simulator):
     return plant.GetBodyByName("ball").EvalPoseInWorld(context).translation()
 
 
-def test_push_accelerates_the_body_by_f_over_m():
-    plant, partner, simulator = _floating_ball({"ball": [Push(0.1, 0.6, (4.0, 0.0, 0.0))]})
+def test_constant_force_accelerates_the_body_by_f_over_m():
+    plant, partner, simulator = _floating_ball({"ball": [ConstantForce(0.1, 0.6, (4.0, 0.0, 0.0))]})
     simulator.AdvanceTo(0.6)
     # 4 N on 2 kg for 0.5 s: x = a t² / 2 = 0.25 m (forces held per 5 ms tick: within 2 %).
     assert _position(plant, simulator)[0] == pytest.approx(0.5 * 2.0 * 0.5**2, rel=0.02)
@@ -56,9 +56,23 @@ def test_hold_pulls_the_body_to_the_moving_grip():
 
 def test_overlapping_segments_are_refused():
     with pytest.raises(ValueError, match="overlap"):
-        _floating_ball({"ball": [Push(0.0, 1.0, (1, 0, 0)), Push(0.5, 2.0, (1, 0, 0))]})
+        _floating_ball({"ball": [ConstantForce(0.0, 1.0, (1, 0, 0)), ConstantForce(0.5, 2.0, (1, 0, 0))]})
 
 
 def test_stack_change_labels():
     history = ((0.0, ("a", "b")), (1.0, ("a", "b", "c")), (2.0, ("b", "a", "c")), (3.0, ("b", "d")))
     assert stack_changes(history) == [(1.0, "+c"), (2.0, "reordered"), (3.0, "+d −a −c")]
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        ((np.nan, 1.0, (1, 0, 0)), "ConstantForce.start = nan: must be a finite number"),
+        ((0.0, np.inf, (1, 0, 0)), "ConstantForce.end = inf: must be a finite number"),
+        ((0.0, 1.0, (1, np.nan, 0)), r"ConstantForce.force = .*contains NaN or Inf \(entry \[1\]\)"),
+        ((0.0, 1.0, (1, 0)), r"ConstantForce.force must have shape \(3,\)"),
+    ],
+)
+def test_a_constant_force_refuses_non_finite_values(args, message):
+    with pytest.raises(ValueError, match=message):
+        ConstantForce(*args)

@@ -1,4 +1,5 @@
-"""TaskSequencer: a state machine driving StackOfTasks through its ``stack`` input (paper 000, IV-B)."""
+"""TaskSequencer: a state machine driving StackOfTasks through its ``stack`` input (Mansard, Stasse,
+Evrard, Kheddar 2009, IV-B)."""
 
 import numpy as np
 import pytest
@@ -6,9 +7,7 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_sot.signals import TaskSignal
-from drake_sot.systems.features import FeatureGeneric
-from drake_sot.systems.sequencer import (
+from drake_sot.sequencing import (
     Above,
     Below,
     Clear,
@@ -19,11 +18,13 @@ from drake_sot.systems.sequencer import (
     SetValue,
     Signal,
     State,
-    TaskSequencer,
     Timeout,
     Transition,
     Up,
 )
+from drake_sot.signals import TaskSignal
+from drake_sot.systems.features import FeatureGeneric
+from drake_sot.systems.sequencer import TaskSequencer
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.task import Task
 
@@ -302,7 +303,7 @@ def test_sot_refuses_context_commands_while_driven():
         ("down", ("a",)),
         ("clear", ()),
     ):
-        with pytest.raises(ValueError, match=f"cannot {command}: the stack is driven by input port 'stack'"):
+        with pytest.raises(ValueError, match=f"cannot {command}: the stack comes from input port 'stack'"):
             getattr(rig.sot, command)(rig.context, *args)
     assert rig.stack == ("a", "b")
 
@@ -315,7 +316,9 @@ def test_unknown_task_is_refused_at_construction_with_the_known_names():
         ]
         with pytest.raises(ValueError, match=r"state 's1'.*unknown task 'taskXX'; known tasks: a, b, c"):
             TaskSequencer(states, "s0", tasks=TASK_NAMES)
-    with pytest.raises(ValueError, match="initial stack .* unknown task.*'z'; known tasks: a, b, c"):
+    with pytest.raises(
+        ValueError, match=r"initial stack: the stack \('a', 'z'\) has unknown task 'z'; known tasks: a, b, c"
+    ):
         TaskSequencer([State("s0")], "s0", tasks=TASK_NAMES, stack=("a", "z"))
 
 
@@ -371,14 +374,19 @@ def test_unknown_task_is_refused_at_construction_with_the_known_names():
             {},
             "reads it with size 3",
         ),
-        ([State("s0", entry=(Rm("a"),))], "s0", {}, r"Rm\(task='a'\) fails on the stack \(\)"),
+        (
+            [State("s0", entry=(Rm("a"),))],
+            "s0",
+            {},
+            r"entering state 's0': entry action Rm\(task='a'\): task 'a' is not in the stack \(\)",
+        ),
         (
             [State("s0", entry=(Pop(),))],
             "s0",
             {"stack": ("a",), "period": 0.0},
-            "period 0.0 must be finite and > 0",
+            "sequencer 'sequencer': period = 0.0 s: must be finite and > 0",
         ),
-        ([State("s0")], "s0", {"tasks": ("a", "a")}, "holds a name twice"),
+        ([State("s0")], "s0", {"tasks": ("a", "a")}, r"tasks \('a', 'a'\) lists 'a' twice"),
     ],
 )
 def test_construction_errors(states, initial, kwargs, message):
@@ -388,17 +396,17 @@ def test_construction_errors(states, initial, kwargs, message):
 
 
 def test_definition_errors():
-    with pytest.raises(ValueError, match="threshold -1"):
+    with pytest.raises(ValueError, match=r"Below\('e'\).threshold = -1.0: must be finite and > 0"):
         Below("e", -1.0)
-    with pytest.raises(ValueError, match="size 0"):
+    with pytest.raises(ValueError, match=r"Above\('e'\).size = 0: must be an integer >= 1"):
         Above("e", 1.0, size=0)
-    with pytest.raises(ValueError, match="Timeout: -1"):
+    with pytest.raises(ValueError, match="Timeout.seconds = -1.0 s: must be finite and >= 0"):
         Timeout(-1.0)
     with pytest.raises(TypeError, match="guard must be one of"):
         Transition("e", "s1")
     with pytest.raises(TypeError, match="entry action 'a' is not one of"):
         State("s0", entry=("a",))
-    with pytest.raises(ValueError, match="Push.task"):
+    with pytest.raises(ValueError, match="Push.task = '': must be a non-empty string"):
         Push("")
 
 
@@ -409,14 +417,17 @@ def test_a_command_that_fails_on_some_path_is_refused_with_the_path():
         State("grasp", entry=(Rm("b"), Push("c"))),
     ]
     with pytest.raises(
-        ValueError, match=r"idle → grasp would fail: Rm\(task='b'\): task 'b' is not in the stack \('a',\)"
+        ValueError,
+        match=r"idle → grasp would fail: entry action Rm\(task='b'\): task 'b' is not in the stack \('a',\)",
     ):
         TaskSequencer(states, "idle", tasks=TASK_NAMES, stack=("a",))
     # Without the path check the same error comes at run time, naming state, action and stack.
     rig = _Rig(states, initial="idle", stack=("a",), guards={"go": 1.0, "walk": 0.0}, check_paths=False)
     rig.simulator.Initialize()
     with pytest.raises(
-        RuntimeError, match=r"entering state 'grasp': entry action Rm\(task='b'\) fails on the stack \('a',\)"
+        RuntimeError,
+        match=r"entering state 'grasp': entry action Rm\(task='b'\): task 'b' is not in the stack \('a',\) "
+        r"\(t = 0.0000 s\)",
     ):
         rig.run(0.005)
 
@@ -437,7 +448,7 @@ def test_guard_inputs_are_checked_when_read():
 
 
 def test_the_paper_decision_server():
-    """Paper 000 IV-B: checked every 1 s; once the pattern generator stops, swap the tasks."""
+    """Mansard et al. 2009, IV-B: checked every 1 s; once the pattern generator stops, swap the tasks."""
     states = [
         State("walk", entry=(Push("b"),), transitions=(Transition(Below("in_process", 0.5), "manipulate"),)),
         State("manipulate", entry=(Rm("b"), Push("c"))),

@@ -8,6 +8,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from drake_sot.gains import AdaptiveGain
 from drake_sot.hierarchy import solve_strict
 from drake_sot.signals import FeatureSignal, TaskSignal
+from drake_sot.stack import StackError
 from drake_sot.systems.features import FeatureGeneric
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.task import Task
@@ -111,7 +112,7 @@ def test_stack_commands_follow_the_paper():
     assert sot.list(context) == ("a",)
     sot.clear(context)
     assert sot.list(context) == ()
-    with pytest.raises(IndexError):
+    with pytest.raises(StackError, match="pop from an empty stack"):
         sot.pop(context)
 
 
@@ -125,7 +126,7 @@ def test_stack_commands_refuse_bad_names():
         sot.push(context, "taskCom")
     with pytest.raises(ValueError, match="'taskRH' is not in the stack"):
         sot.rm(context, "taskRH")
-    with pytest.raises(KeyError, match="known tasks"):
+    with pytest.raises(KeyError, match=r"'sot': the stack \('b',\) has unknown task 'b'; known tasks: a$"):
         StackOfTasks(NV, {"a": 1}, stack=["b"])
 
 
@@ -154,7 +155,9 @@ def test_bad_task_signals_name_the_task():
     with pytest.raises(RuntimeError, match="task 'b': NaN or Inf"):
         _tick(sot, context)
     sot.GetInputPort("b").FixValue(context, TaskSignal("b", np.zeros(2), np.zeros((2, NV)), np.zeros(2)))
-    with pytest.raises(RuntimeError, match="task 'b': error \\(2,\\)"):
+    with pytest.raises(
+        RuntimeError, match=r"task 'b': error \(2,\), Jacobian \(2, 5\), ė\* \(edot_des\) \(2,\)"
+    ):
         _tick(sot, context)
 
 
@@ -208,20 +211,22 @@ def test_stack_input_drives_the_stack_and_is_validated():
     sot.GetInputPort("stack").FixValue(context, ("b",))
     assert sot.GetOutputPort("stack").Eval(context) == ("b",)
     # Commands are refused, not silently overridden.
-    with pytest.raises(ValueError, match="'sot': cannot push: the stack is driven by input port 'stack'"):
+    with pytest.raises(ValueError, match="'sot': cannot push: the stack comes from input port 'stack'"):
         sot.push(context, "a")
     with pytest.raises(ValueError, match="cannot clear"):
         sot.clear(context)
     # Bad stacks on the input name the culprits and list the known tasks.
     sot.GetInputPort("stack").FixValue(context, ("a", "zz", "b", "a"))
     with pytest.raises(
-        RuntimeError, match=r"unknown task\(s\) 'zz' and task\(s\) listed twice 'a'; known tasks: a, b, c"
+        RuntimeError,
+        match=r"'sot': input port 'stack': the stack \('a', 'zz', 'b', 'a'\) has unknown task 'zz' "
+        r"and task 'a' listed twice; known tasks: a, b, c",
     ):
         _tick(sot, context)
     with pytest.raises(RuntimeError, match="unknown task"):
         sot.GetOutputPort("stack").Eval(context)
     sot.GetInputPort("stack").FixValue(context, "ab")
-    with pytest.raises(RuntimeError, match="must carry a tuple of task names"):
+    with pytest.raises(RuntimeError, match="input port 'stack': the stack must be a sequence of task names"):
         _tick(sot, context)
 
 
@@ -243,7 +248,7 @@ def test_task_gain_input():
     task.GetInputPort("gain").FixValue(context, [7.0])
     assert task.gain(context) == 7.0
     np.testing.assert_allclose(task.GetOutputPort("task").Eval(context).edot_des, -7.0 * signal.error)
-    with pytest.raises(ValueError, match="task 't': the gain comes from input port 'gain'"):
+    with pytest.raises(ValueError, match="'t': cannot set_gain: the gain comes from input port 'gain'"):
         task.set_gain(context, 2.0)
     for bad in (0.0, -1.0, np.nan, np.inf):
         task.GetInputPort("gain").FixValue(context, [bad])
@@ -253,3 +258,50 @@ def test_task_gain_input():
             task.GetOutputPort("task").Eval(context)
     with pytest.raises(ValueError, match="cannot be named 'gain'"):
         task.add(FeatureGeneric(1, name="gain"))
+
+
+@pytest.mark.parametrize("size", [1, 2, 5])
+def test_edot_of_another_size_than_the_task_is_refused_naming_it(size):
+    """A size-1 ė* is not broadcast over the task's three rows; a size-5 one does not reach numpy."""
+    rng = np.random.default_rng(7)
+    sot, context, _ = _sot_with_fixed_tasks(rng, {"a": 3, "b": 1}, stack=("b", "a"))
+    _tick(sot, context)  # the right sizes pass
+    sot.GetInputPort("a").FixValue(context, TaskSignal("a", np.zeros(3), np.zeros((3, NV)), np.ones(size)))
+    with pytest.raises(
+        RuntimeError,
+        match=rf"task 'a': error \(3,\), Jacobian \(3, 5\), ė\* \(edot_des\) \({size},\); "
+        r"expected \(3,\), \(3, 5\), \(3,\)",
+    ):
+        _tick(sot, context)
+
+
+def test_a_signal_in_another_tasks_port_is_refused():
+    rng = np.random.default_rng(8)
+    sot, context, signals = _sot_with_fixed_tasks(rng, {"a": 2, "b": 2}, stack=("a",))
+    sot.GetInputPort("a").FixValue(context, signals["b"])  # same size: only the name tells
+    with pytest.raises(RuntimeError, match="'sot': input port 'a' carries the signal of task 'b'"):
+        _tick(sot, context)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"period": np.nan}, "StackOfTasks 'sot': period = nan s: must be finite and > 0"),
+        ({"period": np.inf}, "period = inf s: must be finite and > 0"),
+        ({"period": 0.0}, "period = 0.0 s: must be finite and > 0"),
+        ({"rank_threshold": np.nan}, "rank_threshold = nan: must be finite and >= 0"),
+        ({"rank_threshold": -1e-6}, "rank_threshold = -1e-06: must be finite and >= 0"),
+        ({"damping": np.nan}, "damping = nan: must be finite and >= 0"),
+        ({"damping": -0.1}, "damping = -0.1: must be finite and >= 0"),
+        ({"nv": 0}, "nv = 0: must be an integer >= 1"),
+        ({"nv": 2.5}, "nv = 2.5: must be an integer >= 1"),
+        ({"tasks": {"a": 0}}, "dimension of task 'a' = 0: must be an integer >= 1"),
+        ({"tasks": {}}, "needs at least one task"),
+        ({"tasks": {"a": 1, "": 1}}, "holds '': a task name is a non-empty string"),
+        ({"stack": ("a", "a")}, r"the stack \('a', 'a'\) has task 'a' listed twice"),
+    ],
+)
+def test_constructor_arguments_are_checked(change, message):
+    kwargs = {"nv": NV, "tasks": {"a": 1, "b": 2}, **change}
+    with pytest.raises(ValueError, match=message):
+        StackOfTasks(kwargs.pop("nv"), kwargs.pop("tasks"), **kwargs)

@@ -1,0 +1,236 @@
+"""The hierarchy value (drake_sot.stack) against a naive list model of the SoT commands."""
+
+import copy
+import re
+import subprocess
+import sys
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
+
+from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackError, Up, task_names
+
+KNOWN = ("taskTwofeet", "taskCom", "taskRH", "taskLH", "taskPosture")
+ANY_NAME = st.sampled_from(KNOWN + ("taskXX",))
+
+
+class _ListModel:
+    """The commands written by hand on a Python list, another way than stack.py does them:
+    ``up``/``down`` move the task by removing and re-inserting it, ``rm`` uses list.remove.
+    Returns an error kind instead of raising, so that the test compares outcomes."""
+
+    def __init__(self, known):
+        self.known = list(known)
+        self.items: list[str] = []
+
+    def run(self, command, task=None):
+        if command != "pop" and command != "clear" and task not in self.known:
+            return "unknown"
+        if command == "push":
+            if task in self.items:
+                return "already"
+            self.items.append(task)
+        elif command == "pop":
+            if not self.items:
+                return "empty"
+            self.items.pop()
+        elif command == "clear":
+            self.items = []
+        else:
+            if task not in self.items:
+                return "absent"
+            if command == "rm":
+                self.items.remove(task)
+            else:
+                i = self.items.index(task)
+                self.items.pop(i)
+                target = max(i - 1, 0) if command == "up" else min(i + 1, len(self.items))
+                self.items.insert(target, task)
+        return None
+
+
+def _error_kind(error: StackError, task) -> str:
+    """Which of the model's error kinds the message of ``error`` describes."""
+    text = str(error)
+    if text.startswith(f"unknown task {task!r}; known tasks: "):
+        return "unknown"
+    if text.startswith(f"task {task!r} is already in the stack "):
+        return "already"
+    if text == "pop from an empty stack":
+        return "empty"
+    if text.startswith(f"task {task!r} is not in the stack "):
+        return "absent"
+    raise AssertionError(f"unexpected message {text!r}")
+
+
+class StackAgainstListModel(RuleBasedStateMachine):
+    """Random command sequences: Stack and the list model agree on every outcome, and a
+    command never changes the value it was applied to."""
+
+    def __init__(self):
+        super().__init__()
+        self.stack = Stack(KNOWN)
+        self.model = _ListModel(KNOWN)
+
+    def _apply(self, command, method, *args):
+        before = self.stack
+        before_active = tuple(before.active)
+        expected = self.model.run(command, *args)
+        try:
+            after = getattr(before, method)(*args)
+        except StackError as error:
+            assert expected == _error_kind(error, args[0] if args else None)
+            after = before
+        else:
+            assert expected is None, f"{command} {args}: the model says {expected}"
+        assert before.active == before_active  # value semantics: the old value is untouched
+        self.stack = after
+
+    @rule(task=ANY_NAME)
+    def push(self, task):
+        self._apply("push", "push", task)
+
+    @rule()
+    def pop(self):
+        self._apply("pop", "pop")
+
+    @rule(task=ANY_NAME)
+    def rm(self, task):
+        self._apply("rm", "rm", task)
+
+    @rule(task=ANY_NAME)
+    def up(self, task):
+        self._apply("up", "up", task)
+
+    @rule(task=ANY_NAME)
+    def down(self, task):
+        self._apply("down", "down", task)
+
+    @precondition(lambda self: len(self.model.items) > 2)
+    @rule()
+    def clear(self):
+        self._apply("clear", "clear")
+
+    @invariant()
+    def same_stack_and_priorities(self):
+        assert self.stack.active == tuple(self.model.items)
+        assert self.stack.tasks == KNOWN
+        for level, task in enumerate(self.model.items):
+            assert self.stack.priority(task) == level
+        assert list(self.stack) == self.model.items and len(self.stack) == len(self.model.items)
+
+
+TestStackAgainstListModel = StackAgainstListModel.TestCase
+TestStackAgainstListModel.settings = settings(max_examples=200, stateful_step_count=30, deadline=None)
+
+
+@given(st.lists(st.tuples(st.sampled_from(["push", "pop", "rm", "up", "down", "clear"]), ANY_NAME)))
+def test_command_values_do_what_the_methods_do(commands):
+    make = {
+        "push": Push,
+        "pop": lambda _: Pop(),
+        "rm": Rm,
+        "up": Up,
+        "down": Down,
+        "clear": lambda _: Clear(),
+    }
+    stack = Stack(KNOWN)
+    for command, task in commands:
+        try:
+            by_method = getattr(stack, command)(*(() if command in ("pop", "clear") else (task,)))
+        except StackError as error:
+            with pytest.raises(StackError, match="^" + re.escape(str(error)) + "$"):
+                stack.apply(make[command](task))
+            continue
+        assert stack.apply(make[command](task)) == by_method
+        stack = by_method
+
+
+def test_the_papers_example_stack():
+    """The stack of Mansard et al. 2009, IV: feet, CoM, then a hand raised above the posture."""
+    s = Stack(KNOWN).push("taskTwofeet").push("taskCom").push("taskPosture").push("taskRH")
+    s = s.up("taskRH")
+    assert s.active == ("taskTwofeet", "taskCom", "taskRH", "taskPosture")
+    assert s.priority("taskTwofeet") == 0 and s.priority("taskPosture") == 3
+    assert s.up("taskTwofeet") is s and s.down("taskPosture") is s  # no-ops at the ends
+    assert s.rm("taskCom").active == ("taskTwofeet", "taskRH", "taskPosture")
+    assert s.pop().active == ("taskTwofeet", "taskCom", "taskRH")
+    assert s.clear().active == () and s.clear().tasks == KNOWN
+
+
+def test_errors_name_the_task_and_list_the_known_ones_or_the_stack():
+    s = Stack(KNOWN, ("taskCom", "taskRH"))
+    known = "known tasks: taskTwofeet, taskCom, taskRH, taskLH, taskPosture"
+    for command in ("push", "rm", "up", "down", "priority"):
+        with pytest.raises(StackError, match=f"^unknown task 'taskXX'; {known}$"):
+            getattr(s, command)("taskXX")
+    with pytest.raises(StackError, match=r"^task 'taskCom' is already in the stack \('taskCom', 'taskRH'\)$"):
+        s.push("taskCom")
+    for command in ("rm", "up", "down", "priority"):
+        with pytest.raises(StackError, match=r"^task 'taskLH' is not in the stack \('taskCom', 'taskRH'\)$"):
+            getattr(s, command)("taskLH")
+    with pytest.raises(StackError, match="pop from an empty stack"):
+        s.clear().pop()
+    with pytest.raises(TypeError, match="'push taskCom' is not a stack command"):
+        s.apply("push taskCom")
+    assert issubclass(StackError, ValueError)
+    with pytest.raises(KeyError, match="^unknown task 'taskXX'"):  # an unknown name is a KeyError too
+        s.push("taskXX")
+
+
+@pytest.mark.parametrize(
+    "tasks, active, message",
+    [
+        ("abc", (), "tasks must be a sequence of task names, got the string 'abc'"),
+        (("a", "a", "b"), (), r"tasks \('a', 'a', 'b'\) lists 'a' twice"),
+        (("a", ""), (), "holds '': a task name is a non-empty string"),
+        (("a", 3), (), "holds 3: a task name"),
+        (5, (), "tasks must be a sequence of task names, got 5"),
+        (("a", "b"), "ab", "the stack must be a sequence of task names, got 'ab'"),
+        (("a", "b"), ("a", None), r"the stack must be a sequence of task names, got \('a', None\)"),
+        (
+            ("a", "b", "c"),
+            ("a", "zz", "b", "a"),
+            r"the stack \('a', 'zz', 'b', 'a'\) has unknown task 'zz' and task 'a' listed twice; "
+            "known tasks: a, b, c",
+        ),
+    ],
+)
+def test_invalid_hierarchies_are_refused(tasks, active, message):
+    with pytest.raises(StackError, match=message):
+        Stack(tasks, active)
+
+
+def test_with_active_validates_like_the_constructor():
+    s = Stack(("a", "b", "c"), ("a",))
+    assert s.with_active(["c", "b"]) == Stack(("a", "b", "c"), ("c", "b"))
+    with pytest.raises(
+        StackError,
+        match=r"the stack \('c', 'd', 'e', 'a', 'a'\) has unknown tasks 'd', 'e' and task 'a' listed twice; "
+        "known tasks: a, b, c",
+    ):
+        s.with_active(("c", "d", "e", "a", "a"))
+    assert task_names(["x", "y"], what="names") == ("x", "y")
+
+
+def test_a_stack_is_a_value():
+    a = Stack(["a", "b"], ["b"])
+    b = Stack(("a", "b"), ("b",))
+    assert a == b and hash(a) == hash(b) and a.tasks == ("a", "b")
+    assert a != Stack(("a", "b", "c"), ("b",))  # same active, other universe
+    assert "b" in a and "a" not in a and "zz" not in a
+    assert copy.deepcopy(a) is a and copy.copy(a) is a
+    with pytest.raises(AttributeError):
+        a.active = ("a",)
+    for command_type in (Push, Rm, Up, Down):
+        with pytest.raises(
+            ValueError, match=f"{command_type.__name__}.task = '': must be a non-empty string"
+        ):
+            command_type("")
+
+
+def test_stack_and_sequencing_import_no_drake():
+    code = "import sys, drake_sot.stack, drake_sot.sequencing; sys.exit('pydrake' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
