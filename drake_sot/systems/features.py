@@ -33,7 +33,7 @@ from pydrake.systems.framework import Context, InputPort, LeafSystem
 
 from drake_sot import features as fmath
 from drake_sot.signals import FeatureSignal
-from drake_sot.systems._context import own_context
+from drake_sot.systems._context import own_context, settable_context
 
 
 class _Feature(LeafSystem):
@@ -89,12 +89,9 @@ class _Feature(LeafSystem):
 
     def set_desired(self, context: Context, value) -> None:
         """Set the parameter ``s*`` (own or root context); refused when the input is connected."""
-        context = own_context(self, context)
-        if self._desired_port.HasValue(context):
-            raise ValueError(
-                f"{self.get_name()!r}: the desired value comes from input port "
-                f"{self._desired_port.get_name()!r}; change its source instead"
-            )
+        context = settable_context(
+            self, context, self._desired_port, command="set_desired", what="the desired value"
+        )
         context.get_mutable_abstract_parameter(self._desired_param).set_value(self._check_desired(value))
 
     def _check_desired(self, value):
