@@ -5,6 +5,7 @@ from __future__ import annotations
 from pydrake.common.value import AbstractValue, Value
 from pydrake.systems.framework import Context, LeafSystem, State
 
+from drake_sot.stack import StackError, task_names
 from drake_sot.systems._context import own_context
 
 
@@ -15,7 +16,8 @@ class StackHistory(LeafSystem):
     events of one instant read the state before it), so times are at most one period late.
 
     Input ports:
-        stack: abstract ``tuple[str, ...]`` (``StackOfTasks.stack``).
+        stack: abstract ``tuple[str, ...]``, distinct task names, highest priority first
+            (``StackOfTasks.stack``); anything else raises a RuntimeError naming the port.
     Output ports:
         history: abstract ``tuple[tuple[float, tuple[str, ...]], ...]``: (time [s],
             stack) of the initial stack and of every change.
@@ -40,7 +42,10 @@ class StackHistory(LeafSystem):
 
     def _update(self, context: Context, state: State) -> None:
         history = context.get_abstract_state(self._history).get_value()
-        stack = tuple(self._stack.Eval(context))
+        try:
+            stack = task_names(self._stack.Eval(context), what="the stack")
+        except StackError as error:
+            raise RuntimeError(f"{self.get_name()!r}: input port 'stack': {error}") from None
         if not history or history[-1][1] != stack:
             state.get_mutable_abstract_state(self._history).set_value(
                 history + ((context.get_time(), stack),)

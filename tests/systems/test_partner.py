@@ -1,4 +1,4 @@
-"""Partner forces and stack-change labels, on a one-body plant."""
+"""Partner forces on a one-body plant; the stack history and its change labels."""
 
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_sot.systems.partner import ConstantForce, Hold, Partner
-from drake_sot.systems.stack_history import stack_changes
+from drake_sot.systems.stack_history import StackHistory, stack_changes
 
 MASS = 2.0
 
@@ -76,3 +76,23 @@ def test_stack_change_labels():
 def test_a_constant_force_refuses_non_finite_values(args, message):
     with pytest.raises(ValueError, match=message):
         ConstantForce(*args)
+
+
+def test_stack_history_records_each_change_and_checks_its_input():
+    history = StackHistory(period=0.01)
+    simulator = Simulator(history)
+    context = simulator.get_mutable_context()
+    port = history.GetInputPort("stack")
+    port.FixValue(context, ("a", "b"))
+    simulator.AdvanceTo(0.045)  # ticks at 0, 0.01, ..., 0.04: one entry, the stack did not change
+    port.FixValue(context, ("b", "a"))
+    simulator.AdvanceTo(0.075)  # seen at the tick of 0.05
+    recorded = history.history(context)
+    assert [stack for _, stack in recorded] == [("a", "b"), ("b", "a")]
+    assert [t for t, _ in recorded] == pytest.approx([0.0, 0.05], abs=1e-12)
+    assert [label for _, label in stack_changes(recorded)] == ["reordered"]
+    port.FixValue(context, ("a", "a"))
+    with pytest.raises(
+        RuntimeError, match=r"'stack_history': input port 'stack': the stack \('a', 'a'\) lists"
+    ):
+        simulator.AdvanceTo(0.085)
