@@ -23,7 +23,8 @@ from pydrake.common.value import Value
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import LeafSystem
 
-from drake_sot.preview import Footstep, PreviewController
+from drake_sot.footsteps import Footstep
+from drake_sot.preview import PreviewController
 from drake_sot.systems.pattern_generator import PatternGenerator
 
 sys.path.insert(0, str(Path(__file__).parent))

@@ -1,41 +1,22 @@
-"""Tests of drake_sot.preview: cart-table ZMP preview control and footstep plans.
+"""Tests of drake_sot.preview: cart-table ZMP preview control.
 
 References are independent of the code under test: the cart-table formula
 p = c - z_c/g c̈, Taylor expansion of a jerk held over a period, the Riccati
 recursion iterated to convergence, a second Riccati equation on a
-shift-register formulation of the preview, finite differences, and geometry
-(sole rectangles, convex hulls of the soles).
+shift-register formulation of the preview, and finite differences.
 """
 
 from __future__ import annotations
 
-import math
-import time
-
 import numpy as np
 import pytest
 import scipy.linalg
-from scipy.spatial import ConvexHull
 
-from drake_sot.preview import (
-    Footstep,
-    FootstepPlan,
-    PreviewController,
-    Segment,
-    StepLimits,
-    StepTiming,
-    step_segment,
-    stop_segment,
-)
+from drake_sot.preview import PreviewController
 
 DT = 0.005
 Z_C = 0.814
 G = 9.81
-SOLE_LENGTH, SOLE_WIDTH = (
-    0.23,
-    0.13,
-)  # the rectangle around the sole centre (HRP-2-like)
-HALF_WIDTH = 0.095  # feet 0.19 m apart
 
 
 # --------------------------------------------------------------------------- helpers
@@ -83,45 +64,6 @@ def augmented(dt: float, z_c: float, g: float):
     At = np.block([[np.eye(1), C @ A], [np.zeros((3, 1)), A]])
     Bt = np.vstack([C @ B, B])
     return A, B, C, At, Bt
-
-
-def sole_corners(pose: np.ndarray) -> np.ndarray:
-    """(4, 2) corners of the sole rectangle of a pose [x, y, z, yaw]."""
-    c, s = math.cos(pose[3]), math.sin(pose[3])
-    local = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) * [
-        SOLE_LENGTH / 2,
-        SOLE_WIDTH / 2,
-    ]
-    return pose[:2] + local @ np.array([[c, s], [-s, c]])
-
-
-def in_sole(point: np.ndarray, pose: np.ndarray, tol: float = 1e-9) -> bool:
-    c, s = math.cos(pose[3]), math.sin(pose[3])
-    d = point - pose[:2]
-    return (
-        abs(c * d[0] + s * d[1]) <= SOLE_LENGTH / 2 + tol
-        and abs(-s * d[0] + c * d[1]) <= SOLE_WIDTH / 2 + tol
-    )
-
-
-def support_violations(seg: Segment, zmp: np.ndarray, tol: float = 1e-9) -> list[int]:
-    """Sample indices where `zmp` is outside the support polygon given by the phase."""
-    bad = []
-    hulls: dict[bytes, ConvexHull] = {}
-    for k, phase in enumerate(seg.phase):
-        if phase == 1:
-            ok = in_sole(zmp[k], seg.left[k], tol)
-        elif phase == 2:
-            ok = in_sole(zmp[k], seg.right[k], tol)
-        else:
-            key = np.concatenate([seg.left[k], seg.right[k]]).tobytes()
-            if key not in hulls:
-                hulls[key] = ConvexHull(np.vstack([sole_corners(seg.left[k]), sole_corners(seg.right[k])]))
-            eq = hulls[key].equations
-            ok = bool(np.all(eq[:, :2] @ zmp[k] + eq[:, 2] <= tol))
-        if not ok:
-            bad.append(k)
-    return bad
 
 
 @pytest.fixture(scope="module")
@@ -283,16 +225,14 @@ def test_bumpless_start_and_translation_invariance(controller):
     assert kicked > 5 * bumpless
 
 
-def test_step_speed(controller):
-    np.zeros((3, 2))
-    s = np.zeros(2)
-    window = np.random.default_rng(0).normal(size=(controller.N, 2))
-    times = np.empty(5000)
-    for i in range(len(times)):
-        t0 = time.perf_counter()
-        _x, s, _ = controller.step(np.zeros((3, 2)), s, window)
-        times[i] = time.perf_counter() - t0
-    print(f"PreviewController.step median {np.median(times) * 1e6:.2f} µs (N = {controller.N})")
+def test_window_holds_the_last_reference_past_the_end(controller):
+    N = controller.N
+    ref = np.arange(2.0 * (N + 5)).reshape(N + 5, 2)
+    np.testing.assert_array_equal(controller.window(ref, 3), ref[3 : 3 + N])
+    tail = controller.window(ref, N)
+    np.testing.assert_array_equal(tail[:5], ref[N:])
+    np.testing.assert_array_equal(tail[5:], np.tile(ref[-1], (N - 5, 1)))
+    np.testing.assert_array_equal(controller.window(ref, len(ref) + 7), np.tile(ref[-1], (N, 1)))
 
 
 def test_controller_validation():
@@ -307,266 +247,13 @@ def test_controller_validation():
         pc.plan(np.full((10, 2), np.nan))
     with pytest.raises(ValueError, match="x0"):
         pc.plan(np.zeros((10, 2)), x0=np.zeros(3))
-
-
-# --------------------------------------------------------------------------- footsteps
-
-
-LEFT0 = Footstep(0.0, HALF_WIDTH, 0.0, "left")
-RIGHT0 = Footstep(0.0, -HALF_WIDTH, 0.0, "right")
-
-
-def test_step_segment():
-    dt = 0.001
-    timing = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
-    step = Footstep(0.25, -0.12, 0.3, "right")
-    start = np.array([0.0, 0.0])
-    seg = step_segment(LEFT0, RIGHT0, start, step, timing, dt)
-    n_ds, n_ss = 100, 700
-    assert len(seg) == n_ds + n_ss
-    for a, cols in (
-        (seg.zmp, 2),
-        (seg.left, 4),
-        (seg.right, 4),
-        (seg.left_vel, 4),
-        (seg.right_vel, 4),
-    ):
-        assert a.shape == (len(seg), cols)
-    assert seg.phase.dtype == np.int8
-    assert np.all(seg.phase[:n_ds] == 0) and np.all(seg.phase[n_ds:] == 1)  # left support
-
-    # Stance foot still; swing foot still in double support, exactly on the step at the end.
-    np.testing.assert_array_equal(seg.left, np.tile([0.0, HALF_WIDTH, 0.0, 0.0], (len(seg), 1)))
-    np.testing.assert_array_equal(seg.left_vel, 0.0)
-    np.testing.assert_array_equal(seg.right[: n_ds + 1], np.tile([0.0, -HALF_WIDTH, 0.0, 0.0], (n_ds + 1, 1)))
-    np.testing.assert_array_equal(seg.right[-1], [0.25, -0.12, 0.0, 0.3])
-
-    swing = seg.right[n_ds:]
-    z = swing[:, 2]
-    assert z[0] == 0.0 and z[-1] == 0.0 and np.all(z >= 0.0)
-    assert abs(z.max() - 0.05) < 1e-5
-    assert abs(np.argmax(z) - (n_ss - 1) / 2) <= 1  # at mid-swing
-
-    # Velocity and acceleration from finite differences vanish at lift-off and touch-down
-    # (relative to their peaks over the swing), for every coordinate.
-    vel = np.diff(swing, axis=0) / dt
-    acc = np.diff(swing, n=2, axis=0) / dt**2
-    for i in range(4):
-        assert np.abs(vel[[0, -1], i]).max() < 1e-3 * np.abs(vel[:, i]).max(), i
-        assert np.abs(acc[[0, -1], i]).max() < 0.05 * np.abs(acc[:, i]).max(), i
-    assert np.abs(acc[:, :2]).max() < 10.0  # a smooth swing, not a jump
-
-    # Derivatives given with the poses match finite differences.
-    np.testing.assert_allclose(np.gradient(seg.right, dt, axis=0)[1:-1], seg.right_vel[1:-1], atol=1e-3)
-    np.testing.assert_array_equal(seg.right_vel[[n_ds, -1]], 0.0)
-
-    # ZMP: linear from the start to the stance sole centre, then inside the stance sole.
-    np.testing.assert_array_equal(seg.zmp[0], start)
-    expected = start + np.arange(n_ds)[:, None] / n_ds * (np.array([0.0, HALF_WIDTH]) - start)
-    np.testing.assert_allclose(seg.zmp[:n_ds], expected, atol=1e-15)
-    assert all(in_sole(seg.zmp[k], seg.left[k]) for k in range(n_ds, len(seg)))
-    assert support_violations(seg, seg.zmp) == []
-
-
-def test_left_step_segment_phase_and_yaw():
-    seg = step_segment(
-        LEFT0,
-        RIGHT0,
-        np.array([0.0, -HALF_WIDTH]),
-        Footstep(0.2, 0.1, -0.2, "left"),
-        StepTiming(),
-        DT,
-    )
-    n_ds = 20
-    assert np.all(seg.phase[n_ds:] == 2)  # right support
-    np.testing.assert_array_equal(seg.right, np.tile(RIGHT0.pose, (len(seg), 1)))
-    np.testing.assert_array_equal(seg.left[-1], [0.2, 0.1, 0.0, -0.2])
-    assert np.all(np.diff(seg.left[n_ds:, 3]) <= 0.0)  # yaw turns monotonically
-    np.testing.assert_allclose(seg.zmp[n_ds:], np.tile(RIGHT0.xy, (len(seg) - n_ds, 1)))
-
-
-def test_stop_segment():
-    timing = StepTiming(double_support=0.1)
-    left, right = Footstep(1.0, 0.1, 0.0, "left"), Footstep(0.8, -0.1, 0.0, "right")
-    seg = stop_segment(left, right, left.xy, timing, DT, hold=0.5)
-    n_transfer = round(0.3 / DT)
-    assert len(seg) == n_transfer + 100
-    assert np.all(seg.phase == 0)
-    np.testing.assert_array_equal(seg.zmp[0], left.xy)
-    np.testing.assert_allclose(seg.zmp[n_transfer:], np.tile([0.9, 0.0], (100, 1)), atol=1e-15)
-    np.testing.assert_array_equal(seg.left_vel, 0.0)
-    assert support_violations(seg, seg.zmp) == []
-
-
-def test_segment_concatenate():
-    a = stop_segment(LEFT0, RIGHT0, LEFT0.xy, StepTiming(), DT, hold=0.1)
-    b = step_segment(
-        LEFT0,
-        RIGHT0,
-        a.zmp[-1],
-        Footstep(0.1, -HALF_WIDTH, 0, "right"),
-        StepTiming(),
-        DT,
-    )
-    c = a.concatenate(b)
-    assert len(c) == len(a) + len(b)
-    np.testing.assert_array_equal(c.right[len(a) :], b.right)
-    np.testing.assert_array_equal(c.phase[: len(a)], a.phase)
-    with pytest.raises(ValueError, match="zmp"):
-        Segment(
-            np.zeros((3, 2)),
-            np.zeros((3, 4)),
-            np.zeros((3, 4)),
-            np.zeros((3, 4)),
-            np.zeros((3, 4)),
-            np.zeros(4, dtype=np.int8),
-        )
-
-
-def test_limits_refuse_bad_steps():
-    limits = StepLimits()
-    with pytest.raises(ValueError, match="min_width"):  # right foot onto the left one
-        limits.check(LEFT0, Footstep(0.1, 0.05, 0.0, "right"))
-    with pytest.raises(ValueError, match="cross"):  # left foot to the right of the right one
-        limits.check(RIGHT0, Footstep(0.1, -0.2, 0.0, "left"))
-    with pytest.raises(ValueError, match="max_stride") as err:
-        limits.check(LEFT0, Footstep(0.5, -HALF_WIDTH, 0.0, "right"))
-    assert "0.5" in str(err.value) and "0.35" in str(err.value)
-    with pytest.raises(ValueError, match="max_width"):
-        limits.check(LEFT0, Footstep(0.0, -0.4, 0.0, "right"))
-    with pytest.raises(ValueError, match="max_yaw"):
-        limits.check(LEFT0, Footstep(0.1, -HALF_WIDTH, 0.8, "right"))
-    limits.check(LEFT0, Footstep(0.3, -HALF_WIDTH, 0.4, "right"))  # reachable
-    # The check is done in the stance frame: a stance foot turned by 90° (facing +y).
-    stance = Footstep(0.0, 0.0, math.pi / 2, "left")
-    limits.check(stance, Footstep(0.19, 0.3, math.pi / 2, "right"))  # its right is +x
-    with pytest.raises(ValueError, match="max_stride"):
-        limits.check(stance, Footstep(0.19, 0.4, math.pi / 2, "right"))
-
-
-def test_bad_values_are_refused():
-    with pytest.raises(ValueError, match="middle"):
-        Footstep(0.0, 0.0, 0.0, "middle")
-    with pytest.raises(ValueError, match="single_support.*0"):
-        StepTiming(single_support=0.0)
-    with pytest.raises(ValueError, match="step_height"):
-        StepTiming(step_height=-0.1)
-    with pytest.raises(ValueError, match="step 1.*max_stride"):
-        FootstepPlan(
-            LEFT0,
-            RIGHT0,
-            [
-                Footstep(0.2, -HALF_WIDTH, 0, "right"),
-                Footstep(0.7, HALF_WIDTH, 0, "left"),
-            ],
-        )
-    with pytest.raises(ValueError, match="step 0.*min_width"):
-        FootstepPlan(LEFT0, RIGHT0, [Footstep(0.1, 0.0, 0, "right")])
-    with pytest.raises(ValueError, match="initial stance"):
-        FootstepPlan(Footstep(0, -0.1, 0, "left"), Footstep(0, 0.1, 0, "right"), [])
-
-
-def turning_walk_steps() -> list[Footstep]:
-    """8 forward steps of 0.25 m, then 4 steps turning left by π/8 each, 0.05 m apart."""
-    steps = []
-    side = "right"
-    ox, oy, yaw = 0.0, 0.0, 0.0  # a frame midway between the feet
-    for k in range(12):
-        if k < 8:
-            ox += 0.25
-        else:
-            yaw += math.pi / 8
-            ox, oy = ox + 0.05 * math.cos(yaw), oy + 0.05 * math.sin(yaw)
-        lat = HALF_WIDTH if side == "left" else -HALF_WIDTH
-        steps.append(Footstep(ox - lat * math.sin(yaw), oy + lat * math.cos(yaw), yaw, side))
-        side = "left" if side == "right" else "right"
-    return steps
-
-
-def test_turning_walk_zmp_in_support_polygon():
-    steps = turning_walk_steps()
-    plan = FootstepPlan(LEFT0, RIGHT0, steps)  # valid with the default limits
-    assert math.isclose(steps[-1].yaw, math.pi / 2)
-    seg = plan.sample(DT, hold=1.0)
-    timing = StepTiming()
-    expected = 12 * round((timing.single_support + timing.double_support) / DT) + round(1.3 / DT)
-    assert len(seg) == expected
-    assert support_violations(seg, seg.zmp) == []
-    # Every foot ends where its last step put it.
-    np.testing.assert_array_equal(seg.right[-1], steps[-2].pose)
-    np.testing.assert_array_equal(seg.left[-1], steps[-1].pose)
-    np.testing.assert_allclose(seg.zmp[-1], 0.5 * (steps[-1].xy + steps[-2].xy), atol=1e-12)
-    # Poses are continuous and their derivatives match finite differences.
-    for pose, vel in ((seg.left, seg.left_vel), (seg.right, seg.right_vel)):
-        assert np.abs(np.diff(pose, axis=0)).max() < 0.02  # no jumps
-        np.testing.assert_allclose(np.gradient(pose, DT, axis=0)[1:-1], vel[1:-1], atol=0.02)
-    # FootstepPlan.walk builds the same footsteps.
-    built = FootstepPlan.walk(
-        LEFT0,
-        RIGHT0,
-        12,
-        stride=[0.25] * 8 + [0.05] * 4,
-        turn=[0.0] * 8 + [math.pi / 8] * 4,
-    )
-    for a, b in zip(built.steps, steps, strict=False):
-        assert a.side == b.side
-        np.testing.assert_allclose([a.x, a.y, a.yaw], [b.x, b.y, b.yaw], atol=1e-12)
-
-
-def test_planned_zmp_of_a_walk_stays_in_support_polygon(controller):
-    """The CoM plan of a sampled walk keeps the model ZMP inside the (slightly shrunk) support."""
-    seg = FootstepPlan(LEFT0, RIGHT0, turning_walk_steps()).sample(DT, hold=1.0, stand=1.0)
-    plan = controller.plan(seg.zmp)
-    assert np.abs(plan.zmp - seg.zmp).max() < 0.02
-    assert support_violations(seg, plan.zmp) == []
-    # Without the standing lead-in the CoM, at rest at t = 0, cannot shift in time for
-    # the first 0.1 s transfer: the lead-in is what makes the plan feasible.
-    no_lead = FootstepPlan(LEFT0, RIGHT0, turning_walk_steps()).sample(DT, hold=1.0)
-    assert support_violations(no_lead, controller.plan(no_lead.zmp).zmp) != []
-
-
-def test_straight_walk_footprints():
-    plan = FootstepPlan.walk(LEFT0, RIGHT0, 4, stride=0.3, first_side="left")
-    assert [s.side for s in plan.steps] == ["left", "right", "left", "right"]
-    for k, s in enumerate(plan.steps, start=1):
-        assert math.isclose(s.x, 0.3 * k) and s.yaw == 0.0
-        assert math.isclose(s.y, HALF_WIDTH if s.side == "left" else -HALF_WIDTH)
-    with pytest.raises(ValueError, match="stride"):
-        FootstepPlan.walk(LEFT0, RIGHT0, 4, stride=[0.1, 0.2])
-    with pytest.raises(ValueError, match="step 0.*max_stride"):
-        FootstepPlan.walk(LEFT0, RIGHT0, 4, stride=0.4)
-
-
-def test_segment_arrays_are_read_only_views():
-    zmp = np.zeros((2, 2))
-    seg = Segment(
-        zmp,
-        np.zeros((2, 4)),
-        np.zeros((2, 4)),
-        np.zeros((2, 4)),
-        np.zeros((2, 4)),
-        np.array([0, 1]),
-    )
-    assert seg.phase.dtype == np.int8
-    assert zmp.flags.writeable and not seg.zmp.flags.writeable
-    with pytest.raises(ValueError, match="phase"):
-        Segment(
-            zmp,
-            np.zeros((2, 4)),
-            np.zeros((2, 4)),
-            np.zeros((2, 4)),
-            np.zeros((2, 4)),
-            np.array([0, 3]),
-        )
-
-
-def test_full_turn_keeps_yaw_continuous():
-    """Footstep yaws given wrapped to [-π, π) still give a continuous sampled yaw."""
-    built = FootstepPlan.walk(LEFT0, RIGHT0, 18, stride=0.0, turn=math.pi / 8, first_side="left")
-    wrapped = [Footstep(s.x, s.y, (s.yaw + math.pi) % (2 * math.pi) - math.pi, s.side) for s in built.steps]
-    seg = FootstepPlan(LEFT0, RIGHT0, wrapped).sample(DT, hold=0.2)
-    for pose in (seg.left, seg.right):
-        assert np.abs(np.diff(pose[:, 3])).max() < 0.02
-    np.testing.assert_allclose(seg.left[-1, 3], 17 * math.pi / 8)
-    np.testing.assert_allclose(seg.right[-1, 3], 18 * math.pi / 8)
-    assert support_violations(seg, seg.zmp) == []
+    with pytest.raises(ValueError, match="x0 .*NaN"):
+        pc.plan(np.zeros((10, 2)), x0=np.full((3, 2), np.nan))
+    with pytest.raises(ValueError, match="error_sum .*NaN"):
+        pc.plan(np.zeros((10, 2)), error_sum=[0.0, np.nan])
+    with pytest.raises(ValueError, match="at least one sample"):
+        pc.plan(np.zeros((0, 2)))
+    for name in ("dt", "z_c", "horizon", "q", "r", "g"):
+        for bad in (np.nan, np.inf, -1.0, 0.0):
+            with pytest.raises(ValueError, match=f"^{name} = "):
+                PreviewController(**{name: bad})

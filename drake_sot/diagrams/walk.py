@@ -21,9 +21,9 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.footsteps import Footstep, StepTiming, alternating_steps
 from drake_sot.models.humanoid import SOLE
 from drake_sot.plots import plot_walk
-from drake_sot.preview import Footstep, StepTiming
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.zmp import ZmpEstimator
@@ -47,32 +47,10 @@ def footstep(X: RigidTransform, side: str) -> Footstep:
     return Footstep(X.translation()[0], X.translation()[1], RollPitchYaw(X.rotation()).yaw_angle(), side)
 
 
-def _stepper(left: Footstep, right: Footstep, width: float):
-    """A function appending, to a list it returns, steps made relative to the other foot,
-    ``width`` [m] to its side."""
-    feet = {"left": left, "right": right}
-    steps: list[Footstep] = []
-
-    def step(side: str, dx: float, dyaw: float) -> None:
-        other = feet["right" if side == "left" else "left"]
-        dy = width if side == "left" else -width
-        c, s = math.cos(other.yaw), math.sin(other.yaw)
-        feet[side] = Footstep(other.x + c * dx - s * dy, other.y + s * dx + c * dy, other.yaw + dyaw, side)
-        steps.append(feet[side])
-
-    return step, steps
-
-
-def _width(left: Footstep, right: Footstep) -> float:
-    return math.hypot(left.x - right.x, left.y - right.y)
-
-
 def forward_steps(left: Footstep, right: Footstep, n: int, stride: float) -> list[Footstep]:
-    """``n`` steps of ``stride`` [m] forward, right foot first, each relative to the other foot."""
-    step, steps = _stepper(left, right, _width(left, right))
-    for i in range(n):
-        step("right" if i % 2 == 0 else "left", stride, 0.0)
-    return steps
+    """``n`` steps of ``stride`` [m] forward, right foot first, each relative to the other foot,
+    at the stance width of ``left`` and ``right``."""
+    return alternating_steps(left, right, n, stride=stride, first_side="right")
 
 
 def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: int = 8) -> list[Footstep]:
@@ -80,12 +58,9 @@ def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: 
     left by π/8 each and a closing step bringing the left foot beside the right one."""
     forward = forward_steps(left, right, n_forward, stride)
     last = {s.side: s for s in [left, right, *forward]}
-    step, steps = _stepper(last["left"], last["right"], _width(left, right))
     # Turning left: the left foot opens first, so the feet never cross.
-    for i in range(4):
-        step("left" if i % 2 == 0 else "right", 0.0, math.pi / 8)
-    step("left", 0.0, 0.0)
-    return forward + steps
+    turns = [math.pi / 8] * 4 + [0.0]
+    return forward + alternating_steps(last["left"], last["right"], 5, turn=turns, first_side="left")
 
 
 def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from drake_sot.preview import Footstep, StepLimits, StepTiming
-from drake_sot.systems.pattern_generator import FOOTPRINTS_AHEAD, PatternGenerator
+from drake_sot.footsteps import FOOTPRINTS_AHEAD, WALKING_BOUNDS, Footstep, StepLimits, StepTiming
+from drake_sot.systems.pattern_generator import PatternGenerator
 
 LEFT, RIGHT = Footstep(0.0, 0.095, 0.0, "left"), Footstep(0.0, -0.095, 0.0, "right")
 TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
@@ -101,7 +101,7 @@ def test_bad_commands_and_steps_are_refused_by_name():
     pg, sim, context = _pg()
     with pytest.raises(ValueError, match="unknown command ':walkfast'; known: :stepseq, :singlesupporttime"):
         pg.parsecmd(context, ":walkfast 1")
-    with pytest.raises(ValueError, match=":stepseq takes x y yaw triples"):
+    with pytest.raises(ValueError, match=":stepseq: takes x y yaw triples"):
         pg.parsecmd(context, ":stepseq 0.1 0.2")
     with pytest.raises(ValueError, match="must be numbers"):
         pg.parsecmd(context, ":stepheight high")
@@ -155,3 +155,102 @@ def test_limits_object_is_used(monkeypatch):
     context = pg.CreateDefaultContext()
     with pytest.raises(ValueError, match="max_stride 0.1"):
         pg.add_steps(context, [Footstep(0.15, -0.095, 0.0, "right")])
+
+
+# --- bounds of the walking parameters (WALKING_BOUNDS) ---------------------------------
+
+# verb -> (the bound it is checked against, the Python setter that sets the same value)
+VERBS = {
+    ":singlesupporttime": ("single_support", lambda pg, c, v: pg.set_timing(c, single_support=v)),
+    ":doublesupporttime": ("double_support", lambda pg, c, v: pg.set_timing(c, double_support=v)),
+    ":stepheight": ("step_height", lambda pg, c, v: pg.set_timing(c, step_height=v)),
+    ":comheight": ("com_height", lambda pg, c, v: pg.set_model(c, com_height=v)),
+    ":previewcontroltime": ("preview_time", lambda pg, c, v: pg.set_model(c, horizon=v)),
+}
+
+
+def _bound_text(bound) -> str:
+    return rf"\[{bound.low:g}, {bound.high:g}\] {bound.unit}"
+
+
+def _refused_values(bound) -> list[float]:
+    """NaN, infinities and values just outside each end."""
+    eps = 1e-6 * bound.high
+    return [math.nan, -math.inf, math.inf, bound.low - eps, bound.high + eps, -bound.low, 10 * bound.high]
+
+
+@pytest.mark.parametrize("verb", list(VERBS))
+def test_each_verb_refuses_values_outside_its_bound_naming_it(verb):
+    name, setter = VERBS[verb]
+    bound = getattr(WALKING_BOUNDS, name)
+    pg, sim, context = _pg()
+    before = pg.planner(context)
+    for value in _refused_values(bound):
+        with pytest.raises(ValueError, match=rf"^{verb}: .*{name}.*{_bound_text(bound)}"):
+            pg.parsecmd(context, f"{verb} {value!r}")
+        with pytest.raises(ValueError, match=rf"{name}.*{_bound_text(bound)}"):
+            setter(pg, context, value)
+        assert pg.planner(context) is before  # a refused value changes nothing
+    # Both ends are inside (a closed interval), through the verb and the setter.
+    for value in (bound.low, bound.high):
+        pg.parsecmd(context, f"{verb} {value!r}")
+        setter(pg, context, value)
+
+
+def test_a_refused_timing_leaves_the_walk_plannable():
+    """Today's failure: ``:singlesupporttime 1e-9`` was accepted and every later step refused."""
+    pg, sim, context = _pg()
+    with pytest.raises(ValueError, match=r"single_support.*\[0.2, 5\] s"):
+        pg.parsecmd(context, ":singlesupporttime 1e-9")
+    with pytest.raises(ValueError, match=r"step_height = 2.0 m.*\[0.01, 0.3\] m"):
+        pg.parsecmd(context, ":stepheight 2.0")
+    pg.parsecmd(context, ":stepseq 0.1 -0.19 0")
+    ((t_land, step),) = pg.planned_landings(context)
+    sim.AdvanceTo(t_land - TIMING.single_support / 2)
+    # Mid-swing, the foot is at the step height of the timing in force, not at 2 m.
+    assert _out(pg, context, "right_foot").translation()[2] == pytest.approx(TIMING.step_height, rel=1e-3)
+
+
+@pytest.mark.parametrize(("argument", "name"), [("com_height", "com_height"), ("horizon", "preview_time")])
+def test_constructor_refuses_model_values_outside_their_bound(argument, name):
+    bound = getattr(WALKING_BOUNDS, name)
+    defaults = {"com_height": 0.81, "horizon": HORIZON}
+    for value in _refused_values(bound):
+        with pytest.raises(ValueError, match=rf"{name}.*{_bound_text(bound)}"):
+            PatternGenerator(LEFT, RIGHT, **{**defaults, argument: value})
+    for value in (bound.low, bound.high):
+        pg = PatternGenerator(LEFT, RIGHT, **{**defaults, argument: value})
+        controller = pg.planner(pg.CreateDefaultContext()).controller
+        assert (controller.z_c if argument == "com_height" else controller.horizon) == value
+
+
+@pytest.mark.parametrize("name", ["single_support", "double_support", "step_height"])
+def test_constructor_timing_is_bounded(name):
+    bound = getattr(WALKING_BOUNDS, name)
+    for value in _refused_values(bound):
+        with pytest.raises(ValueError, match=rf"StepTiming.{name}.*{_bound_text(bound)}"):
+            PatternGenerator(LEFT, RIGHT, com_height=0.81, timing=StepTiming(**{name: value}))
+
+
+def test_model_verbs_refused_while_walking_name_the_parameter():
+    pg, sim, context = _pg()
+    pg.parsecmd(context, ":stepseq 0.1 -0.19 0")
+    for verb, name in ((":comheight 0.8", "com_height"), (":previewcontroltime 1.2", "preview_time")):
+        with pytest.raises(ValueError, match=f"{name} can change only while standing"):
+            pg.parsecmd(context, verb)
+
+
+def test_a_timing_too_short_for_the_control_period_is_refused_at_the_command():
+    # 0.05 s of double support is inside the bounds but gives no sample at a 0.2 s period.
+    with pytest.raises(ValueError, match=r"double_support = 0.05 s gives 0 samples at dt = 0.2 s"):
+        PatternGenerator(LEFT, RIGHT, com_height=0.81, dt=0.2, timing=StepTiming(double_support=0.05))
+
+
+def test_initial_stance_and_stepseq_values_are_checked():
+    with pytest.raises(ValueError, match="initial stance: .*min_width"):
+        PatternGenerator(Footstep(0.0, -0.1, 0.0, "left"), Footstep(0.0, 0.1, 0.0, "right"), com_height=0.81)
+    pg, sim, context = _pg()
+    with pytest.raises(ValueError, match=r":stepseq: triple 0 y = nan: must be a finite number"):
+        pg.parsecmd(context, ":stepseq 0.1 nan 0")
+    with pytest.raises(ValueError, match="y = 0 says neither left nor right"):
+        pg.parsecmd(context, ":stepseq 0.1 0 0")
