@@ -576,14 +576,15 @@ def stop_segment(
 
     The ZMP reference moves linearly from ``zmp_start`` to the midpoint of the two sole
     centres over ``max(timing.double_support, STOP_TRANSFER_MIN)`` seconds, then stays
-    there for ``hold`` seconds (``hold >= 0``).
+    there for ``hold`` seconds (``hold >= 0``; at least one sample, so that the reference
+    ends on the midpoint: a preview controller holds the last sample for ever).
     """
     _check_feet(left, right)
     dt = validation.positive("dt", dt, unit="s")
     z0 = validation.vector("zmp_start", zmp_start, 2)
     hold = validation.nonnegative("hold", hold, unit="s")
     n_tr = _samples("stop transfer", max(timing.double_support, STOP_TRANSFER_MIN), dt, 1)
-    n_hold = round(hold / dt)
+    n_hold = max(round(hold / dt), 1)
     mid = 0.5 * (left.xy + right.xy)
     zmp = np.concatenate([_zmp_transfer(z0, mid, n_tr), np.broadcast_to(mid, (n_hold, 2))])
     n = n_tr + n_hold

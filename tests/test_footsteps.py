@@ -184,6 +184,14 @@ def test_stop_segment():
     assert support_violations(seg, seg.zmp) == []
 
 
+def test_stop_segment_without_hold_ends_on_the_midpoint():
+    """A preview controller holds the last reference for ever: it must be the midpoint."""
+    left, right = Footstep(1.0, 0.1, 0.0, "left"), Footstep(0.8, -0.1, 0.0, "right")
+    seg = stop_segment(left, right, left.xy, StepTiming(), DT, hold=0.0)
+    assert len(seg) == round(0.3 / DT) + 1
+    np.testing.assert_array_equal(seg.zmp[-1], [0.9, 0.0])
+
+
 def test_segment_concatenate():
     a = stop_segment(LEFT0, RIGHT0, LEFT0.xy, StepTiming(), DT, hold=0.1)
     b = step_segment(
