@@ -17,16 +17,13 @@ dynamics of the reference), loggers and (optionally) a recorded Meshcat replay.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-from pydrake.geometry import Meshcat
-from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import OutputPort
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.diagrams.world import BuiltHumanoid
-from drake_sot.models import HumanoidInfo
 from drake_sot.systems.device import Device
 from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.sot import StackOfTasks
@@ -45,27 +42,11 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
     """Adds tasks by name around the position-controlled humanoid, then closes the
     kinematic Stack of Tasks (Mansard et al. 2009) with :meth:`build`.
 
-    Args: see :class:`~drake_sot.diagrams.tasks.HumanoidTaskBuilder` (``pd_gains`` is
-    True here).
+    Args: see :class:`~drake_sot.diagrams.tasks.HumanoidTaskBuilder` (position-
+    controlled actuators).
     """
 
-    def __init__(
-        self,
-        *,
-        control_period: float = 0.005,
-        time_step: float = 1e-3,
-        meshcat: Meshcat | None = None,
-        fixed_base: bool = False,
-        before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
-    ) -> None:
-        super().__init__(
-            control_period=control_period,
-            time_step=time_step,
-            meshcat=meshcat,
-            pd_gains=True,
-            fixed_base=fixed_base,
-            before_finalize=before_finalize,
-        )
+    POSITION_CONTROLLED = True
 
     def build(
         self,

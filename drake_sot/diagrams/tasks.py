@@ -45,7 +45,8 @@ RESERVED_LOGS = ("state", "q_ref", "errors", "wrenches", "tau", "status", "conta
 
 class HumanoidTaskBuilder:
     """Adds features and tasks by name around the embedded humanoid (the loop is closed
-    by a subclass).
+    by a subclass, which says how the simulated robot is actuated in
+    :attr:`POSITION_CONTROLLED`).
 
     Args:
         control_period: period of the controller's tick [s] (5 ms as on HRP-2), finite > 0.
@@ -53,7 +54,6 @@ class HumanoidTaskBuilder:
         meshcat: a Meshcat to draw in; None for no visualisation. Use
             :func:`~drake_sot.diagrams.world.loopback_meshcat` for a headless recorder
             bound to localhost.
-        pd_gains: position-controlled actuators (True) or torque-controlled ones.
         fixed_base: weld the pelvis in the air (no ground), as the real iCub of Liu,
             Lober, Padois 2016.
         before_finalize: adds to the simulated world before it is finalized (see
@@ -64,13 +64,16 @@ class HumanoidTaskBuilder:
             Drake sees it: a Drake assertion ends the interpreter).
     """
 
+    #: True: PD-controlled actuators that take a desired state (the kinematic SoT);
+    #: False: torque-controlled actuators (the generalized hierarchy).
+    POSITION_CONTROLLED: bool = True
+
     def __init__(
         self,
         *,
         control_period: float = 0.005,
         time_step: float = 1e-3,
         meshcat: Meshcat | None = None,
-        pd_gains: bool,
         fixed_base: bool = False,
         before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
     ) -> None:
@@ -80,7 +83,7 @@ class HumanoidTaskBuilder:
         self.plant, self.scene_graph, self.info = add_humanoid_plant(
             self.builder,
             time_step=time_step,
-            pd_gains=pd_gains,
+            pd_gains=self.POSITION_CONTROLLED,
             fixed_base=fixed_base,
             before_finalize=before_finalize,
         )

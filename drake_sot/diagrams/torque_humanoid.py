@@ -10,17 +10,15 @@ features read the *measured* configuration.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-from pydrake.geometry import Meshcat
-from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import OutputPort
 from pydrake.systems.primitives import Demultiplexer
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.diagrams.world import BuiltHumanoid
-from drake_sot.models import HumanoidInfo, sole_corner_points
+from drake_sot.models import sole_corner_points
 from drake_sot.systems.generalized_controller import (
     ContactPoints,
     ForceTask,
@@ -40,27 +38,11 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
     """Adds tasks by name around the torque-controlled humanoid, then closes the
     generalized hierarchy with :meth:`build`.
 
-    Args: see :class:`~drake_sot.diagrams.tasks.HumanoidTaskBuilder` (``pd_gains`` is
-    False here: the actuators take torques).
+    Args: see :class:`~drake_sot.diagrams.tasks.HumanoidTaskBuilder` (the actuators
+    take torques).
     """
 
-    def __init__(
-        self,
-        *,
-        control_period: float = 0.005,
-        time_step: float = 1e-3,
-        meshcat: Meshcat | None = None,
-        fixed_base: bool = False,
-        before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
-    ) -> None:
-        super().__init__(
-            control_period=control_period,
-            time_step=time_step,
-            meshcat=meshcat,
-            pd_gains=False,
-            fixed_base=fixed_base,
-            before_finalize=before_finalize,
-        )
+    POSITION_CONTROLLED = False
 
     def build(
         self,

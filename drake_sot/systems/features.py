@@ -34,6 +34,7 @@ from pydrake.systems.framework import Context, InputPort, LeafSystem
 from drake_sot import features as fmath
 from drake_sot.signals import FeatureSignal
 from drake_sot.systems._context import own_context, settable_context
+from drake_sot.validation import nonnegative
 
 
 class _Feature(LeafSystem):
@@ -395,8 +396,9 @@ class FeatureJointLimits(_Feature):
         joint_objs = [plant.GetJointByName(j) for j in names]
         lower = np.array([j.position_lower_limits()[0] for j in joint_objs])
         upper = np.array([j.position_upper_limits()[0] for j in joint_objs])
-        if margin < 0 or np.any(upper - lower <= 2 * margin):
-            raise ValueError(f"margin {margin} must be >= 0 and leave room inside every joint's limits")
+        margin = nonnegative("margin", margin, unit="rad or m")
+        if not np.all(upper - lower > 2 * margin):
+            raise ValueError(f"margin = {margin!r}: must leave room inside every joint's limits")
         super().__init__(len(names), None, name)
         self.joint_names = tuple(names)
         self._q_index = np.array([j.position_start() for j in joint_objs])
