@@ -8,6 +8,7 @@ soles), finite differences, and the preview controller run by hand over the offl
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -565,3 +566,18 @@ def test_planner_refuses_bad_model_changes():
     for _ in range(100):
         changed = changed.advance()
     np.testing.assert_allclose(changed.com[:2], [0.0, 0.0], atol=1e-9)
+
+
+def test_readme_states_the_walking_bounds():
+    """The README's table of bounds says what WALKING_BOUNDS enforces."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    verbs = {
+        "single_support": ":singlesupporttime",
+        "double_support": ":doublesupporttime",
+        "step_height": ":stepheight",
+        "com_height": ":comheight",
+        "preview_time": ":previewcontroltime",
+    }
+    for name, verb in verbs.items():
+        bound = getattr(WALKING_BOUNDS, name)
+        assert f"| `{verb}` | {bound.low:g} to {bound.high:g} {bound.unit}" in readme, name
