@@ -327,25 +327,12 @@ def test_straight_walk_footprints():
 
 def test_segment_arrays_are_read_only_views():
     zmp = np.zeros((2, 2))
-    seg = Segment(
-        zmp,
-        np.zeros((2, 4)),
-        np.zeros((2, 4)),
-        np.zeros((2, 4)),
-        np.zeros((2, 4)),
-        np.array([0, 1]),
-    )
+    feet = [np.zeros((2, 4)) for _ in range(4)]  # left, right and their velocities
+    seg = Segment(zmp, *feet, np.array([0, 1]))
     assert seg.phase.dtype == np.int8
     assert zmp.flags.writeable and not seg.zmp.flags.writeable
     with pytest.raises(ValueError, match="phase"):
-        Segment(
-            zmp,
-            np.zeros((2, 4)),
-            np.zeros((2, 4)),
-            np.zeros((2, 4)),
-            np.zeros((2, 4)),
-            np.array([0, 3]),
-        )
+        Segment(zmp, *feet, np.array([0, 3]))
 
 
 def test_full_turn_keeps_yaw_continuous():
