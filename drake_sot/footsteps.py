@@ -13,16 +13,16 @@ soles across the heading midway between their yaws).
 **Segments.**  A walk is cut into :class:`Segment` s sampled at ``dt`` (sample ``i`` at
 time ``i·dt`` from the segment start): for each step a double-support phase where the ZMP
 reference moves linearly onto the stance foot, then a single-support phase where it stays
-at the stance sole centre while the swing foot travels (quintic in x, y, yaw;
-``64 s³(1-s)³`` bump in z) (Kajita et al. 2003).
+at the stance sole centre (the piecewise ZMP reference of Kajita et al. 2003) while the
+swing foot travels (quintic in x, y, yaw; ``64 s³(1-s)³`` bump in z).
 
 **Planning.**  :class:`FootstepPlan` checks a whole list of footsteps against
 :class:`StepLimits` and samples it (offline: hand its ZMP reference to
-:meth:`drake_sot.preview.PreviewController.plan` for the CoM).  :class:`WalkPlanner` is
-the same thing online, as the walking planner of Evrard et al. 2009 (section III-C)
-runs it: footprints are appended while the walk goes (or
-made from a velocity, keeping :data:`FOOTPRINTS_AHEAD` planned), the references already in
-the preview window are never changed, and one preview-control step is taken per tick.
+:meth:`drake_sot.preview.PreviewController.plan` for the CoM).  :class:`WalkPlanner` does
+the same online, as the walking planner of Evrard et al. 2009 (section III-C) runs: it
+appends footprints while the walk goes (or makes them from a velocity, keeping
+:data:`FOOTPRINTS_AHEAD` planned), never changes the references already in the preview
+window, and takes one preview-control step per tick.
 
 **Bounds.**  :data:`WALKING_BOUNDS` is the one place that says which step timing, step
 height, CoM height and preview time are refused.
