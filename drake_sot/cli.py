@@ -1,14 +1,27 @@
-"""The ``drake-sot`` command: ``drake-sot list`` and ``drake-sot run SCENARIO``."""
+"""The ``drake-sot`` command: ``drake-sot list`` and ``drake-sot run SCENARIO``.
+
+Exit status of ``run``: 0 the run completed, 1 it failed (the exception on stderr), 2 bad
+arguments (one line on stderr, nothing built), 130 interrupted by SIGINT (Ctrl-C), 143 by
+SIGTERM. Interrupted or failed, the artefacts of the simulated part are written; a signal
+that comes while they are written waits until they all are.
+"""
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
-from collections.abc import Sequence
-from typing import TextIO
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from types import FrameType
+from typing import NoReturn, TextIO
 
 from drake_sot.diagrams import SCENARIOS, STUDIES
+from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.run import Interrupted, RunResult
 from drake_sot.diagrams.scenario import run_scenario
+from drake_sot.validation import nonnegative, positive, positive_int
 
 
 class ProgressBar:
@@ -20,8 +33,10 @@ class ProgressBar:
         self._width = width
         self._tty = stream.isatty()
         self._last_decile = -1
+        self.started = False  # called at least once
 
     def __call__(self, t: float, duration: float, wall: float) -> None:
+        self.started = True
         fraction = min(t / duration, 1.0)
         if self._unit == "s simulated":
             rtf = t / wall if wall > 0 else float("nan")
@@ -39,67 +54,156 @@ class ProgressBar:
         self._stream.flush()
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="drake-sot", description="The Stack of Tasks on Drake.")
+class _Parser(argparse.ArgumentParser):
+    """argparse, with an error as one line (``drake-sot run: error: ...``) and exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _checked(check: Callable[..., float | int], name: str, **kwargs) -> Callable[[str], float | int]:
+    """An argparse ``type``: the text as a number (an int when it reads as one), checked by
+    ``check(name, number, **kwargs)`` (a drake_sot.validation function) at parse time; its
+    ValueError becomes argparse's one-line error, exit status 2."""
+
+    def convert(text: str) -> float | int:
+        try:
+            number = int(text)
+        except ValueError:
+            try:
+                number = float(text)
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"{name} = {text!r}: must be a number") from None
+        try:
+            return check(name, number, **kwargs)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return convert
+
+
+def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
+    """The command's parser and its ``run`` subparser."""
+    parser = _Parser(prog="drake-sot", description="The Stack of Tasks on Drake.")
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the scenarios")
-    run = sub.add_parser("run", help="simulate a scenario and write its artefacts")
+    run = sub.add_parser(
+        "run",
+        help="simulate a scenario and write its artefacts",
+        epilog="exit status: 0 completed, 1 failed, 2 bad arguments, 130 interrupted (Ctrl-C), 143 SIGTERM",
+    )
     names = sorted(SCENARIOS) + sorted(STUDIES)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
-    run.add_argument("--duration", type=float, default=None, metavar="S", help="simulated seconds")
+    run.add_argument(
+        "--duration",
+        type=_checked(positive, "duration", unit="s"),
+        default=None,
+        metavar="S",
+        help="simulated seconds (of each run of a study), finite and > 0",
+    )
     run.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
     run.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
     run.add_argument(
-        "--workers", type=int, default=2, metavar="N", help="worker processes of a study (default 2)"
+        "--workers",
+        type=_checked(positive_int, "workers"),
+        default=None,
+        metavar="N",
+        help=f"worker processes of a study ({', '.join(sorted(STUDIES))}; default 2)",
     )
     run.add_argument(
         "--transition",
-        type=float,
+        type=_checked(nonnegative, "transition", unit="s"),
         default=None,
         metavar="S",
         help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)",
     )
-    return parser
+    return parser, run
+
+
+def exit_status(result: RunResult) -> int:
+    """0 completed, 1 failed, 128 + the signal's number when interrupted (130 SIGINT, 143 SIGTERM)."""
+    if result.interrupted_by is not None:
+        return 128 + result.interrupted_by
+    return 1 if result.failure is not None else 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    parser, run = _parser()
+    args = parser.parse_args(argv)
     if args.command == "list":
         for name in sorted(SCENARIOS):
             print(f"{name:20s} {SCENARIOS[name].description}")
         for name in sorted(STUDIES):
             print(f"{name:20s} {STUDIES[name].description}")
         return 0
-    if args.duration is not None and args.duration <= 0:
-        print(f"drake-sot: --duration must be > 0, got {args.duration}", file=sys.stderr)
-        return 2
-    if args.scenario in STUDIES:
-        if args.workers < 1:
-            print(f"drake-sot: --workers must be >= 1, got {args.workers}", file=sys.stderr)
-            return 2
-        kwargs = {"duration": args.duration} if args.duration is not None else {}
-        files = STUDIES[args.scenario].run(
-            args.out, workers=args.workers, progress=ProgressBar(unit="runs"), **kwargs
-        )
-        for path in files.values():
-            print(f"wrote {path}")
-        return 0
-    parameters = {}
-    if args.transition is not None:
-        if args.transition < 0:
-            print(f"drake-sot: --transition must be >= 0, got {args.transition}", file=sys.stderr)
-            return 2
-        parameters["transition"] = args.transition
-    scenario = SCENARIOS[args.scenario]
-    if set(parameters) - set(scenario.parameters):
-        print(f"drake-sot: {args.scenario} takes no --transition", file=sys.stderr)
-        return 2
+    study = args.scenario in STUDIES
+    takes = ("--duration", "--out", "--workers") if study else ("--duration", "--out", "--no-record")
+    takes += () if study else tuple(f"--{name}" for name in SCENARIOS[args.scenario].parameters)
+    given = {
+        "--workers": args.workers is not None,
+        "--transition": args.transition is not None,
+        "--no-record": args.no_record,
+    }
+    refused = [option for option, present in given.items() if present and option not in takes]
+    if refused:
+        run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
+    try:
+        output_directory(args.out)
+    except OSError as exc:
+        run.error(f"--out: {exc}")
+    progress = ProgressBar(unit="runs" if study else "s simulated")
+    try:
+        with _sigterm_as_interrupt():
+            return _run_study(args, progress) if study else _run_scenario(args, progress)
+    except KeyboardInterrupt as exc:  # before the simulation, or held while its artefacts were written
+        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+        if study:
+            when = ""
+        elif progress.started:
+            when = f" while the artefacts were written: they all were, in {args.out}"
+        else:
+            when = " before the simulation started"
+        print(f"interrupted by {signum.name}{when}", file=sys.stderr)
+        return 128 + signum
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM raises :class:`Interrupted` as Ctrl-C raises KeyboardInterrupt, so that the command
+    always ends by its own exit status (143) instead of being killed mid-way. Main thread only,
+    and only when SIGTERM has its default action."""
+    if threading.current_thread() is not threading.main_thread() or (
+        signal.getsignal(signal.SIGTERM) != signal.SIG_DFL
+    ):
+        yield
+        return
+    signal.signal(signal.SIGTERM, _raise_interrupted)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _raise_interrupted(signum: int, frame: FrameType | None) -> NoReturn:
+    raise Interrupted(signum)
+
+
+def _run_study(args: argparse.Namespace, progress: ProgressBar) -> int:
+    kwargs = {"duration": args.duration} if args.duration is not None else {}
+    files = STUDIES[args.scenario].run(args.out, workers=args.workers or 2, progress=progress, **kwargs)
+    for path in files.values():
+        print(f"wrote {path}")
+    return 0
+
+
+def _run_scenario(args: argparse.Namespace, progress: ProgressBar) -> int:
+    parameters = {"transition": args.transition} if args.transition is not None else {}
     output = run_scenario(
-        scenario,
+        SCENARIOS[args.scenario],
         args.out,
         duration=args.duration,
         record=not args.no_record,
-        progress=ProgressBar(),
+        progress=progress,
         parameters=parameters,
     )
     result = output.result
@@ -109,13 +213,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"
     )
-    if result.interrupted:
-        print("interrupted: the artefacts cover the simulated part", file=sys.stderr)
-        return 130
-    if result.failure is not None:
+    if result.interrupted_by is not None:
+        print(
+            f"interrupted by {result.interrupted_by.name}: the artefacts cover the simulated part",
+            file=sys.stderr,
+        )
+    elif result.failure is not None:
         print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
-        return 1
-    return 0
+    return exit_status(result)
 
 
 if __name__ == "__main__":

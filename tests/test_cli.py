@@ -5,13 +5,15 @@ import subprocess
 import sys
 import xml.etree.ElementTree as ET
 
+import matplotlib.image
 import numpy as np
 import pytest
 from headless import chromium, screenshot
 
 from drake_sot import cli
 from drake_sot.diagrams import reach
-from drake_sot.diagrams.run import Command
+from drake_sot.diagrams import scenario as scenario_module
+from drake_sot.diagrams.run import STOP_SIGNALS, Command, Interrupted, SignalGuard
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
@@ -31,12 +33,13 @@ def test_list_names_the_scenarios():
 
 
 def test_bad_arguments_are_refused(capsys):
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as exit_:
         cli.main(["run", "no_such_scenario"])
+    assert exit_.value.code == 2
     assert "invalid choice: 'no_such_scenario'" in capsys.readouterr().err
-    assert cli.main(["run", "reach", "--duration", "-1"]) == 2
-    assert "--duration must be > 0, got -1.0" in capsys.readouterr().err
-    assert cli.main(["run", "reach", "--transition", "0.6"]) == 2
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["run", "reach", "--transition", "0.6"])
+    assert exit_.value.code == 2
     assert "reach takes no --transition" in capsys.readouterr().err
 
 
@@ -119,21 +122,134 @@ def test_failed_run_reports_and_keeps_artefacts(tmp_path, monkeypatch, capsys):
     assert not (tmp_path / "reach.html").exists()  # --no-record
 
 
-def test_ctrl_c_on_the_command_line(tmp_path):
-    """A real SIGINT mid-run: exit code 130 and the artefacts of the simulated part."""
+def _artefacts_load(out, name: str = "reach", *, html: bool = True) -> np.ndarray:
+    """Every artefact of a run exists, is whole and opens; returns the logged times."""
+    ET.parse(out / f"{name}.svg")
+    assert matplotlib.image.imread(out / f"{name}.png").ndim == 3
+    if html:
+        page = (out / f"{name}.html").read_text()
+        assert "meshcat" in page and page.rstrip().endswith("</html>")
+    assert not [p.name for p in out.iterdir() if ".partial" in p.name]  # no temporary left
+    return np.load(out / f"{name}.npz")["time"]
+
+
+def _signalled(out, duration: float, signals, *, when: str, record: bool = True):
+    """Run ``drake-sot run reach``, send ``signals`` once stderr shows ``when`` (the first
+    progress line, or the 100 % line that ends the simulation); (exit status, stderr)."""
     proc = subprocess.Popen(
-        [*DRAKE_SOT, "run", "reach", "--no-record", "--out", str(tmp_path)],
+        [*DRAKE_SOT, "run", "reach", "--duration", str(duration), "--out", str(out)]
+        + ([] if record else ["--no-record"]),
         stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
+        stderr=subprocess.PIPE,
         text=True,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a shell may have ignored it
+        # a shell may have ignored them for its background jobs
+        preexec_fn=lambda: [signal.signal(s, signal.SIG_DFL) for s in (signal.SIGINT, signal.SIGTERM)],
     )
-    for line in proc.stdout:
-        if "simulated, real-time factor" in line and not line.startswith("  0%"):
-            proc.send_signal(signal.SIGINT)
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if "s simulated, real-time factor" in line and (when == "started" or line.startswith("100%")):
+            for signum in signals:
+                proc.send_signal(signum)
             break
-    rest, _ = proc.communicate(timeout=120)
-    assert proc.returncode == 130, rest
-    assert "interrupted" in rest
-    t_end = np.load(tmp_path / "reach.npz")["time"][-1]
-    assert 0.0 < t_end < 7.0
+    _, rest = proc.communicate(timeout=300)
+    return proc.returncode, "".join(seen) + rest
+
+
+@pytest.mark.parametrize(
+    ("signals", "status"),
+    [
+        ([signal.SIGINT], 130),
+        ([signal.SIGTERM], 143),
+        ([signal.SIGINT, signal.SIGINT], 130),  # a second Ctrl-C as the run stops
+    ],
+    ids=["ctrl-c", "sigterm", "ctrl-c-twice"],
+)
+def test_a_signal_mid_run_keeps_every_artefact_of_the_simulated_part(tmp_path, signals, status):
+    code, err = _signalled(tmp_path, 3.0, signals, when="started")
+    assert code == status, err
+    assert f"interrupted by {signals[0].name}: the artefacts cover the simulated part" in err
+    t = _artefacts_load(tmp_path)
+    assert 0.0 < t[-1] < 3.0
+
+
+def test_two_ctrl_c_as_the_run_ends_wait_for_every_artefact(tmp_path):
+    """Sent as soon as the simulation reports its end, both land while the files are written
+    (the replay is written in about a second): they wait, then the command exits with 130."""
+    code, err = _signalled(tmp_path, 0.5, [signal.SIGINT, signal.SIGINT], when="ended")
+    assert code == 130, err
+    assert "interrupted by SIGINT" in err
+    assert _artefacts_load(tmp_path)[-1] == pytest.approx(0.5, abs=0.006)
+
+
+def _sigterm(context):
+    signal.raise_signal(signal.SIGTERM)
+
+
+def test_sigterm_in_process_stops_the_run_like_ctrl_c(tmp_path, monkeypatch, capsys):
+    before = signal.getsignal(signal.SIGTERM)
+    monkeypatch.setitem(cli.SCENARIOS, "reach", _scenario_with(Command(0.2, "SIGTERM", _sigterm)))
+    code = cli.main(["run", "reach", "--duration", "1", "--no-record", "--out", str(tmp_path)])
+    assert code == 143
+    assert "interrupted by SIGTERM" in capsys.readouterr().err
+    assert _artefacts_load(tmp_path, html=False)[-1] == pytest.approx(0.2, abs=0.006)
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_ctrl_c_while_writing_waits_until_every_file_is_written(tmp_path, monkeypatch, capsys):
+    """Deterministic twin of the subprocess test: the SIGINT arrives as the first file is written."""
+    write_npz = scenario_module.write_npz
+
+    def interrupted_write(arrays, path):
+        signal.raise_signal(signal.SIGINT)
+        write_npz(arrays, path)
+
+    monkeypatch.setattr(scenario_module, "write_npz", interrupted_write)
+    code = cli.main(["run", "reach", "--duration", "0.3", "--out", str(tmp_path)])
+    assert code == 130
+    assert f"interrupted by SIGINT while the artefacts were written: they all were, in {tmp_path}" in (
+        capsys.readouterr().err
+    )
+    assert _artefacts_load(tmp_path)[-1] == pytest.approx(0.3, abs=0.006)
+
+
+def test_signal_guard_stops_once_then_holds():
+    before = {s: signal.getsignal(s) for s in STOP_SIGNALS}
+    with SignalGuard() as guard:
+        with pytest.raises(Interrupted) as stop:
+            signal.raise_signal(signal.SIGTERM)
+        assert stop.value.signum == signal.SIGTERM and isinstance(stop.value, KeyboardInterrupt)
+        signal.raise_signal(signal.SIGTERM)  # held, then absorbed: the stop it asks for is under way
+        assert guard.held == [signal.SIGTERM]
+        finished = True
+    assert finished
+    assert {s: signal.getsignal(s) for s in STOP_SIGNALS} == before
+
+
+def test_signal_guard_delivers_another_signal_once_the_block_is_done():
+    finished = False
+    with pytest.raises(KeyboardInterrupt) as late, SignalGuard():
+        with pytest.raises(Interrupted):
+            signal.raise_signal(signal.SIGTERM)
+        signal.raise_signal(signal.SIGINT)  # held until the block is done, then delivered
+        finished = True
+    assert finished and not isinstance(late.value, Interrupted)  # Python's own Ctrl-C handler raised it
+
+
+def test_signal_guard_delivers_a_held_signal_on_exit():
+    finished = False
+    with pytest.raises(KeyboardInterrupt), SignalGuard() as guard:
+        guard.hold()
+        signal.raise_signal(signal.SIGINT)
+        finished = True
+    assert finished
+
+
+def test_signal_guard_leaves_an_ignored_signal_ignored():
+    before = signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    try:
+        with SignalGuard():
+            signal.raise_signal(signal.SIGTERM)  # would raise Interrupted had the guard taken it
+            assert signal.getsignal(signal.SIGTERM) == signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGTERM, before)

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from drake_sot.diagrams import priority_switching as ps
+from drake_sot.diagrams.alpha_sweep_plots import plot_alpha_sweep
 from drake_sot.diagrams.run import simulate
-from drake_sot.plots import plot_alpha_sweep
 from drake_sot.transitions import AlphaSchedule
 
 GRID = tuple(np.round(np.linspace(0.0, 1.0, 6), 3))  # {0, 0.2, ..., 1}

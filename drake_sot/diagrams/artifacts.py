@@ -1,16 +1,68 @@
-"""Write what a run produced: the replay (HTML), the diagram (SVG), the logs (NPZ)."""
+"""Write what a run produced: the replay (HTML), the diagram (SVG), the plots (PNG), the logs (NPZ).
+
+Every file is written atomically: under a temporary name in the same directory, then renamed
+over the final name (``os.replace``), so a writer killed half-way leaves either the previous
+file or none, never a truncated one.
+"""
 
 from __future__ import annotations
 
+import os
+import secrets
 import shutil
 import subprocess
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 from pydrake.systems.framework import Context, Diagram
 
 from drake_sot.diagrams.run import RunResult
 from drake_sot.diagrams.world import BuiltHumanoid
+
+
+def output_directory(path: str | Path) -> Path:
+    """``path`` as a directory the artefacts can be written into: created (with its parents)
+    when missing, then probed by creating and deleting a temporary file in it.
+
+    Raises:
+        OSError: naming ``path`` and the reason (an existing file, a path under a file, no
+            write permission, a read-only file system...).
+    """
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"{str(out)!r} is a file, not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        raise type(exc)(f"cannot write into {str(out)!r}: {exc.strerror or exc}") from exc
+    return out
+
+
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` (hidden, same suffix, so writers that infer the format
+    from the name still do) to write to; when the block ends without an exception it replaces
+    ``path``, otherwise it is deleted."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.partial{path.suffix}")
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def write_figure(figure: Figure, path: str | Path) -> None:
+    """Save a matplotlib figure (format from the suffix of ``path``)."""
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary)
 
 
 def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None:
@@ -23,12 +75,14 @@ def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None
     source = diagram.GetGraphvizString(max_depth=max_depth)
     dot = shutil.which("dot")
     if dot is None:
-        path.with_suffix(".dot").write_text(source)
+        with atomic_path(path.with_suffix(".dot")) as temporary:
+            temporary.write_text(source, encoding="utf-8")
         raise RuntimeError(
             f"Graphviz 'dot' not found: wrote {path.with_suffix('.dot')} instead of {path}; "
             "install it with 'apt-get install graphviz'"
         )
-    subprocess.run([dot, "-Tsvg", "-o", str(path)], input=source.encode(), check=True)
+    with atomic_path(path) as temporary:
+        subprocess.run([dot, "-Tsvg", "-o", str(temporary)], input=source.encode(), check=True)
 
 
 def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -> dict[str, np.ndarray]:
@@ -72,8 +126,9 @@ def _aligned(log, time: np.ndarray) -> np.ndarray:
 
 
 def write_npz(arrays: dict[str, np.ndarray], path: str | Path) -> None:
-    """Save the arrays (compressed); load back with ``np.load(path)``."""
-    np.savez_compressed(path, **arrays)
+    """Save the arrays (compressed) to ``path`` (name it ``*.npz``); load back with ``np.load(path)``."""
+    with atomic_path(path) as temporary, open(temporary, "wb") as file:
+        np.savez_compressed(file, **arrays)
 
 
 def write_replay(built: BuiltHumanoid, path: str | Path) -> None:
@@ -82,4 +137,6 @@ def write_replay(built: BuiltHumanoid, path: str | Path) -> None:
         raise ValueError("this diagram was built without Meshcat: nothing to replay")
     built.visualizer.StopRecording()
     built.visualizer.PublishRecording()
-    Path(path).write_text(built.meshcat.StaticHtml())
+    html = built.meshcat.StaticHtml()
+    with atomic_path(path) as temporary:
+        temporary.write_text(html, encoding="utf-8")

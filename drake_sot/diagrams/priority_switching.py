@@ -17,9 +17,9 @@ import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 
+from drake_sot.diagrams.priority_switching_plots import plot_priority_switch
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
-from drake_sot.plots import plot_priority_switch
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
 

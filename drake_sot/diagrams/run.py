@@ -2,18 +2,27 @@
 
 :func:`simulate` advances the simulator to each command's time, applies it to the
 root context (push/rm on the stack, a new target...), reports progress, and on
-Ctrl-C or a failure stops cleanly and says so, so that whatever was simulated can
-still be written out.
+Ctrl-C (SIGINT), SIGTERM or a failure stops cleanly and says so, so that whatever was
+simulated can still be written out. :class:`SignalGuard` is how: the first signal stops
+the simulation; later ones wait until the artefacts of the simulated part are written.
 """
 
 from __future__ import annotations
 
+import signal
+import threading
 import time as wallclock
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from types import FrameType, TracebackType
 
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context
+
+from drake_sot.validation import positive
+
+#: The signals that stop a run: Ctrl-C and the polite "terminate" of ``kill``, job schedulers, systemd.
+STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 
 
 @dataclass(frozen=True)
@@ -25,16 +34,96 @@ class Command:
     apply: Callable[[Context], None]
 
 
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by a signal; ``signum`` says which (SIGINT or SIGTERM).
+
+    A subclass of KeyboardInterrupt, so code that handles Ctrl-C handles SIGTERM the same way.
+    """
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signal.Signals(signum)
+        super().__init__(self.signum.name)
+
+
+class SignalGuard:
+    """What SIGINT and SIGTERM do while a run simulates and then writes what it simulated.
+
+    Use ``with SignalGuard() as guard:`` around :func:`simulate` (pass it ``guard=guard``) and the
+    writing of the artefacts:
+
+    - *stopping* (from the start): the first SIGINT or SIGTERM raises :class:`Interrupted`, which
+      :func:`simulate` turns into an interrupted :class:`RunResult`. The guard then holds.
+    - *holding* (after that signal, or once :meth:`hold` is called — :func:`simulate` calls it
+      when its loop ends): signals are recorded and nothing else, so no file is cut short.
+    - on exit the previous handlers are restored, then the first held signal is delivered again
+      (``signal.raise_signal``: Ctrl-C raises KeyboardInterrupt, an unhandled SIGTERM ends the
+      process), unless it repeats the signal that already stopped the run (a second Ctrl-C asks
+      for the stop that is under way) or an exception is already leaving the ``with`` block.
+
+    Handlers are installed only in the main thread (the only one Python delivers signals to);
+    elsewhere the guard changes nothing. A signal ignored by the caller (``SIG_IGN``, as a shell
+    does for SIGINT in a background job) stays ignored; one whose handler is not a Python
+    callable (installed by C code) is left alone.
+    """
+
+    def __init__(self, signals: Sequence[signal.Signals] = STOP_SIGNALS) -> None:
+        self._signals = tuple(signals)
+        self._previous: dict[signal.Signals, Callable | int] = {}
+        self._stopping = True
+        self.stopped_by: signal.Signals | None = None
+        self.held: list[signal.Signals] = []
+
+    def __enter__(self) -> SignalGuard:
+        if threading.current_thread() is threading.main_thread():
+            for signum in self._signals:
+                previous = signal.getsignal(signum)
+                if previous is None or previous == signal.SIG_IGN:
+                    continue
+                self._previous[signum] = previous
+                signal.signal(signum, self._handle)
+        return self
+
+    def _handle(self, signum: int, frame: FrameType | None) -> None:
+        if self._stopping:
+            self._stopping = False
+            self.stopped_by = signal.Signals(signum)
+            raise Interrupted(signum)
+        self.held.append(signal.Signals(signum))
+
+    def hold(self) -> None:
+        """From now on, hold the signals until the guard exits."""
+        self._stopping = False
+
+    def __exit__(
+        self, kind: type[BaseException] | None, error: BaseException | None, trace: TracebackType | None
+    ) -> None:
+        for signum, previous in self._previous.items():
+            signal.signal(signum, previous)
+        self._previous.clear()
+        late = [s for s in self.held if s != self.stopped_by]
+        if late and error is None:
+            signal.raise_signal(late[0])
+
+
 @dataclass
 class RunResult:
-    """How a run ended.
+    """How a run ended, in one of three states:
+
+    - **completed** (``completed``): simulated up to the requested duration.
+    - **interrupted** (``interrupted``): stopped by a signal, ``interrupted_by`` says which —
+      SIGINT (Ctrl-C, or a KeyboardInterrupt raised by a command) or SIGTERM.
+    - **failed** (``failure`` is not None): an exception stopped the run; ``end_time`` says when.
+
+    In every state ``end_time`` is the simulated time reached and the simulator's context
+    holds the logs up to it. The ``drake-sot`` command exits with 0, 130 (SIGINT), 143
+    (SIGTERM) or 1 (failed).
 
     Attributes:
         end_time: simulated time reached [s].
         wall_time: wall-clock duration [s].
         events: ``(time, label)`` of every command applied.
         not_reached: ``(time, label)`` of the commands scheduled after the run's end.
-        interrupted: True when stopped by Ctrl-C.
+        interrupted_by: the signal that stopped the run, None when it was not interrupted.
         failure: the exception that stopped the run, if any.
     """
 
@@ -42,11 +131,17 @@ class RunResult:
     wall_time: float = 0.0
     events: list[tuple[float, str]] = field(default_factory=list)
     not_reached: list[tuple[float, str]] = field(default_factory=list)
-    interrupted: bool = False
+    interrupted_by: signal.Signals | None = None
     failure: BaseException | None = None
 
     @property
+    def interrupted(self) -> bool:
+        """True when a signal (Ctrl-C, SIGTERM) stopped the run."""
+        return self.interrupted_by is not None
+
+    @property
     def completed(self) -> bool:
+        """True when the run reached its duration."""
         return not self.interrupted and self.failure is None
 
     @property
@@ -65,14 +160,31 @@ def simulate(
     *,
     progress: Progress | None = None,
     chunk: float = 0.1,
+    guard: SignalGuard | None = None,
 ) -> RunResult:
     """Advance ``simulator`` to ``duration`` [s], applying ``commands`` at their times.
 
-    Never raises for what happens inside the run: Ctrl-C sets ``interrupted`` and an
-    exception is stored in ``failure``, so the caller can save the partial logs.
+    Never raises for what happens inside the run: SIGINT (Ctrl-C) or SIGTERM sets
+    ``interrupted_by`` and an exception is stored in ``failure``, so the caller can save the
+    partial logs. Signals are handled by ``guard`` (a :class:`SignalGuard` the caller has
+    entered and keeps while it writes the artefacts), else by a guard of this call alone.
+
+    Args:
+        simulator: an initialized simulator.
+        duration: the simulated time to reach [s], finite and > 0.
+        commands: applied when the simulation reaches their time; those after ``duration``
+            are listed in ``not_reached``.
+        progress: called after each step of at most ``chunk`` [s] (finite, > 0).
+
+    Raises:
+        ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0 (checked before Drake
+            sees it: a Drake assertion ends the interpreter).
     """
-    if duration <= 0.0:
-        raise ValueError(f"duration {duration} must be > 0")
+    duration = positive("duration", duration, unit="s")
+    chunk = positive("chunk", chunk, unit="s")
+    if guard is None:
+        with SignalGuard() as own:
+            return simulate(simulator, duration, commands, progress=progress, chunk=chunk, guard=own)
     late = [c for c in commands if c.time > duration]
     pending = sorted((c for c in commands if c.time <= duration), key=lambda c: c.time)
     result = RunResult()
@@ -94,10 +206,12 @@ def simulate(
             command = pending.pop(0)
             command.apply(context)
             result.events.append((t, command.label))
-    except KeyboardInterrupt:
-        result.interrupted = True
+    except KeyboardInterrupt as exc:
+        result.interrupted_by = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
     except Exception as exc:  # noqa: BLE001 - reported to the caller with the partial logs
         result.failure = exc
+    finally:
+        guard.hold()  # from here on, a signal waits until the caller has written the artefacts
     result.end_time = context.get_time()
     result.wall_time = wallclock.perf_counter() - start
     result.not_reached = [(c.time, c.label) for c in late + pending]

@@ -11,11 +11,19 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import Context
 
-from drake_sot.diagrams.artifacts import log_arrays, write_npz, write_replay, write_svg
-from drake_sot.diagrams.run import Command, Progress, RunResult, simulate
+from drake_sot.diagrams.artifacts import (
+    log_arrays,
+    output_directory,
+    write_figure,
+    write_npz,
+    write_replay,
+    write_svg,
+)
+from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.plots import plot_task_errors
 from drake_sot.systems.stack_history import stack_changes
+from drake_sot.validation import positive
 
 
 @dataclass
@@ -74,20 +82,35 @@ def run_scenario(
     progress: Progress | None = None,
     parameters: dict[str, Any] | None = None,
 ) -> ScenarioOutput:
-    """Build, simulate and write ``<name>.html`` (replay, when ``record``), ``<name>.svg``
-    (diagram), ``<name>.png`` (task errors) and ``<name>.npz`` (logs) into ``out_dir``.
+    """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
+    ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
+    before the run) into ``out_dir``.
 
-    Artefacts are written even when the run is interrupted (Ctrl-C) or fails, covering
-    what was simulated; ``result`` says how it ended. ``parameters`` go to the scenario's
-    ``build`` (only those it declares).
+    Artefacts are written even when the run is interrupted (SIGINT, SIGTERM) or fails, covering
+    what was simulated; ``result`` says how it ended. While they are written, SIGINT and SIGTERM
+    are held and delivered once every file is written (see :class:`SignalGuard`); each file is
+    written atomically (see :mod:`drake_sot.diagrams.artifacts`).
+
+    Args:
+        scenario: what to run.
+        out_dir: the output directory, created if needed.
+        duration: simulated time [s], finite and > 0; None for the scenario's own.
+        record: record the Meshcat replay.
+        progress: called as the simulation advances (see :func:`simulate`).
+        parameters: keyword arguments of the scenario's ``build`` (only those it declares).
+
+    Raises:
+        ValueError: a bad ``duration`` or an undeclared parameter (before anything is built).
+        OSError: ``out_dir`` cannot be written (before anything is built).
     """
+    if duration is not None:
+        duration = positive("duration", duration, unit="s")
     unknown = sorted(set(parameters or {}) - set(scenario.parameters))
     if unknown:
         raise ValueError(
             f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}"
         )
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_directory(out_dir)
     setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}))
     built = setup.built
     files = {"svg": out / f"{scenario.name}.svg"}
@@ -95,20 +118,29 @@ def run_scenario(
     simulator = built.create_simulator()
     if built.visualizer is not None:
         built.visualizer.StartRecording(set_transforms_while_recording=False)
-    result = simulate(simulator, duration or setup.duration, setup.commands, progress=progress)
-    context = simulator.get_context()
-    arrays = log_arrays(built, context, result)
-    files["npz"] = out / f"{scenario.name}.npz"
-    write_npz(arrays, files["npz"])
-    files["png"] = out / f"{scenario.name}.png"
-    errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
-    command_times = {round(t, 6) for t, _ in result.events}
-    changes = stack_changes(built.stack_history.history(context)) if built.stack_history is not None else []
-    marks = result.events + [(t, label) for t, label in changes if round(t, 6) not in command_times]
-    plot_task_errors(arrays["time"], errors, marks, files["png"], title=f"{scenario.name}: task errors")
-    if scenario.extra_plots is not None:
-        files.update(scenario.extra_plots(setup, arrays, out))
-    if record:
-        files["html"] = out / f"{scenario.name}.html"
-        write_replay(built, files["html"])
+    with SignalGuard() as guard:
+        result = simulate(
+            simulator,
+            setup.duration if duration is None else duration,
+            setup.commands,
+            progress=progress,
+            guard=guard,
+        )
+        context = simulator.get_context()
+        arrays = log_arrays(built, context, result)
+        files["npz"] = out / f"{scenario.name}.npz"
+        write_npz(arrays, files["npz"])
+        if record:
+            files["html"] = out / f"{scenario.name}.html"
+            write_replay(built, files["html"])
+        files["png"] = out / f"{scenario.name}.png"
+        errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
+        command_times = {round(t, 6) for t, _ in result.events}
+        history = built.stack_history.history(context) if built.stack_history is not None else []
+        changes = stack_changes(history)
+        marks = result.events + [(t, label) for t, label in changes if round(t, 6) not in command_times]
+        title = f"{scenario.name}: task errors"
+        write_figure(plot_task_errors(arrays["time"], errors, marks, title=title), files["png"])
+        if scenario.extra_plots is not None:
+            files.update(scenario.extra_plots(setup, arrays, out))
     return ScenarioOutput(result=result, arrays=arrays, files=files, setup=setup, context=context)

@@ -27,9 +27,9 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import HumanoidInfo
-from drake_sot.plots import plot_table_pounding
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
 

@@ -21,9 +21,9 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import Footstep, StepTiming, alternating_steps
 from drake_sot.models.humanoid import SOLE
-from drake_sot.plots import plot_walk
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.zmp import ZmpEstimator

@@ -21,7 +21,7 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk import add_walking, forward_steps
-from drake_sot.plots import plot_interaction
+from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
 from drake_sot.sequencing import Above, Below, Push, Rm, SetValue, State, Transition, Up
 from drake_sot.systems.partner import Hold, Partner
 from drake_sot.systems.sequencer import TaskSequencer
