@@ -108,6 +108,7 @@ def test_interrupted_run_keeps_what_was_simulated(tmp_path):
         _scenario_with(Command(0.3, "Ctrl-C", _interrupt)), tmp_path, duration=2.0, record=True
     )
     assert output.result.interrupted and not output.result.completed
+    assert output.result.interrupted_by == signal.SIGINT  # a KeyboardInterrupt is what Ctrl-C raises
     assert output.arrays["time"][-1] == pytest.approx(0.3, abs=0.006)
     for ext in ("html", "svg", "png", "npz"):
         assert (tmp_path / f"reach.{ext}").exists()
