@@ -72,7 +72,7 @@ def check_gain(name: str, gain: Gain, m: int) -> np.ndarray:
 
 def _apply(k: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``K v`` for a checked gain: scalar or vector (diagonal) multiplies, matrix multiplies as a matrix."""
-    return k @ v if k.ndim == 2 else k * v
+    return k @ v if np.ndim(k) == 2 else k * v
 
 
 def pd_wrench(

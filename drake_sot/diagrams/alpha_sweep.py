@@ -1,4 +1,4 @@
-"""Study ``alpha_sweep`` (paper 004 fig. 11): steady-state errors of the head and left-hand
+"""Study ``alpha_sweep`` (Liu, Lober, Padois 2016, fig. 11): steady-state errors of the head and left-hand
 tasks of ``priority_switching`` over a grid of constant (α_lh,head, α_head,lh).
 
 Each grid point is one simulation of the fixed-base robot with constant priorities; the
@@ -94,6 +94,6 @@ def run(
 STUDY = Study(
     name="alpha_sweep",
     description="steady head and left-hand errors over a 6x6 grid of priorities, in parallel "
-    "(paper 004 fig. 11)",
+    "(Liu, Lober, Padois 2016, fig. 11)",
     run=run,
 )

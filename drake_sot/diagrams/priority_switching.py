@@ -1,4 +1,4 @@
-"""Scenario ``priority_switching`` (paper 004, 4.2): a head task and a left-hand task in
+"""Scenario ``priority_switching`` (Liu, Lober, Padois 2016, 4.2): a head task and a left-hand task in
 conflict on the fixed-base, torque-controlled humanoid, their priority swapped smoothly.
 
 Tasks (generalized hierarchy, torque level): joint limits (restricts everybody), head
@@ -11,6 +11,7 @@ right, reachable only by leaning the upper body — and the head — forward), p
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -52,9 +53,16 @@ def initial_alpha(alpha_lh_head: float = 0.0, alpha_head_lh: float = 1.0) -> np.
 
 
 def build_with(
-    alpha: AlphaSchedule, meshcat: Meshcat | None = None, duration: float = DURATION
+    alpha: AlphaSchedule,
+    meshcat: Meshcat | None = None,
+    duration: float = DURATION,
+    motion_order: Sequence[str] = TASKS,
 ) -> ScenarioSetup:
-    """The scenario's diagram with a given α schedule (the sweep reuses it with constant α)."""
+    """The scenario's diagram with a given α schedule (the sweep reuses it with constant α).
+
+    ``motion_order`` is the order the tasks are handed to the controller: it fixes the
+    layout of the logged vectors only (priorities are matched by name).
+    """
     b = TorqueHumanoidBuilder(meshcat=meshcat, fixed_base=True)
     arm_and_body = [j for j in b.control_info.actuated_joints if not j.endswith("gripper")]
     b.add_joint_limits_task("taskJL", margin=0.05, joints=arm_and_body)
@@ -67,8 +75,8 @@ def build_with(
     schedule = b.builder.AddSystem(PrioritySchedule(alpha))
     b.log("alpha", schedule.GetOutputPort("alpha"))
     built = b.build(
-        motion=[(name, *GAINS[name]) for name in TASKS],
-        alpha=schedule.GetOutputPort("alpha"),
+        motion=[(name, *GAINS[name]) for name in motion_order],
+        priorities=schedule.GetOutputPort("priorities"),
     )
     return ScenarioSetup(
         built=built,
@@ -93,9 +101,9 @@ def task_errors(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """Figure 10: the two α and the two task errors over time."""
-    n = len(TASKS)
-    alpha = arrays["alpha"].reshape(-1, n, n)
-    head, lh = TASKS.index("taskHead"), TASKS.index("taskLH")
+    names = setup.extras["schedule"].task_names  # the order of the logged alpha
+    alpha = arrays["alpha"].reshape(-1, len(names), len(names))
+    head, lh = names.index("taskHead"), names.index("taskLH")
     path = Path(out_dir) / "priority_switching_errors.png"
     plot_priority_switch(
         arrays["time"],
@@ -108,7 +116,8 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
 
 SCENARIO = Scenario(
     name="priority_switching",
-    description="fixed base, torque control: head vs left-hand priority swapped smoothly (paper 004 fig. 10)",
+    description="fixed base, torque control: head vs left-hand priority swapped smoothly "
+    "(Liu, Lober, Padois 2016, fig. 10)",
     build=build,
     extra_plots=write_plots,
 )

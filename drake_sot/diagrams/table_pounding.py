@@ -1,4 +1,4 @@
-"""Scenario ``table_pounding`` (paper 004, 4.1): the torque-controlled humanoid stands and
+"""Scenario ``table_pounding`` (Liu, Lober, Padois 2016, 4.1): the torque-controlled humanoid stands and
 presses a spring-mounted table with one hand, then the other, with smooth priority changes.
 
 The table top slides vertically on a spring of 2000 N/m and a damper of 89 N·s/m; the
@@ -185,7 +185,7 @@ def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
         motion=[(name, *GAINS[name]) for name in MOTION],
         force=[(name, *FORCE_PI) for name in FORCES],
         force_inputs={name: (desired.get_output_port(), force.GetOutputPort("applied")) for name in FORCES},
-        alpha=schedule.GetOutputPort("alpha"),
+        priorities=schedule.GetOutputPort("priorities"),
     )
     return ScenarioSetup(
         built=built,
@@ -196,8 +196,7 @@ def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
 
 
 def _script(built, schedule, X, transition: float) -> list[Command]:
-    """The state machine as timed commands: hand targets and priority rearrangements."""
-    k = {name: i for i, name in enumerate(TASKS)}
+    """The state machine as timed commands: hand targets and priority rearrangements (by task name)."""
 
     def target(side: str, height: float) -> RigidTransform:
         y = -HAND_Y if side == "right" else HAND_Y
@@ -212,9 +211,9 @@ def _script(built, schedule, X, transition: float) -> list[Command]:
         on, off = (0.0, 1.0) if contact else (1.0, 0.0)
 
         def apply(c):
-            schedule.set(c, k[force], k[force], on, duration=transition)  # activate / deactivate
-            schedule.set(c, k[hand], k[force], off, duration=transition)  # the force over the position
-            schedule.set(c, k[force], k[hand], on, duration=transition)
+            schedule.set(c, force, force, on, duration=transition)  # activate / deactivate
+            schedule.set(c, hand, force, off, duration=transition)  # the force over the position
+            schedule.set(c, force, hand, on, duration=transition)
 
         return apply
 
@@ -247,9 +246,9 @@ def contact_windows(settle: float = 1.0) -> dict[str, tuple[float, float]]:
 
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """Figures 4-7: α, desired and real hand forces, CoM and hand position errors, τᵀτ."""
-    n = len(TASKS)
-    k = {name: i for i, name in enumerate(TASKS)}
-    alpha = arrays["alpha"].reshape(-1, n, n)
+    names = setup.extras["schedule"].task_names  # the order of the logged alpha
+    k = {name: i for i, name in enumerate(names)}
+    alpha = arrays["alpha"].reshape(-1, len(names), len(names))
     alphas = {
         "α_rhf,rhf": alpha[:, k["taskRHF"], k["taskRHF"]],
         "α_rh,rhf": alpha[:, k["taskRH"], k["taskRHF"]],
@@ -276,7 +275,7 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
 SCENARIO = Scenario(
     name="table_pounding",
     description="torque control: press a spring table with each hand in turn, 18 tasks, "
-    "smooth priority changes (paper 004 4.1)",
+    "smooth priority changes (Liu, Lober, Padois 2016, 4.1)",
     build=build,
     extra_plots=write_plots,
     parameters=("transition",),
