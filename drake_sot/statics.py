@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from drake_sot.linalg import pinv
+from drake_sot.validation import matrix, nonnegative, per_axis, positive_int, vector
 
 
 def contact_torques(
@@ -32,11 +33,19 @@ def contact_torques(
         weights: (k / 6,) non-negative share of each contact; None for equal shares.
     Returns:
         ``(τ (nv - n_base,) [N·m], f (k,))``: joint torques and contact wrenches.
+    Raises:
+        ValueError: sizes that disagree, NaN or Inf, a negative weight (each named).
     """
+    n_base = positive_int("n_base", n_base, minimum=0)
+    tau_id = vector("tau_id", tau_id)
+    J_contacts = matrix("J_contacts", J_contacts, (None, tau_id.size))
     k = J_contacts.shape[0]
-    if weights is None:
-        weights = np.ones(k // 6)
-    scale = np.repeat(np.sqrt(np.asarray(weights, dtype=float)), 6)
+    if k % 6 or not n_base <= tau_id.size:
+        raise ValueError(
+            f"J_contacts has {k} rows (6 per contact) and n_base = {n_base} for {tau_id.size} velocities"
+        )
+    weights = np.ones(k // 6) if weights is None else per_axis("weights", weights, k // 6, sign="nonnegative")
+    scale = np.repeat(np.sqrt(weights), 6)
     if k == 0 or n_base == 0 or not np.any(scale > 0):
         return tau_id[n_base:].copy(), np.zeros(k)
     # f = D g with D = diag(√w): min ‖g‖ s.t. J_bᵀ D g = τ_b  ⇔  min Σ ‖f_i‖²/w_i.
@@ -57,6 +66,7 @@ def zmp_from_wrenches(
         ``[x, y, f_z]``: the point where the total moment has no horizontal component,
         and the total vertical force; x = y = NaN when ``f_z < min_force``.
     """
+    min_force = nonnegative("min_force", min_force, unit="N")
     f = forces.sum(axis=0)
     n = torques.sum(axis=0) + np.cross(points, forces).sum(axis=0)  # moment about the origin
     if f[2] < max(min_force, 1e-9):
