@@ -1,4 +1,5 @@
-"""Timing of the quasi-static QP of paper 004 (eq. 9-11 and the eq. 5-7 baseline), per solver, in one run.
+"""Timing of the quasi-static QP of Liu, Lober, Padois 2016 (eq. 9-11 and the eq. 5-7 baseline), per
+solver, in one run.
 
     python benchmarks/bench_generalized.py [--ticks 500]
 
@@ -151,7 +152,7 @@ class Humanoid:
 
 
 def priority_alpha(names: list[str], rhf_over_rh: float = 0.5) -> np.ndarray:
-    """alpha[i, j]: priority of task j with respect to task i (paper 004 eq. 4, section 4.1)."""
+    """alpha[i, j]: priority of task j with respect to task i (Liu, Lober, Padois 2016, eq. 4, 4.1)."""
     idx = {n: i for i, n in enumerate(names)}
     a = np.zeros((len(names), len(names)))
     goal = ["com", "rh", "lh", "rho", "lho", "rhf", "lhf", "head", "back"]

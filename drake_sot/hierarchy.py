@@ -264,14 +264,22 @@ def _jacobians(jacobians: Sequence[np.ndarray]) -> tuple[list[np.ndarray], np.nd
 
 def _unit(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(unit, nonzero)``: the rows that are not exactly zero, scaled to unit length, and the
-    (m,) mask of those rows. Each row is first divided by its largest |entry|, so that its
-    squared norm neither overflows (rows of 1e300) nor underflows (rows of 1e-170): the
-    result is the same at every scale."""
+    (m,) mask of those rows. A row whose squared norm would overflow (entries of 1e300) or
+    underflow (entries of 1e-170) is first divided by its largest |entry|: the result is the
+    same at every scale."""
+    norms = np.sqrt(np.einsum("ij,ij->i", rows, rows))
+    # Squared norms in [1e-280, 1e280] lost nothing that matters (an underflowed square is
+    # < 1e-24 of the row's largest one): the common case, one pass.
+    safe = (norms > 1e-140) & (norms < 1e140)
+    if safe.all():
+        return rows / norms[:, None], safe
     peak = np.abs(rows).max(axis=1, initial=0.0)
     nonzero = peak > 0.0  # a zero row (a switched-off component) constrains nothing
-    scaled = rows / np.where(nonzero, peak, 1.0)[:, None]
-    norms = np.sqrt(np.einsum("ij,ij->i", scaled, scaled))  # in [1, sqrt(nv)] for a nonzero row
-    unit = scaled / np.where(nonzero, norms, 1.0)[:, None]
+    unit = np.zeros_like(rows)
+    unit[safe] = rows[safe] / norms[safe, None]
+    redo = nonzero & ~safe
+    scaled = rows[redo] / peak[redo, None]
+    unit[redo] = scaled / np.sqrt(np.einsum("ij,ij->i", scaled, scaled))[:, None]
     return (unit, nonzero) if nonzero.all() else (unit[nonzero], nonzero)
 
 
