@@ -1,4 +1,5 @@
-"""Tests of the generalized projector drake_sot.hierarchy.generalized_projector (paper 004, eq. 4, 8).
+"""Tests of the generalized projector drake_sot.hierarchy.generalized_projector
+(Liu, Lober, Padois 2016, eq. 4, 8).
 
 The references are computed here independently:
 - the paper's construction taken literally: rows of the augmented Jacobian
