@@ -561,6 +561,11 @@ class GeneralizedHierarchyController(LeafSystem):
     def _alpha(self, context: Context) -> np.ndarray:
         """α (n_t, n_t) in :attr:`task_names` order, from the priorities checked by name."""
         priorities = self._priorities.Eval(context)
+        if not isinstance(priorities, Priorities):
+            raise TypeError(
+                f"{self.get_name()!r}: input port 'priorities' carries a {type(priorities).__name__}, "
+                "not a drake_sot.transitions.Priorities (plug PrioritySchedule.priorities)"
+            )
         if priorities.task_names == self._names:
             return priorities.alpha
         return priorities.in_order(self._names)

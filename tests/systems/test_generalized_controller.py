@@ -428,3 +428,10 @@ def test_inertia_weighted_desired_wrenches_match_per_task_pseudo_inverses(depend
         begin += m
     np.testing.assert_allclose(got, np.concatenate(expected), rtol=1e-8, atol=1e-10)
     assert got[3] == 0.0
+
+
+def test_priorities_of_another_type_are_refused():
+    _, _, _, controller, diagram, context = _controller(fixed_base=True)
+    diagram.GetInputPort("priorities").FixValue(context, ("taskLH", "taskPosture"))
+    with pytest.raises(TypeError, match=r"input port 'priorities' carries a tuple, not a .*Priorities"):
+        _tick(controller, diagram, context)
