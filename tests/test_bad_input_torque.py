@@ -91,6 +91,8 @@ def test_controller_refuses_unknown_joints_duplicate_tasks_and_wrong_records(rob
         _controller(robot, motion_tasks=[MotionTask(task, 1.0, 1.0), MotionTask(task, 2.0, 1.0)])
     with pytest.raises(TypeError, match=r"force_tasks must hold ForceTasks, got \['MotionTask'\]"):
         _controller(robot, force_tasks=[MotionTask(task, 1.0, 1.0)])
+    with pytest.raises(ValueError, match=r"motion_tasks and force_tasks are both empty"):
+        _controller(robot, motion_tasks=[])
     with pytest.raises(ValueError, match=r"ContactPoints\('nowhere'\): no frame of that name"):
         _controller(robot, contacts=[ContactPoints("nowhere", sole_corner_points())])
 

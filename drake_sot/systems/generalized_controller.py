@@ -409,6 +409,10 @@ class GeneralizedHierarchyController(LeafSystem):
             if bad:
                 raise TypeError(f"{what} must hold {kind.__name__}s, got {bad}")
         goals = [t.task for t in self._motion] + [t.task for t in self._force]
+        if not goals:
+            raise ValueError(
+                "motion_tasks and force_tasks are both empty: needs at least one goal-directed task"
+            )
         self._names = tuple(t.get_name() for t in goals)
         if len(set(self._names)) != len(self._names):
             raise ValueError(f"task names must be unique: {list(self._names)}")
