@@ -117,6 +117,11 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
         unknown = [n for n, *_ in (*motion, *force) if n not in self.tasks]
         if unknown:
             raise ValueError(f"unknown task(s) {unknown}; known tasks: {', '.join(self.tasks)}")
+        stray = sorted(set(force_inputs or {}) - {n for n, *_ in force})
+        if stray:
+            raise ValueError(
+                f"force_inputs for {stray}, which are not force tasks; force tasks: {[n for n, *_ in force]}"
+            )
         joints = list(self.control_info.actuated_joints)
         limits = np.array([self.control_plant.GetJointActuatorByName(j).effort_limit() for j in joints])
         for joint, limit in (effort_limits or {}).items():

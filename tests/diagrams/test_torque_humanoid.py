@@ -123,6 +123,10 @@ def test_unknown_names_and_bad_limits_are_refused():
     port = schedule.GetOutputPort("priorities")
     with pytest.raises(ValueError, match=r"unknown task\(s\) \['taskCom'\]; known tasks: taskPosture"):
         b.build(motion=[("taskCom", 1.0, 1.0)], priorities=port)
+    with pytest.raises(ValueError, match=r"force_inputs for \['taskPosture'\], which are not force tasks"):
+        b.build(
+            motion=[("taskPosture", 1.0, 1.0)], priorities=port, force_inputs={"taskPosture": (port, port)}
+        )
     with pytest.raises(ValueError, match=r"effort_limits: unknown joint 'knee'"):
         b.build(motion=[("taskPosture", 1.0, 1.0)], priorities=port, effort_limits={"knee": 1.0})
     with pytest.raises(ValueError, match=r"effort_limits\['r_knee'\] = nan N·m: must be finite and > 0"):
