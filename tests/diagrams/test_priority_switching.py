@@ -33,7 +33,7 @@ def test_the_task_with_priority_has_the_smaller_steady_error(switched):
     assert before["taskLH"] < 0.5 * before["taskHead"]
     assert after["taskHead"] < 0.5 * after["taskLH"]
     assert before["taskHead"] > 0.01  # a real conflict: the head had to give way by centimetres
-    assert np.all(arrays["status"] == 0)  # the QP was feasible throughout
+    assert np.all(arrays["status"] == 0)  # optimal throughout, no task short of its wrench
 
 
 def test_alphas_follow_the_smooth_profile(switched):
