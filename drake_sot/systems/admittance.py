@@ -1,4 +1,5 @@
-"""``AdmittanceController``: the force task's reference for one hand (Mansard et al. 2009, IV-C, Evrard et al. 2009, III-B).
+"""``AdmittanceController``: the force task's reference for one hand (Mansard et al.
+2009, IV-C; Evrard et al. 2009, III-B).
 
 The hand's wrist force/torque sensor measures what the wrist applies on the hand;
 after removing the hand's own weight, what is left is the wrench the world (a human
