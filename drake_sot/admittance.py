@@ -109,28 +109,6 @@ class MassDamperSpring:
         v_next = phi[:, 1, 0] * y + phi[:, 1, 1] * v + gamma[:, 1] * f
         return y_next + r, v_next
 
-    def steady_velocity(self, f: np.ndarray) -> np.ndarray:
-        """Velocity (n,) reached under a constant force ``f`` (n,): f / B where K = 0,
-        0 where K > 0 (a spring comes to rest), ±inf where K = B = 0 (0 if f = 0 there)."""
-        f = vector("f", f, self.n)
-        out = np.zeros(self.n)
-        drift = self.stiffness == 0.0
-        damped = drift & (self.damping > 0.0)
-        out[damped] = f[damped] / self.damping[damped]
-        free = drift & ~damped
-        out[free] = np.where(f[free] != 0.0, np.copysign(np.inf, f[free]), 0.0)
-        return out
-
-    def equilibrium(self, f: np.ndarray, rest: np.ndarray | None = None) -> np.ndarray:
-        """Position (n,) where a constant force ``f`` is balanced by the spring:
-        rest + f / K where K > 0; NaN on axes without a spring (no equilibrium)."""
-        f = vector("f", f, self.n)
-        r = np.zeros(self.n) if rest is None else vector("rest", rest, self.n)
-        out = np.full(self.n, np.nan)
-        spring = self.stiffness > 0.0
-        out[spring] = r[spring] + f[spring] / self.stiffness[spring]
-        return out
-
 
 def _square(name: str, value, m: int) -> np.ndarray:
     """An (m, m) matrix from a matrix or from its diagonal (m,)."""

@@ -35,6 +35,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
+from drake_sot.gains import AdaptiveGain
 from drake_sot.models import add_ground, half_sitting_configuration, load_humanoid, make_control_model
 from drake_sot.systems.device import Device
 from drake_sot.systems.features import FeatureGeneric, FeaturePoint6d, FeaturePoint6dRelative
@@ -136,6 +137,16 @@ builder.Connect(featureCom.GetOutputPort("feature"), taskCom.add(featureCom))
 
 # sot.push taskCom
 #   -> a command on the running controller: sot.push(context, "taskCom"), in the simulation below.
+
+# %% [markdown]
+# The SoT's adaptive gain `λ(‖e‖) = a·exp(-b‖e‖) + c` is high near the goal (fast final
+# convergence) and bounded far from it (no violent start). The original software sets it
+# from three numbers: λ at zero error, λ far away, and its slope at zero.
+
+# %%
+adaptive = AdaptiveGain.from_limits(at_zero=4.0, at_infinity=1.0, slope_at_zero=6.0)
+print("adaptive λ at ‖e‖ = 0, 0.1, 1 m:", [round(adaptive(e), 3) for e in (0.0, 0.1, 1.0)])
+# Task("taskCom", gain=adaptive) would use it; taskCom keeps its constant gain here.
 
 # %% [markdown]
 # ## Operational points and the relative feature of the two feet (paper III-B.7)

@@ -159,6 +159,10 @@ def test_first_listed_transition_wins_and_one_transition_per_check():
     rig.run(0.045)  # next check: Timeout(0) fires at once
     assert rig.state == "third" and rig.count == 2
     assert rig.stack == ("a", "b")
+    # The Python accessors agree with the output ports.
+    assert rig.seq.current_state(rig.seq_context) == "third"
+    assert rig.seq.stack(rig.seq_context) == ("a", "b")
+    assert rig.seq.state_names == ("s0", "first", "second", "third")
 
     # Signal threshold is 0.5.
     rig = _Rig(states, guards={"p": 0.5, "q": 0.51})

@@ -70,10 +70,22 @@ def test_adaptive_gain_from_sot_limits():
     assert g(1e9) == pytest.approx(1.0)
     h = 1e-7
     assert (g(h) - g(0.0)) / h == pytest.approx(-6.0, rel=1e-5)
-    with pytest.raises(ValueError, match="gain -1"):
+    with pytest.raises(ValueError, match="task 'bad': gain = -1.0 1/s: must be finite and > 0"):
         Task("bad", gain=-1.0)
-    with pytest.raises(ValueError, match="at_zero"):
+    with pytest.raises(ValueError, match="task 'bad': gain = nan"):
+        Task("bad", gain=float("nan"))
+    with pytest.raises(ValueError, match="at_zero = 1.0: must exceed at_infinity = 2.0"):
         AdaptiveGain.from_limits(1.0, 2.0, 1.0)
+    for args, name in (
+        ((np.nan, 1.0, 1.0), "at_zero"),
+        ((4.0, np.nan, 1.0), "at_infinity"),
+        ((4.0, 1.0, np.nan), "slope_at_zero"),
+        ((4.0, 1.0, -1.0), "slope_at_zero"),
+    ):
+        with pytest.raises(ValueError, match=f"{name} = "):
+            AdaptiveGain.from_limits(*args)
+    with pytest.raises(ValueError, match="AdaptiveGain.b = nan"):
+        AdaptiveGain(1.0, float("nan"), 1.0)
 
 
 def _sot_with_fixed_tasks(rng, dims, stack=()):
