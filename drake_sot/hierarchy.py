@@ -26,7 +26,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg.lapack
@@ -51,15 +52,21 @@ class HierarchyResult:
         qdot: (n,) joint velocity realising the stack.
         rank: per level, the rank of ``J_i Z_{i-1}``: how many task directions
             the level could use in the freedom left by the levels above it.
-        residual: per level, ``||J_i qdot - edot_i||`` (2-norm) for the final qdot.
         free_dims: per level, the dimension of the null space of the augmented
             Jacobian ``(J_1, ..., J_i)`` left for the levels below it.
+        residual: per level, ``||J_i qdot - edot_i||`` (2-norm) for the final qdot,
+            computed when first read (a controller that does not read it does not pay).
     """
 
     qdot: np.ndarray
     rank: tuple[int, ...]
-    residual: tuple[float, ...]
     free_dims: tuple[int, ...]
+    levels: Sequence[tuple[np.ndarray, np.ndarray]] = field(default=(), repr=False)
+
+    @cached_property
+    def residual(self) -> tuple[float, ...]:
+        """Per level, ``||J_i qdot - edot_i||`` for the final qdot."""
+        return tuple(float(np.linalg.norm(J @ self.qdot - edot)) for J, edot in self.levels)
 
 
 def _validate(
@@ -151,9 +158,7 @@ def solve_strict(
     else:
         checked = list(levels)
     if not checked:
-        return HierarchyResult(
-            qdot=np.zeros(0) if qdot0 is None else qdot0.copy(), rank=(), residual=(), free_dims=()
-        )
+        return HierarchyResult(qdot=np.zeros(0) if qdot0 is None else qdot0.copy(), rank=(), free_dims=())
 
     n = checked[0][0].shape[1]
     qdot = np.zeros(n) if qdot0 is None else qdot0.copy()
@@ -181,8 +186,7 @@ def solve_strict(
         ranks.append(split.rank)
         free_dims.append(Z.shape[1])
 
-    residuals = tuple(float(np.linalg.norm(J @ qdot - edot)) for J, edot in checked)
-    return HierarchyResult(qdot=qdot, rank=tuple(ranks), residual=residuals, free_dims=tuple(free_dims))
+    return HierarchyResult(qdot=qdot, rank=tuple(ranks), free_dims=tuple(free_dims), levels=checked)
 
 
 # --------------------------------------------------------------------------------------
@@ -270,9 +274,9 @@ def _unit(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     norms = np.sqrt(np.einsum("ij,ij->i", rows, rows))
     # Squared norms in [1e-280, 1e280] lost nothing that matters (an underflowed square is
     # < 1e-24 of the row's largest one): the common case, one pass.
+    if norms.size and norms.min() > 1e-140 and norms.max() < 1e140:
+        return rows / norms[:, None], np.ones(norms.size, dtype=bool)
     safe = (norms > 1e-140) & (norms < 1e140)
-    if safe.all():
-        return rows / norms[:, None], safe
     peak = np.abs(rows).max(axis=1, initial=0.0)
     nonzero = peak > 0.0  # a zero row (a switched-off component) constrains nothing
     unit = np.zeros_like(rows)
@@ -287,7 +291,8 @@ def _unit_rows(jacobians: Sequence[np.ndarray], stacked: np.ndarray) -> list[np.
     """Per task, its rows scaled to unit length, exactly-zero rows removed: (m'_j, nv) each.
     ``stacked`` is the vertical stack of ``jacobians``."""
     unit, nonzero = _unit(stacked)
-    kept = np.concatenate([[0], np.cumsum(nonzero)])
+    # Row k of the stack is row kept[k] of unit (zero rows removed).
+    kept = range(stacked.shape[0] + 1) if unit.shape[0] == stacked.shape[0] else np.cumsum([0, *nonzero])
     blocks, begin = [], 0
     for J in jacobians:
         end = begin + J.shape[0]

@@ -33,18 +33,11 @@ __all__ = [
     "null_space_basis",
     "pinv",
     "rank",
-    "rank_floor",
     "weighted_pinv",
 ]
 
 
 _EPS = float(np.finfo(float).eps)
-
-
-def rank_floor(shape: tuple[int, int], s_max: float) -> float:
-    """The relative floor ``max(m, n) · eps · s_max`` below which a singular value of a
-    matrix of ``shape`` whose largest singular value is ``s_max`` is rounding noise."""
-    return max(shape) * _EPS * s_max
 
 
 @dataclass(frozen=True)
@@ -79,7 +72,7 @@ class SvdSplit:
         """
         m, k = A.shape
         U, s, Vt = np.linalg.svd(A, full_matrices=m < k)
-        floor = max(rank_threshold, rank_floor(A.shape, float(s[0]))) if s.size else rank_threshold
+        floor = max(rank_threshold, max(m, k) * _EPS * float(s[0])) if s.size else rank_threshold
         return cls(U=U, s=s, Vt=Vt, rank=int(np.count_nonzero(s > floor)))
 
     def _inverse_values(self, damping: float) -> np.ndarray:

@@ -3,6 +3,7 @@ eq. 8-9 and III-B.6)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -233,7 +234,13 @@ class StackOfTasks(LeafSystem):
                     f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, "
                     f"ė* (edot_des) {shapes[2]}; expected ({m},), ({m}, {self._nv}), ({m},)"
                 )
-            if not (np.all(np.isfinite(signal.jacobian)) and np.all(np.isfinite(signal.edot_des))):
+            # One sum is finite when every entry is (a cheap test per tick); only if it is not
+            # (NaN, Inf, or an overflow of large finite values) look entry by entry.
+            with np.errstate(over="ignore"):  # an overflow of the sum is handled just below
+                total = signal.jacobian.sum() + signal.edot_des.sum()
+            if not math.isfinite(total) and not (
+                np.isfinite(signal.jacobian).all() and np.isfinite(signal.edot_des).all()
+            ):
                 raise RuntimeError(
                     f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s"
                 )

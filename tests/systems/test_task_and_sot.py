@@ -287,6 +287,29 @@ def test_edot_of_another_size_than_the_task_is_refused_naming_it(size):
         _tick(sot, context)
 
 
+@pytest.mark.parametrize("where", ["jacobian", "edot_des"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_non_finite_task_signal_is_refused_naming_the_task(where, bad):
+    rng = np.random.default_rng(9)
+    sot, context, signals = _sot_with_fixed_tasks(rng, {"a": 3, "b": 2}, stack=("b", "a"))
+    J, edot = signals["a"].jacobian.copy(), signals["a"].edot_des.copy()
+    (J if where == "jacobian" else edot).flat[1] = bad
+    sot.GetInputPort("a").FixValue(context, TaskSignal("a", signals["a"].error, J, edot))
+    with pytest.raises(RuntimeError, match="task 'a': NaN or Inf in its signal"):
+        _tick(sot, context)
+
+
+def test_huge_finite_task_signals_are_not_mistaken_for_non_finite_ones():
+    """The finiteness test sums the entries first: a sum that overflows must not raise."""
+    sot, context, _ = _sot_with_fixed_tasks(np.random.default_rng(10), {"a": 2}, stack=("a",))
+    J = np.full((2, NV), 1e308)
+    J[1] = 0.0
+    J[1, 0] = 1.0
+    sot.GetInputPort("a").FixValue(context, TaskSignal("a", np.zeros(2), J, np.array([1e308, 1.0])))
+    qdot, _ = _tick(sot, context)
+    assert np.isfinite(qdot).all()
+
+
 def test_a_signal_in_another_tasks_port_is_refused():
     rng = np.random.default_rng(8)
     sot, context, signals = _sot_with_fixed_tasks(rng, {"a": 2, "b": 2}, stack=("a",))
