@@ -470,7 +470,11 @@ def generalized_projector(
 
 
 def generalized_projectors(
-    jacobians: Sequence[np.ndarray], alpha: np.ndarray, *, rank_threshold: float = 1e-9
+    jacobians: Sequence[np.ndarray],
+    alpha: np.ndarray,
+    *,
+    rank_threshold: float = 1e-9,
+    validate: bool = True,
 ) -> np.ndarray:
     """Generalized projectors of all the tasks at once (Liu, Lober, Padois 2016, eq. 8).
 
@@ -483,6 +487,8 @@ def generalized_projectors(
         alpha: (n, n) priority parameters; row i is ``alpha_row`` of task i
             in :func:`generalized_projector`.
         rank_threshold: as in :func:`generalized_projector`.
+        validate: as in :func:`generalized_projector` (a controller whose caller
+            checks the results, as the quasi-static QP does, may skip it every tick).
 
     Returns:
         (n, nv, nv): ``P[i]`` is the projector of task i.
@@ -491,12 +497,15 @@ def generalized_projectors(
         ValueError: as :func:`generalized_projector`, or ``alpha`` not (n, n).
     """
     tol = nonnegative("rank_threshold", rank_threshold)
-    jacobians, stacked = _jacobians(jacobians)
-    a = np.asarray(alpha, dtype=float)
     n = len(jacobians)
-    if a.shape != (n, n):
-        raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
-    _alphas(a, name="alpha", ndim=2)
+    if validate:
+        jacobians, stacked = _jacobians(jacobians)
+        a = np.asarray(alpha, dtype=float)
+        if a.shape != (n, n):
+            raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
+        _alphas(a, name="alpha", ndim=2)
+    else:
+        stacked, a = np.concatenate(jacobians), alpha
     nv = jacobians[0].shape[1]
     blocks = _unit_rows(jacobians, stacked)
     # Tasks with the same α row have the same projector (e.g. both hands' orientation

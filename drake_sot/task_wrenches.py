@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_sot.validation import bounded, positive, vector
+from drake_sot.validation import per_axis, positive, vector
 
 __all__ = ["ForceWrench", "check_gain", "pd_wrench", "pi_force_wrench"]
 
@@ -72,7 +72,7 @@ def check_gain(name: str, gain: Gain, m: int) -> np.ndarray:
 
 def _apply(k: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``K v`` for a checked gain: scalar or vector (diagonal) multiplies, matrix multiplies as a matrix."""
-    return k @ v if np.ndim(k) == 2 else k * v
+    return k @ v if type(k) is np.ndarray and k.ndim == 2 else k * v
 
 
 def pd_wrench(
@@ -129,7 +129,7 @@ def pi_force_wrench(
     kp: Gain,
     ki: Gain,
     *,
-    activity: float = 1.0,
+    activity: float | np.ndarray = 1.0,
     validate: bool = True,
 ) -> ForceWrench:
     """Integrate a force task's error over ``dt`` and return its desired wrench (eq. 3).
@@ -143,7 +143,8 @@ def pi_force_wrench(
         integral: (m,) ``∫ e_w dt`` before this step [wrench·s] (zeros at the start).
         dt: time step [s], finite and > 0.
         kp, ki: gains as in :func:`pd_wrench`.
-        activity: in [0, 1], how much the task acts this step (``1 − α_ii``).
+        activity: in [0, 1], how much the task acts this step (``1 − α_ii``); a scalar, or
+            (m,) per row (several tasks stacked in one call).
         validate: as in :func:`pd_wrench` (also checks ``integral``, ``dt``, ``activity``).
 
     Raises:
@@ -156,8 +157,10 @@ def pi_force_wrench(
         w_measured = vector("w_measured", w_measured, m)
         integral = vector("integral", integral, m)
         dt = positive("dt", dt, unit="s")
-        activity = bounded("activity", activity, 0.0, 1.0)
+        activity = per_axis("activity", activity, m)
+        if not ((activity >= 0.0) & (activity <= 1.0)).all():
+            raise ValueError(f"activity = {activity}: every value must be in [0, 1]")
         kp, ki = check_gain("kp", kp, m), check_gain("ki", ki, m)
     e_w = w_measured - w_des
-    integral = integral + (activity * dt) * e_w
+    integral = integral + activity * dt * e_w
     return ForceWrench(wrench=w_des - _apply(kp, e_w) - _apply(ki, integral), error=e_w, integral=integral)

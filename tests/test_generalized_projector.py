@@ -374,6 +374,8 @@ def test_batch_equals_one_by_one(js: tuple[list[np.ndarray], int], data: st.Data
     alpha = np.vstack([data.draw(alpha_values(n)) for _ in range(n)])
     batch = generalized_projectors(jacobians, alpha)
     assert batch.shape == (n, nv, nv)
+    # Checked input: skipping the checks changes nothing.
+    np.testing.assert_array_equal(generalized_projectors(jacobians, alpha, validate=False), batch)
     for i in range(n):
         np.testing.assert_allclose(batch[i], generalized_projector(jacobians, alpha[i]), atol=1e-12)
 

@@ -110,6 +110,9 @@ def test_anti_windup_integrates_in_proportion_to_the_activity() -> None:
         for _ in range(10):
             integral = pi_force_wrench(np.zeros(2), e, integral, 0.01, 0.0, 1.0, activity=activity).integral
         np.testing.assert_allclose(integral, expected)  # 10 steps of activity · e · 0.01
+    # Per row: two tasks stacked in one call, one off and one on.
+    step = pi_force_wrench(np.zeros(2), e, np.zeros(2), 0.01, 0.0, 1.0, activity=[0.0, 1.0])
+    np.testing.assert_allclose(step.integral, [0.0, -0.02])
 
 
 def test_pi_step_validation() -> None:
@@ -119,10 +122,12 @@ def test_pi_step_validation() -> None:
         pi_force_wrench([np.nan, 0.0], np.zeros(2), np.zeros(2), 0.1, 1.0, 1.0)
     with pytest.raises(ValueError, match=r"dt = 0.0 s: must be finite and > 0"):
         pi_force_wrench(np.zeros(2), np.zeros(2), np.zeros(2), 0.0, 1.0, 1.0)
-    with pytest.raises(ValueError, match=r"activity = 1.5: must be in \[0, 1\]"):
+    with pytest.raises(ValueError, match=r"activity = \[1.5 1.5\]: every value must be in \[0, 1\]"):
         pi_force_wrench(np.zeros(2), np.zeros(2), np.zeros(2), 0.1, 1.0, 1.0, activity=1.5)
-    with pytest.raises(ValueError, match=r"activity = nan"):
+    with pytest.raises(ValueError, match=r"activity = \[nan nan\]"):
         pi_force_wrench(np.zeros(2), np.zeros(2), np.zeros(2), 0.1, 1.0, 1.0, activity=np.nan)
+    with pytest.raises(ValueError, match=r"activity must be a scalar or 2 values, got 3"):
+        pi_force_wrench(np.zeros(2), np.zeros(2), np.zeros(2), 0.1, 1.0, 1.0, activity=[1.0, 1.0, 1.0])
     with pytest.raises(ValueError, match=r"ki = -1.0: must be >= 0"):
         pi_force_wrench(np.zeros(2), np.zeros(2), np.zeros(2), 0.1, 1.0, -1.0)
     with pytest.raises(ValueError, match=r"integral must have shape \(2,\)"):

@@ -468,7 +468,9 @@ class GeneralizedHierarchyController(LeafSystem):
             )
             for t in self._force
         ]
-        self._force_slices = list(self._slices.values())[len(self._motion) :]
+        force_dims = self._dims[len(self._motion) :]
+        self._kp_force = np.repeat([t.kp for t in self._force], force_dims)
+        self._ki_force = np.repeat([t.ki for t in self._force], force_dims)
         m_total = sum(self._dims)
         n_contact = len(self._contact_points)
         self._x = {
@@ -596,33 +598,33 @@ class GeneralizedHierarchyController(LeafSystem):
                 J_motion, self._motion_slices, M, a, self._motion_blocks, self._rank_threshold
             )
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
-        offset = 0
-        for k, (t, sl, (des_port, meas_port)) in enumerate(
-            zip(self._force, self._force_slices, self._force_ports, strict=True)
-        ):
-            m = t.task.dimension
-            w_star, w_meas = des_port.Eval(context), meas_port.Eval(context)
+        if self._force:
+            # eq. 3 for all force tasks at once; the integral advances by 1 − α_ii (no wind-up off).
+            w_star = np.concatenate([port.Eval(context) for port, _ in self._force_ports])
+            w_meas = np.concatenate([port.Eval(context) for _, port in self._force_ports])
             if not math.isfinite(w_star.sum() + w_meas.sum()):
-                name = t.task.get_name()
-                raise ValueError(
-                    f"force task {name!r}: {name}_desired or {name}_measured contains NaN or Inf"
-                )
-            i = len(self._motion) + k
+                self._raise_nonfinite_force(context)
+            n_motion = len(self._motion)
+            activity = np.repeat(1.0 - alpha.diagonal()[n_motion:], self._dims[n_motion:])
             step = pi_force_wrench(
                 w_star,
                 w_meas,
-                integral[offset : offset + m],
+                integral,
                 self._period,
-                t.kp,
-                t.ki,
-                activity=1.0 - alpha[i, i],
+                self._kp_force,
+                self._ki_force,
+                activity=activity,
                 validate=False,
             )
-            integral[offset : offset + m] = step.integral
-            desired[sl] = step.wrench
-            errors[sl] = step.error
-            offset += m
-        projectors = [None] * len(self._names) if self._weighted else generalized_projectors(jacobians, alpha)
+            integral = step.integral
+            desired[self._motion_rows :] = step.wrench
+            errors[self._motion_rows :] = step.error
+        # The QP checks every projected Jacobian for NaN and names the task: no second check here.
+        projectors = (
+            [None] * len(self._names)
+            if self._weighted
+            else generalized_projectors(jacobians, alpha, validate=False)
+        )
         tasks = [
             QsTask(name, J, desired=desired[sl], weight=self._weights.get(name, 1.0), projector=P)
             for (name, sl), J, P in zip(self._slices.items(), jacobians, projectors, strict=True)
@@ -645,9 +647,8 @@ class GeneralizedHierarchyController(LeafSystem):
                 if self._contacts
                 else np.zeros(0)
             )
-            gap = np.sqrt(np.add.reduceat((wrenches - desired) ** 2, self._starts))
-            need = np.sqrt(np.add.reduceat(desired**2, self._starts))
-            shortfall = gap / np.maximum(need, self._floor)
+            gap2, need2 = np.add.reduceat(np.square([wrenches - desired, desired]), self._starts, axis=1)
+            shortfall = np.sqrt(gap2 / np.maximum(need2, self._floor**2))
             status = STATUS_SHORT if (shortfall > self._threshold).any() else STATUS_OPTIMAL
         else:
             wanted = self._fallback(q, v, g, contact_jacobians)
@@ -687,6 +688,11 @@ class GeneralizedHierarchyController(LeafSystem):
             tokens.append(f"fallback:{STATUS_NAMES[status]}")
         tokens += [f"saturated:{j}" for j, cut in zip(self._actuated, saturation, strict=True) if cut]
         value.set_value(tuple(tokens))
+
+    def _raise_nonfinite_force(self, context: Context) -> None:
+        for port in (p for pair in self._force_ports for p in pair):
+            if not np.isfinite(port.Eval(context)).all():
+                raise ValueError(f"{self.get_name()!r}: input {port.get_name()!r} contains NaN or Inf")
 
     def _calc_report(self, context: Context, value: AbstractValue) -> None:
         get = {name: context.get_discrete_state(index).get_value() for name, index in self._x.items()}

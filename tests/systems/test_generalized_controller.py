@@ -435,3 +435,11 @@ def test_priorities_of_another_type_are_refused():
     diagram.GetInputPort("priorities").FixValue(context, ("taskLH", "taskPosture"))
     with pytest.raises(TypeError, match=r"input port 'priorities' carries a tuple, not a .*Priorities"):
         _tick(controller, diagram, context)
+
+
+def test_a_nan_force_reading_is_refused_with_the_port_name():
+    _, _, _, controller, diagram, context = _controller(fixed_base=True, force=(0.5, 4.0))
+    diagram.GetInputPort("taskLHF_desired").FixValue(context, [-30.0])
+    diagram.GetInputPort("taskLHF_measured").FixValue(context, [np.nan])
+    with pytest.raises(ValueError, match=r"input 'taskLHF_measured' contains NaN or Inf"):
+        _tick(controller, diagram, context)
