@@ -31,7 +31,7 @@ from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.systems.stack_history import StackHistory
 from drake_sot.validation import positive
 
-#: The controller outputs every torque-level build logs (``shortfall/<task>`` besides).
+#: The controller outputs every torque-level build logs.
 CONTROLLER_LOGS = (
     "errors",
     "wrenches",
@@ -49,11 +49,13 @@ class HumanoidTorqueControl(BuiltHumanoid):
     """The generalized hierarchical controller around a torque-controlled humanoid.
 
     Its logs (``loggers``, and the run's npz) hold every output of the controller listed in
-    :data:`CONTROLLER_LOGS` — ``status`` per tick (0 optimal, 1 short, 2 infeasible, 3
-    failed), ``shortfall`` and ``saturation`` — plus ``shortfall/<task>``, one (1,) log per
-    goal task by name. ``stack_history`` records the controller's ``stack``: the active
-    goal tasks by priority, then ``short:<task>``, ``fallback:<why>`` and
-    ``saturated:<joint>`` while they hold, so the run's plot marks when a task fell short.
+    :data:`CONTROLLER_LOGS`: ``status`` per tick (0 optimal, 1 short, 2 infeasible, 3
+    failed), ``shortfall`` (one column per goal task, in ``controller.task_names`` order,
+    the order of ``error_slices()``) and ``saturation`` (one column per actuated joint, in
+    ``controller.actuated_joints`` order). ``stack_history`` records the controller's
+    ``stack`` by name: the active goal tasks by priority, then ``short:<task>``,
+    ``fallback:<why>`` and ``saturated:<joint>`` while they hold; the npz carries it as
+    ``stack``/``stack_time`` and the run's plot marks each change.
     """
 
     controller: GeneralizedHierarchyController | None = None
@@ -166,9 +168,7 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
                     f"the priority schedule {schedule.get_name()!r} names unknown task(s) {extra} and "
                     f"has no priority for {missing}; known tasks: {', '.join(controller.task_names)}"
                 )
-        taken = sorted(
-            set(self._extra_logs) & {*CONTROLLER_LOGS, *(f"shortfall/{n}" for n in controller.task_names)}
-        )
+        taken = sorted(set(self._extra_logs) & set(CONTROLLER_LOGS))
         if taken:
             raise ValueError(f"log name(s) {taken} are the controller's; log() them under another name")
         b.AddSystem(controller)
@@ -189,19 +189,10 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
         b.Connect(state, split.get_input_port())
         for port in self._q_consumers:
             b.Connect(split.get_output_port(0), port)
-        per_task = b.AddSystem(Demultiplexer(len(controller.task_names)))
-        per_task.set_name("shortfall_per_task")
-        b.Connect(controller.GetOutputPort("shortfall"), per_task.get_input_port())
         history = b.AddSystem(StackHistory(period=self.control_period, name="torque_stack_history"))
         b.Connect(controller.GetOutputPort("stack"), history.GetInputPort("stack"))
         diagram, loggers, visualizer = self._finish(
-            {
-                **{name: controller.GetOutputPort(name) for name in CONTROLLER_LOGS},
-                **{
-                    f"shortfall/{name}": per_task.get_output_port(k)
-                    for k, name in enumerate(controller.task_names)
-                },
-            },
+            {name: controller.GetOutputPort(name) for name in CONTROLLER_LOGS},
             log_period,
         )
         return HumanoidTorqueControl(
