@@ -46,3 +46,11 @@ def test_joint_limits_task_refuses_a_margin_wider_than_a_joint_range():
     b = HumanoidSoTBuilder()
     with pytest.raises(ValueError, match="margin = 2.0: must leave room"):
         b.add_joint_limits_task("taskJL", margin=2.0)
+
+
+@pytest.mark.parametrize("builder", [HumanoidSoTBuilder, TorqueHumanoidBuilder])
+@pytest.mark.parametrize("name", ["state", "errors", "status", "shortfall", "saturation"])
+def test_a_log_cannot_take_the_name_of_a_builder_log(builder, name):
+    b = builder()
+    with pytest.raises(ValueError, match=f"a log named {name!r} exists already"):
+        b.log(name, b.dyn.GetOutputPort("com"))

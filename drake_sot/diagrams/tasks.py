@@ -39,8 +39,20 @@ from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive
 
-#: Names of the logs every builder writes; :meth:`HumanoidTaskBuilder.log` refuses them.
-RESERVED_LOGS = ("state", "q_ref", "errors", "wrenches", "tau", "status", "contact_forces")
+#: Names of the logs the builders write (the plant state, the kinematic SoT's reference
+#: and errors, the torque controller's outputs); :meth:`HumanoidTaskBuilder.log` refuses them.
+RESERVED_LOGS = (
+    "state",
+    "q_ref",
+    "errors",
+    "wrenches",
+    "desired_wrenches",
+    "tau",
+    "status",
+    "shortfall",
+    "saturation",
+    "contact_forces",
+)
 
 
 class HumanoidTaskBuilder:

@@ -168,9 +168,6 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
                     f"the priority schedule {schedule.get_name()!r} names unknown task(s) {extra} and "
                     f"has no priority for {missing}; known tasks: {', '.join(controller.task_names)}"
                 )
-        taken = sorted(set(self._extra_logs) & set(CONTROLLER_LOGS))
-        if taken:
-            raise ValueError(f"log name(s) {taken} are the controller's; log() them under another name")
         b.AddSystem(controller)
         for name in controller.task_names:
             b.Connect(self.tasks[name].GetOutputPort("task"), controller.GetInputPort(name))

@@ -30,7 +30,8 @@ class BuiltHumanoid:
 
     ``error_layout`` says where each task's error lies in the logged ``errors`` (task
     name → slice), as the controller that produced them declares it; ``stack_history``
-    is the recorded stack when the controller has one (the kinematic SoT).
+    records the controller's ``stack`` output by name (the kinematic SoT's stack; the
+    torque controller's active tasks and what is short, saturated or in fallback).
     """
 
     diagram: Diagram
