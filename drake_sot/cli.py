@@ -158,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as exc:  # before the simulation, or held while its artefacts were written
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
         if study:
-            when = ""
+            when = f": the runs done (and which, 'done') are in {args.out}"
         elif progress.started:
             when = f" while the artefacts were written: they all were, in {args.out}"
         else:

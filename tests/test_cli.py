@@ -254,3 +254,28 @@ def test_signal_guard_leaves_an_ignored_signal_ignored():
             assert signal.getsignal(signal.SIGTERM) == signal.SIG_IGN
     finally:
         signal.signal(signal.SIGTERM, before)
+
+
+def test_sigterm_on_a_study_stops_it_and_writes_the_runs_done(tmp_path):
+    """A study's SIGTERM cancels the runs not started, terminates the workers and writes what
+    was done, at once (it used to wait for every queued run, then write nothing)."""
+    proc = subprocess.Popen(
+        [*DRAKE_SOT, "run", "alpha_sweep", "--duration", "0.3", "--workers", "1", "--out", str(tmp_path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL),
+    )
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if " runs, " in line:  # the first progress line: one run is done
+            proc.send_signal(signal.SIGTERM)
+            break
+    _, rest = proc.communicate(timeout=120)
+    err = "".join(seen) + rest
+    assert proc.returncode == 143, err
+    assert "interrupted by SIGTERM" in err
+    done = np.load(tmp_path / "alpha_sweep.npz")["done"]
+    assert 1 <= done.sum() < done.size
+    assert matplotlib.image.imread(tmp_path / "alpha_sweep.png").ndim == 3

@@ -8,9 +8,9 @@ points run in parallel worker processes.
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,8 +18,10 @@ import numpy as np
 
 from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams.alpha_sweep_plots import plot_alpha_sweep
-from drake_sot.diagrams.run import simulate
+from drake_sot.diagrams.artifacts import output_directory, write_npz
+from drake_sot.diagrams.run import Interrupted, SignalGuard, simulate
 from drake_sot.transitions import AlphaSchedule
+from drake_sot.validation import positive, positive_int
 
 GRID = tuple(np.round(np.linspace(0.0, 1.0, 6), 3))  # {0, 0.2, ..., 1}
 SETTLE = 4.0  # [s] simulated per point; errors averaged over the last second
@@ -67,28 +69,57 @@ def run(
     workers: int = 2,
     progress: Callable[[float, float, float], None] | None = None,
 ) -> dict[str, Path]:
-    """Run the sweep in ``workers`` processes; write ``alpha_sweep.npz`` and ``alpha_sweep.png``."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    """Run the sweep in ``workers`` processes; write ``alpha_sweep.npz`` and ``alpha_sweep.png``.
+
+    Ctrl-C or SIGTERM stops the sweep: the points not yet done are cancelled (their errors
+    stay NaN, and ``done`` in the npz says which were), the workers are terminated, both
+    files are written (a further signal waits for them), then the signal is raised again as
+    :class:`~drake_sot.diagrams.run.Interrupted` for the caller (the command exits 130/143).
+    """
+    duration = positive("duration", duration, unit="s")
+    workers = positive_int("workers", workers)
+    out = output_directory(out_dir)
     points = [(a, b, duration) for a in grid for b in grid]
     head = np.full((len(grid), len(grid)), np.nan)
     lh = np.full_like(head, np.nan)
     index = {value: k for k, value in enumerate(grid)}
     start = time.perf_counter()
-    # spawn, not fork: the caller may already run Drake or Meshcat threads.
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = [pool.submit(_point, p) for p in points]
-        for done, future in enumerate(as_completed(futures), start=1):
-            a, b, e_head, e_lh = future.result()
-            head[index[a], index[b]], lh[index[a], index[b]] = e_head, e_lh
-            if progress:
-                progress(done, len(points), time.perf_counter() - start)
-    files = {"npz": out / "alpha_sweep.npz", "png": out / "alpha_sweep.png"}
-    np.savez_compressed(
-        files["npz"], alpha_lh_head=np.array(grid), alpha_head_lh=np.array(grid), head_error=head, lh_error=lh
-    )
-    plot_alpha_sweep(np.array(grid), head, lh, files["png"])
+    stopped: Interrupted | None = None
+    with SignalGuard() as guard:
+        # spawn, not fork: the caller may already run Drake or Meshcat threads. The workers
+        # ignore SIGINT (a terminal sends it to the whole group): this process decides.
+        pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
+        try:
+            for done, (a, b, e_head, e_lh) in enumerate(pool.imap_unordered(_point, points), start=1):
+                head[index[a], index[b]], lh[index[a], index[b]] = e_head, e_lh
+                if progress:
+                    progress(done, len(points), time.perf_counter() - start)
+            pool.close()
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (SignalGuard raises Interrupted)
+            stopped = exc if isinstance(exc, Interrupted) else Interrupted(signal.SIGINT)
+            pool.terminate()
+        finally:
+            guard.hold()
+            pool.join()
+        files = {"npz": out / "alpha_sweep.npz", "png": out / "alpha_sweep.png"}
+        write_npz(
+            {
+                "alpha_lh_head": np.array(grid),
+                "alpha_head_lh": np.array(grid),
+                "head_error": head,
+                "lh_error": lh,
+                "done": np.isfinite(head) & np.isfinite(lh),
+            },
+            files["npz"],
+        )
+        plot_alpha_sweep(np.array(grid), head, lh, files["png"])
+    if stopped is not None:
+        raise stopped
     return files
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 STUDY = Study(
