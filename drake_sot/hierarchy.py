@@ -33,7 +33,7 @@ import numpy as np
 import scipy.linalg.lapack
 
 from drake_sot.linalg import SvdSplit
-from drake_sot.validation import nonnegative
+from drake_sot.validation import nonnegative, positive_int
 
 __all__ = [
     "HierarchyResult",
@@ -236,10 +236,8 @@ def priority_matrix(alpha_row: Sequence[float] | np.ndarray, dims: Sequence[int]
         raise ValueError(
             f"dims has shape {d.shape} but alpha_row has shape {a.shape}; one dimension per task"
         )
-    for j, m in enumerate(dims):
-        if isinstance(m, bool) or int(m) != m or m < 0:
-            raise ValueError(f"dims[{j}] = {m!r}: a task dimension must be an integer >= 0")
-    return np.diag(np.repeat(a, d.astype(int)))
+    sizes = [positive_int(f"dims[{j}] (a task dimension)", m, minimum=0) for j, m in enumerate(dims)]
+    return np.diag(np.repeat(a, sizes))
 
 
 def _jacobians(jacobians: Sequence[np.ndarray]) -> tuple[list[np.ndarray], np.ndarray]:

@@ -397,8 +397,9 @@ def test_priority_matrix_is_block_diagonal_alpha_times_identity() -> None:
         ([0.5, 1.2], [1, 1], r"alpha_row\[1\] = 1.2"),
         ([np.nan], [1], r"alpha_row\[0\] = nan"),
         ([0.5], [1, 2], r"dims has shape \(2,\) but alpha_row has shape \(1,\)"),
-        ([0.5, 0.5], [1, -1], r"dims\[1\] = -1"),
-        ([0.5, 0.5], [1, 1.5], r"dims\[1\] = 1.5"),
+        ([0.5, 0.5], [1, -1], r"dims\[1\] \(a task dimension\) = -1: must be an integer >= 0"),
+        ([0.5, 0.5], [1, 1.5], r"dims\[1\] \(a task dimension\) = 1.5"),
+        ([0.5, 0.5], [1, np.nan], r"dims\[1\] \(a task dimension\) = nan"),
     ],
 )
 def test_priority_matrix_validation(alpha, dims, match: str) -> None:
