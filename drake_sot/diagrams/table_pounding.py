@@ -235,15 +235,6 @@ def _script(built, schedule, X, transition: float) -> list[Command]:
     return commands
 
 
-def contact_windows(settle: float = 1.0) -> dict[str, tuple[float, float]]:
-    """For each hand, the last part of its contact phase, where the force should have settled [s]."""
-    out = {}
-    for phase, after in zip(PHASES, PHASES[1:], strict=False):
-        if phase.name.endswith("contact"):
-            out[phase.hand] = (after.start - settle, after.start)
-    return out
-
-
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """Figures 4-7: α, desired and real hand forces, CoM and hand position errors, τᵀτ."""
     names = setup.extras["schedule"].task_names  # the order of the logged alpha

@@ -51,9 +51,9 @@ def test_balance_without_foot_slip(runs, transition):
 def test_each_press_reaches_30_newtons(runs):
     output = runs[0.6]
     t, force = output.arrays["time"], output.arrays["table_force"][:, 0]
-    for hand, (start, end) in tp.contact_windows(settle=1.0).items():
-        window = (t >= start) & (t < end)
-        assert np.all(np.abs(force[window] - tp.FORCE) < 3.0), f"{hand} hand force outside 30 ± 3 N"
+    for phase, after in _contact_phases():  # the last second of each contact phase: settled
+        window = (t >= after.start - 1.0) & (t < after.start)
+        assert np.all(np.abs(force[window] - tp.FORCE) < 3.0), f"{phase.hand} hand force outside 30 ± 3 N"
     idle = t < tp.PHASES[1].start
     assert np.all(np.abs(force[idle]) < 0.5)  # nothing presses the table before reaching
 
