@@ -54,3 +54,12 @@ def test_a_log_cannot_take_the_name_of_a_builder_log(builder, name):
     b = builder()
     with pytest.raises(ValueError, match=f"a log named {name!r} exists already"):
         b.log(name, b.dyn.GetOutputPort("com"))
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -0.1])
+def test_table_pounding_refuses_a_bad_transition_from_python(value):
+    """The command line refuses it at parse time; a Python caller gets the same check."""
+    from drake_sot.diagrams import table_pounding
+
+    with pytest.raises(ValueError, match="transition = "):
+        table_pounding.build(None, transition=value)

@@ -32,6 +32,7 @@ from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import HumanoidInfo
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
+from drake_sot.validation import nonnegative
 
 STIFFNESS, DAMPING = 2000.0, 89.0  # [N/m], [N·s/m] (the paper's table)
 FORCE = 30.0  # [N] to press on the table
@@ -158,7 +159,9 @@ def initial_alpha() -> np.ndarray:
 
 
 def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
-    """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]."""
+    """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]
+    (finite, >= 0; ValueError naming it otherwise, before anything is built)."""
+    transition = nonnegative("transition", transition, unit="s")
     b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table)
     X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
     b.add_com_task("taskCom", selection="110")
