@@ -35,24 +35,14 @@ from drake_sot.systems.features import (
     _Feature,
 )
 from drake_sot.systems.force_sensor import ForceSensor, payload
+from drake_sot.systems.generalized_controller import VECTOR_OUTPUTS
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive
 
 #: Names of the logs the builders write (the plant state, the kinematic SoT's reference
 #: and errors, the torque controller's outputs); :meth:`HumanoidTaskBuilder.log` refuses them.
-RESERVED_LOGS = (
-    "state",
-    "q_ref",
-    "errors",
-    "wrenches",
-    "desired_wrenches",
-    "tau",
-    "status",
-    "shortfall",
-    "saturation",
-    "contact_forces",
-)
+RESERVED_LOGS = ("state", "q_ref", *VECTOR_OUTPUTS)
 
 
 class HumanoidTaskBuilder:

@@ -22,6 +22,7 @@ from drake_sot.diagrams.world import BuiltHumanoid
 from drake_sot.models import sole_corner_points
 from drake_sot.systems.generalized_controller import (
     SHORTFALL_THRESHOLD,
+    VECTOR_OUTPUTS,
     ContactPoints,
     ForceTask,
     GeneralizedHierarchyController,
@@ -31,31 +32,19 @@ from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.systems.stack_history import StackHistory
 from drake_sot.validation import positive
 
-#: The controller outputs every torque-level build logs.
-CONTROLLER_LOGS = (
-    "errors",
-    "wrenches",
-    "desired_wrenches",
-    "tau",
-    "status",
-    "shortfall",
-    "saturation",
-    "contact_forces",
-)
-
 
 @dataclass
 class HumanoidTorqueControl(BuiltHumanoid):
     """The generalized hierarchical controller around a torque-controlled humanoid.
 
-    Its logs (``loggers``, and the run's npz) hold every output of the controller listed in
-    :data:`CONTROLLER_LOGS`: ``status`` per tick (0 optimal, 1 short, 2 infeasible, 3
-    failed), ``shortfall`` (one column per goal task, in ``controller.task_names`` order,
-    the order of ``error_slices()``) and ``saturation`` (one column per actuated joint, in
-    ``controller.actuated_joints`` order). ``stack_history`` records the controller's
-    ``stack`` by name: the active goal tasks by priority, then ``short:<task>``,
-    ``fallback:<why>`` and ``saturated:<joint>`` while they hold; the npz carries it as
-    ``stack``/``stack_time`` and the run's plot marks each change.
+    Its logs (``loggers``, and the run's npz) hold every vector output of the controller
+    (:data:`~drake_sot.systems.generalized_controller.VECTOR_OUTPUTS`): ``status`` per tick
+    (0 optimal, 1 short, 2 infeasible, 3 failed), ``shortfall`` (one column per goal task,
+    in ``controller.task_names`` order, the order of ``error_slices()``) and ``saturation``
+    (one column per actuated joint, in ``controller.actuated_joints`` order).
+    ``stack_history`` records the controller's ``stack`` by name: the active goal tasks by
+    priority, then ``short:<task>``, ``fallback:<why>`` and ``saturated:<joint>`` while they
+    hold; the npz carries it as ``stack``/``stack_time`` and the run's plot marks each change.
     """
 
     controller: GeneralizedHierarchyController | None = None
@@ -189,7 +178,7 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
         history = b.AddSystem(StackHistory(period=self.control_period, name="torque_stack_history"))
         b.Connect(controller.GetOutputPort("stack"), history.GetInputPort("stack"))
         diagram, loggers, visualizer = self._finish(
-            {name: controller.GetOutputPort(name) for name in CONTROLLER_LOGS},
+            {name: controller.GetOutputPort(name) for name in VECTOR_OUTPUTS},
             log_period,
         )
         return HumanoidTorqueControl(

@@ -64,6 +64,17 @@ from drake_sot.transitions import Priorities
 from drake_sot.validation import matrix, nonnegative, per_axis, positive, positive_int, vector
 
 #: ``status`` output values (see the module docstring).
+#: The controller's vector output ports (held in its discrete state), in declaration order.
+VECTOR_OUTPUTS = (
+    "tau",
+    "wrenches",
+    "desired_wrenches",
+    "errors",
+    "shortfall",
+    "contact_forces",
+    "status",
+    "saturation",
+)
 STATUS_OPTIMAL, STATUS_SHORT, STATUS_INFEASIBLE, STATUS_FAILED = 0.0, 1.0, 2.0, 3.0
 #: ``status`` value → the name the report uses.
 STATUS_NAMES = {
@@ -473,19 +484,17 @@ class GeneralizedHierarchyController(LeafSystem):
         self._ki_force = np.repeat([t.ki for t in self._force], force_dims)
         m_total = sum(self._dims)
         n_contact = len(self._contact_points)
-        self._x = {
-            name: self.DeclareDiscreteState(size)
-            for name, size in (
-                ("tau", na),
-                ("wrenches", m_total),
-                ("desired_wrenches", m_total),
-                ("errors", m_total),
-                ("shortfall", n_t),
-                ("contact_forces", 3 * n_contact),
-                ("status", 1),
-                ("saturation", na),
-            )
+        sizes = {
+            "tau": na,
+            "wrenches": m_total,
+            "desired_wrenches": m_total,
+            "errors": m_total,
+            "shortfall": n_t,
+            "contact_forces": 3 * n_contact,
+            "status": 1,
+            "saturation": na,
         }
+        self._x = {name: self.DeclareDiscreteState(sizes[name]) for name in VECTOR_OUTPUTS}
         self._x_integral = self.DeclareDiscreteState(max(sum(t.task.dimension for t in self._force), 1))
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         for port_name, index in self._x.items():
