@@ -21,6 +21,17 @@ The commands also exist as data (:class:`Push`, :class:`Pop`, :class:`Rm`, :clas
 :class:`Down`, :class:`Clear`, applied with :meth:`Stack.apply`), so that a state machine
 or a script can hold them before they run.
 
+Smooth changes. A command is instantaneous: the control law jumps from the solution of
+one stack to the solution of the next. A stack can instead be *reached* from the one
+before over a transition time T (:meth:`Stack.transition_from`): it then carries a
+:class:`Transition` (the stack it comes from, the start time, T), and
+:meth:`Stack.blend` says, at any time t, which stacks the control law combines and with
+which weights — the stack left with ``1 - h(t)``, the stack reached with ``h(t)``, where
+``h`` is the raised-cosine profile of Liu, Lober, Padois 2016, eq. 12
+(:func:`drake_sot.transitions.smooth_step`). What the solver does with them is
+``StackOfTasks``'s (the continuous inverse of Mansard, Remazeilles, Chaumette 2009); this
+module only keeps the names and the times.
+
 Example::
 
     s = Stack(("taskTwofeet", "taskCom", "taskRH", "taskPosture"))
@@ -35,6 +46,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 from drake_sot import validation
+from drake_sot.transitions import smooth_step
 
 __all__ = [
     "COMMANDS",
@@ -46,6 +58,7 @@ __all__ = [
     "Rm",
     "Stack",
     "StackError",
+    "Transition",
     "UnknownTaskError",
     "Up",
     "task_names",
@@ -178,6 +191,40 @@ COMMANDS = (Push, Pop, Rm, Up, Down, Clear)
 
 
 @dataclass(frozen=True)
+class Transition:
+    """A change of the stack in progress: the control law moves from the solution of
+    ``origin`` to that of the stack holding this transition over
+    ``[start, start + duration]``.
+
+    Attributes:
+        origin: the stack the change started from (it may itself be in a transition:
+            changes that overlap in time nest).
+        start: when the change started [s], finite.
+        duration: how long it lasts [s], finite and > 0.
+
+    Raises:
+        ValueError: ``start`` not finite or ``duration`` not finite and > 0 (named).
+        TypeError: ``origin`` is not a :class:`Stack`.
+    """
+
+    origin: Stack
+    start: float
+    duration: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.origin, Stack):
+            raise TypeError(f"Transition.origin must be a Stack, got {type(self.origin).__name__}")
+        object.__setattr__(self, "start", validation.finite("Transition.start", self.start))
+        object.__setattr__(
+            self, "duration", validation.positive("Transition.duration", self.duration, unit="s")
+        )
+
+    def progress(self, t: float) -> float:
+        """``h(t)`` in [0, 1]: 0 until ``start``, 1 from ``start + duration`` (eq. 12's profile)."""
+        return smooth_step(t, self.start, self.start + self.duration)
+
+
+@dataclass(frozen=True)
 class Stack:
     """The hierarchy: the known tasks and the active ones in priority order.
 
@@ -186,6 +233,9 @@ class Stack:
             distinct, non-empty strings.
         active: the active tasks, highest priority first (index 0); distinct, each
             one of ``tasks``.
+        transition: None for a stack in force, or the change in progress that leads to
+            it from another stack of the same known tasks (see :meth:`transition_from`).
+            The commands return stacks without one: a command is instantaneous.
 
     Iterating over a stack, ``len`` and ``in`` see the active tasks. Instances are
     immutable and hashable; two stacks are equal when both fields are.
@@ -199,16 +249,26 @@ class Stack:
 
     tasks: tuple[str, ...]
     active: tuple[str, ...] = ()
+    transition: Transition | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tasks", task_names(self.tasks, what="tasks"))
         object.__setattr__(self, "active", self._checked_active(self.active))
+        if self.transition is not None:
+            if not isinstance(self.transition, Transition):
+                raise StackError(f"transition must be a Transition or None, got {self.transition!r}")
+            if self.transition.origin.tasks != self.tasks:
+                raise StackError(
+                    f"the transition comes from a stack of other known tasks "
+                    f"({self.transition.origin._known()}); known tasks: {self._known()}"
+                )
 
     # --- construction without re-validating what the algebra guarantees ---------------
-    def _with(self, active: tuple[str, ...]) -> Stack:
+    def _with(self, active: tuple[str, ...], transition: Transition | None = None) -> Stack:
         stack = object.__new__(Stack)
         object.__setattr__(stack, "tasks", self.tasks)
         object.__setattr__(stack, "active", active)
+        object.__setattr__(stack, "transition", transition)
         return stack
 
     def _checked_active(self, value: Iterable[str]) -> tuple[str, ...]:
@@ -330,3 +390,65 @@ class Stack:
             case Clear():
                 return self.clear()
         raise TypeError(f"{command!r} is not a stack command ({', '.join(c.__name__ for c in COMMANDS)})")
+
+    # --- smooth changes ------------------------------------------------------------------
+    def transition_from(self, before: Stack, *, start: float, duration: float) -> Stack:
+        """This stack, reached from ``before`` over ``[start, start + duration]``.
+
+        ``duration = 0`` returns the stack as it is (an instantaneous change). Otherwise
+        the result carries a :class:`Transition` from ``before`` as it stands at ``start``:
+        its transitions finished by then are dropped, and one that has not progressed
+        yet (it starts at ``start`` or later: e.g. ``push`` then ``up`` given at the same
+        instant) is composed with this one, which then leads from that transition's
+        origin. A change back to the stack it starts from (``up`` of the top task, a
+        ``push`` then ``rm`` at the same instant) is no change: no transition.
+
+        Raises:
+            StackError: ``before`` has other known tasks.
+            ValueError: ``start`` not finite, ``duration`` not finite or negative (named).
+        """
+        start = validation.finite("start", start)
+        duration = validation.nonnegative("transition", duration, unit="s")
+        if not isinstance(before, Stack) or before.tasks != self.tasks:
+            known = before._known() if isinstance(before, Stack) else repr(before)
+            raise StackError(f"cannot reach a stack of tasks {self._known()} from one of tasks {known}")
+        if duration == 0.0:
+            return self._with(self.active)
+        origin = before.settled(start)
+        if origin.transition is not None and origin.transition.progress(start) == 0.0:
+            origin = origin.transition.origin
+        if origin.transition is None and origin.active == self.active:
+            return self._with(self.active)
+        return self._with(self.active, Transition(origin, start, duration))
+
+    def settled(self, t: float) -> Stack:
+        """The same stack without the transitions (its own and nested ones) finished at time ``t``."""
+        t = validation.finite("t", t)
+        if self.transition is None:
+            return self
+        if self.transition.progress(t) >= 1.0:
+            return self._with(self.active)
+        origin = self.transition.origin.settled(t)
+        if origin is self.transition.origin:
+            return self
+        return self._with(self.active, Transition(origin, self.transition.start, self.transition.duration))
+
+    def blend(self, t: float) -> tuple[tuple[tuple[str, ...], float], ...]:
+        """The stacks the control law combines at time ``t`` and their weights.
+
+        ``((active, weight), ...)`` with positive weights summing to 1, the stack reached
+        first, one entry per distinct ``active``. Without a transition (or once it is
+        over): ``((self.active, 1.0),)``. During one, with ``h = transition.progress(t)``:
+        ``self.active`` with ``h`` and the origin's own blend scaled by ``1 - h``.
+        """
+        t = validation.finite("t", t)
+        weights: dict[tuple[str, ...], float] = {}
+        self._blend_into(weights, t, 1.0)
+        return tuple(weights.items())
+
+    def _blend_into(self, weights: dict[tuple[str, ...], float], t: float, scale: float) -> None:
+        h = 1.0 if self.transition is None else self.transition.progress(t)
+        if h > 0.0:
+            weights[self.active] = weights.get(self.active, 0.0) + scale * h
+        if h < 1.0:
+            self.transition.origin._blend_into(weights, t, scale * (1.0 - h))

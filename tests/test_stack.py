@@ -1,6 +1,7 @@
 """The hierarchy value (drake_sot.stack) against a naive list model of the SoT commands."""
 
 import copy
+import math
 import re
 import subprocess
 import sys
@@ -10,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
 
-from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackError, Up, task_names
+from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackError, Transition, Up, task_names
 
 KNOWN = ("taskTwofeet", "taskCom", "taskRH", "taskLH", "taskPosture")
 ANY_NAME = st.sampled_from(KNOWN + ("taskXX",))
@@ -229,6 +230,112 @@ def test_a_stack_is_a_value():
             ValueError, match=f"{command_type.__name__}.task = '': must be a non-empty string"
         ):
             command_type("")
+
+
+def _h(t, start, duration):
+    """Liu, Lober, Padois 2016, eq. 12, written here: 0.5 - 0.5 cos(pi (t - t1) / (t2 - t1)) on [t1, t2]."""
+    u = min(max((t - start) / duration, 0.0), 1.0)
+    return 0.5 - 0.5 * math.cos(math.pi * u)
+
+
+def test_a_transition_blends_the_stack_before_and_after_with_eq_12():
+    before = Stack(KNOWN, ("taskTwofeet", "taskPosture"))
+    after = before.push("taskRH").transition_from(before, start=2.0, duration=0.5)
+    assert after.active == ("taskTwofeet", "taskPosture", "taskRH")
+    assert after.transition == Transition(before, 2.0, 0.5)
+    assert after.blend(1.0) == after.blend(2.0) == ((before.active, 1.0),)  # nothing has moved yet
+    for t in (2.1, 2.25, 2.4):
+        (reached, h), (left, rest) = after.blend(t)
+        assert (reached, left) == (after.active, before.active)
+        assert h == pytest.approx(_h(t, 2.0, 0.5), abs=1e-15) and rest == pytest.approx(1.0 - h, abs=1e-15)
+    assert after.blend(2.25)[0][1] == pytest.approx(0.5)
+    assert after.blend(2.5) == after.blend(9.0) == ((after.active, 1.0),)
+    assert after.settled(2.5) == Stack(KNOWN, after.active) and after.settled(2.4) is after
+    assert before.blend(0.0) == ((before.active, 1.0),)  # no transition: the stack alone
+
+
+def test_commands_given_at_one_instant_compose_into_one_transition():
+    """push then up at the same time: one change from the stack before both (2 stacks to solve)."""
+    s0 = Stack(KNOWN, ("taskCom", "taskPosture"))
+    s1 = s0.push("taskRH").transition_from(s0, start=3.0, duration=0.5)
+    s2 = s1.up("taskRH").transition_from(s1, start=3.0, duration=0.5)
+    assert s2.active == ("taskCom", "taskRH", "taskPosture")
+    assert s2.transition.origin == s0
+    assert [active for active, _ in s2.blend(3.2)] == [s2.active, s0.active]
+
+
+def test_overlapping_transitions_nest_and_finished_ones_are_dropped():
+    s0 = Stack(KNOWN, ("taskCom",))
+    s1 = s0.push("taskRH").transition_from(s0, start=0.0, duration=1.0)
+    s2 = s1.push("taskLH").transition_from(s1, start=0.5, duration=1.0)
+    assert s2.transition.origin is s1  # s1 had progressed: it is kept whole
+    h1, h2 = _h(0.8, 0.0, 1.0), _h(0.8, 0.5, 1.0)
+    weights = dict(s2.blend(0.8))
+    assert weights == pytest.approx({s2.active: h2, s1.active: (1 - h2) * h1, s0.active: (1 - h2) * (1 - h1)})
+    assert dict(s2.blend(1.2)) == pytest.approx(
+        {s2.active: _h(1.2, 0.5, 1.0), s1.active: 1 - _h(1.2, 0.5, 1.0)}
+    )
+    assert s2.settled(1.2).transition.origin == Stack(KNOWN, s1.active)  # s1's change is over
+    s3 = s2.rm("taskCom").transition_from(s2, start=1.2, duration=0.3)
+    assert s3.transition.origin.transition.origin == Stack(KNOWN, s1.active)  # pruned when it started
+
+
+def test_an_instant_command_or_no_change_has_no_transition():
+    s0 = Stack(KNOWN, ("taskCom", "taskRH"))
+    moving = s0.rm("taskRH").transition_from(s0, start=1.0, duration=0.5)
+    assert moving.push("taskLH").transition_from(moving, start=1.1, duration=0.0).transition is None
+    assert s0.up("taskCom").transition_from(s0, start=1.0, duration=0.5) == s0  # up of the top task
+    back = moving.push("taskRH").transition_from(moving, start=1.0, duration=0.5)  # rm then push at once
+    assert back == s0 and back.transition is None
+
+
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["push", "pop", "rm", "up", "down", "clear"]),
+            ANY_NAME,
+            st.floats(0.0, 0.4),  # time since the previous command [s]
+            st.sampled_from([0.0, 0.1, 0.5, 1.0]),  # transition [s]
+        ),
+        max_size=12,
+    ),
+    st.floats(0.0, 2.0),
+)
+def test_blend_weights_are_a_partition_of_one_that_ends_on_the_stack(commands, later):
+    stack, t = Stack(KNOWN), 0.0
+    for command, task, dt, duration in commands:
+        t += dt
+        try:
+            after = getattr(stack, command)(*(() if command in ("pop", "clear") else (task,)))
+        except StackError:
+            continue
+        stack = after.transition_from(stack, start=t, duration=duration)
+        for when in (t, t + later):
+            blend = stack.blend(when)
+            assert all(w > 0.0 for _, w in blend) and sum(w for _, w in blend) == pytest.approx(1.0)
+            assert len({active for active, _ in blend}) == len(blend)
+    assert stack.blend(t + 1.0) == ((stack.active, 1.0),)  # every change lasts at most 1 s
+    assert stack.settled(t + 1.0).transition is None
+
+
+@pytest.mark.parametrize(
+    "change, error, message",
+    [
+        (dict(duration=float("nan")), ValueError, "transition = nan s: must be finite and >= 0"),
+        (dict(duration=-0.5), ValueError, "transition = -0.5 s: must be finite and >= 0"),
+        (dict(start=float("inf")), ValueError, "start = inf: must be a finite number"),
+        (dict(before=Stack(("x",))), StackError, "cannot reach a stack of tasks a, b from one of tasks x"),
+    ],
+)
+def test_bad_transitions_are_refused_naming_the_value(change, error, message):
+    s = Stack(("a", "b"), ("a",))
+    arguments = dict(before=s, start=0.0, duration=0.5) | change
+    with pytest.raises(error, match=message):
+        s.push("b").transition_from(arguments.pop("before"), **arguments)
+    with pytest.raises(ValueError, match="Transition.duration = 0.0 s: must be finite and > 0"):
+        Transition(s, 0.0, 0.0)
+    with pytest.raises(StackError, match="the transition comes from a stack of other known tasks"):
+        Stack(("a", "b", "c"), ("a",), Transition(s, 0.0, 1.0))
 
 
 def test_stack_and_sequencing_import_no_drake():

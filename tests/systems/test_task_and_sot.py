@@ -1,5 +1,7 @@
 """Task (concatenation, gain, feed-forward) and StackOfTasks (stack commands, control law)."""
 
+import os
+
 import numpy as np
 import pytest
 from pydrake.common.value import AbstractValue
@@ -157,6 +159,71 @@ def test_control_law_is_the_strict_hierarchy_of_the_stack():
     sot.clear(context)
     qdot, errors = _tick(sot, context)
     np.testing.assert_array_equal(qdot, 0.0)
+
+
+def _raised_cosine(t, start, duration):
+    """Liu, Lober, Padois 2016, eq. 12, written here."""
+    u = min(max((t - start) / duration, 0.0), 1.0)
+    return 0.5 - 0.5 * np.cos(np.pi * u)
+
+
+@pytest.mark.parametrize(
+    "command, task, before, after",
+    [
+        ("push", "c", ("a", "b"), ("a", "b", "c")),
+        ("rm", "a", ("a", "b", "c"), ("b", "c")),
+        ("up", "c", ("a", "b", "c"), ("a", "c", "b")),
+        ("down", "a", ("a", "b", "c"), ("b", "a", "c")),
+    ],
+)
+def test_a_command_with_a_transition_moves_qdot_between_the_two_strict_solutions(
+    command, task, before, after
+):
+    """q̇ = (1 - h) q̇*(before) + h q̇*(after), h the raised cosine of eq. 12 from the command's time:
+    the solution before the command at first, the one after it at the end, continuous between.
+    The tasks conflict (more rows than the 5 joints), so every change moves q̇."""
+    rng = np.random.default_rng(11)
+    dims = {"a": 3, "b": 3, "c": 2} if command != "push" else {"a": 2, "b": 2, "c": 2}
+    sot, context, signals = _sot_with_fixed_tasks(rng, dims, stack=before)
+
+    def strict(stack):
+        return solve_strict([(signals[n].jacobian, signals[n].edot_des) for n in stack]).qdot
+
+    start, duration = 1.0, 0.5
+    context.SetTime(start)
+    getattr(sot, command)(context, task, transition=duration)
+    assert sot.list(context) == after  # the stack reached, at once; q̇ follows over the transition
+    previous = None
+    for t in np.arange(start, start + duration + 0.1, sot.period):
+        context.SetTime(t)
+        qdot, errors = _tick(sot, context)
+        h = _raised_cosine(t, start, duration)
+        np.testing.assert_allclose(qdot, (1 - h) * strict(before) + h * strict(after), atol=1e-12)
+        if previous is not None:  # a tick moves h by at most pi * period / (2 T)
+            bound = np.pi * sot.period / (2 * duration) * np.linalg.norm(strict(after) - strict(before))
+            assert np.linalg.norm(qdot - previous) <= bound * (1 + 1e-9) + 1e-14
+        previous = qdot
+        for name in os.path.commonprefix([before, after]):  # above the change in both: undisturbed
+            np.testing.assert_allclose(signals[name].jacobian @ qdot, signals[name].edot_des, atol=1e-10)
+        blended = (set(before) if h < 1 else set()) | (set(after) if h > 0 else set())
+        for name in dims:  # the error of every task of the blend, NaN for the others
+            assert np.isnan(errors[sot.error_slices()[name]]).all() == (name not in blended)
+    np.testing.assert_allclose(qdot, strict(after), atol=1e-12)
+    assert np.linalg.norm(strict(after) - strict(before)) > 0.1  # without the transition, a visible jump
+
+
+def test_transition_argument_is_checked_and_instant_by_default():
+    rng = np.random.default_rng(12)
+    sot, context, signals = _sot_with_fixed_tasks(rng, {"a": 2, "b": 2}, stack=("a",))
+    for bad in (float("nan"), -0.1, float("inf")):
+        with pytest.raises(ValueError, match=f"transition = {bad} s: must be finite and >= 0"):
+            sot.push(context, "b", transition=bad)
+    assert sot.list(context) == ("a",)  # a refused command changes nothing
+    context.SetTime(2.0)
+    sot.push(context, "b")
+    qdot, _ = _tick(sot, context)
+    expected = solve_strict([(signals[n].jacobian, signals[n].edot_des) for n in ("a", "b")]).qdot
+    np.testing.assert_allclose(qdot, expected, atol=1e-12)
 
 
 def test_bad_task_signals_name_the_task():
