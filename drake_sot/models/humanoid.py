@@ -54,7 +54,7 @@ from typing import NamedTuple
 
 import numpy as np
 from pydrake.geometry import Box, Cylinder, Rgba, Shape, Sphere
-from pydrake.math import RigidTransform
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
@@ -237,6 +237,13 @@ OPERATIONAL_FRAMES = {
     "r_hand_tool": ("r_hand", (0.0, 0.0, -(HAND_TOOL - WRIST_FT_DROP))),
     "l_hand_tool": ("l_hand", (0.0, 0.0, -(HAND_TOOL - WRIST_FT_DROP))),
 }
+#: The head camera (a pinhole, for ``FeatureVisualPoint``): on the front face of the head box,
+#: centred, with the computer-vision axes: z_C, the optical axis, along the head's +x (forward),
+#: x_C along -y (image right), y_C along -z (image down). Columns of R_HC are x_C, y_C, z_C in
+#: the head frame. The logical frame "head_camera".
+HEAD_CAMERA = RigidTransform(
+    RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])), [0.09, 0.0, 0.05]
+)
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0), "-y": (0.0, -1.0, 0.0)}
 
 # ======================================================================================
@@ -296,7 +303,8 @@ class HumanoidInfo:
         actuated_joints: the 30 actuated joint names in actuator order (the order of
             the actuation input and of the desired-state input ``[q_d; v_d]``).
         frames: logical name -> frame name: "pelvis", "torso", "head" (body frames),
-            "left_foot"/"right_foot" (soles), "left_hand"/"right_hand" (hand tools).
+            "left_foot"/"right_foot" (soles), "left_hand"/"right_hand" (hand tools),
+            "head_camera" (the pinhole camera of the head, optical axis z: see ``HEAD_CAMERA``).
         force_sensors: "left_ankle", "right_ankle", "left_wrist", "right_wrist" ->
             name of the weld joint whose reaction force is the sensor reading.
         half_sitting: joint name -> HRP-2 half-sitting angle (rad).
@@ -409,6 +417,7 @@ def load_humanoid(
 
     for frame, (link, position) in OPERATIONAL_FRAMES.items():
         frame_on(link, frame, position)
+    plant.AddFrame(FixedOffsetFrame("head_camera", bodies["head"].body_frame(), HEAD_CAMERA))
 
     if geometry and collision:
         half_length, half_width = SOLE[0] / 2, SOLE[1] / 2
@@ -433,6 +442,7 @@ def load_humanoid(
                 "pelvis": "pelvis",
                 "torso": "torso",
                 "head": "head",
+                "head_camera": "head_camera",
                 "left_foot": "l_sole",
                 "right_foot": "r_sole",
                 "left_hand": "l_hand_tool",

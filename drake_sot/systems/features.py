@@ -300,6 +300,69 @@ class FeaturePoint6dRelative(_PoseFeature):
         return e, J, np.zeros(6)
 
 
+class FeatureVisualPoint(_Feature):
+    """A point of the world seen by a pinhole camera (SoT ``FeatureVisualPoint``, the fourth
+    feature family of Mansard et al. 2009, with the interaction matrix of Chaumette &
+    Hutchinson 2006).
+
+    ``s = (x, y) = (X/Z, Y/Z)``, the point ``(X, Y, Z)`` in the camera frame (z along the
+    optical axis, x to the image's right, y down), in normalised image coordinates (focal
+    length 1); ``e = s - s*`` (2,) with its exact Jacobian through the camera frame's
+    (:func:`drake_sot.features.visual_point`). The point's position is an input, so it can
+    move; its velocity, when given, is fed forward so that the image of a moving point is
+    held without lag.
+
+    Input ports:
+        position: abstract ``RigidTransform``, the camera frame's pose in world (e.g. the
+            operational point of the robot's ``head_camera`` frame).
+        Jq: abstract ``ndarray`` (6, nv), the camera frame's Jacobian (rows ``[ω; v]``).
+        point: the point's position in world (3,) [m].
+        point_velocity: its velocity in world (3,) [m/s], optional (else a still point).
+        sdes: desired image point s* (2,) [normalised image coordinates], optional (else
+            the parameter; default the image centre ``(0, 0)``).
+    Output ports: ``feature``, ``error`` (2,) [normalised image coordinates].
+
+    A point at or behind the camera plane (depth Z <= ``features.MIN_DEPTH``) has no image:
+    evaluating the feature then raises ValueError naming the feature and Z.
+    """
+
+    def __init__(
+        self,
+        *,
+        selection: fmath.SelectionLike = None,
+        name: str | None = None,
+        desired: np.ndarray | None = None,
+    ) -> None:
+        super().__init__(2, selection, name)
+        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
+        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
+        self._point = self.DeclareVectorInputPort("point", 3)
+        self._point_velocity = self.DeclareVectorInputPort("point_velocity", 3)
+        self._declare_desired("sdes", self._check_desired(np.zeros(2) if desired is None else desired), 2)
+        self._declare_outputs()
+
+    def _check_desired(self, value) -> np.ndarray:
+        value = np.asarray(value, dtype=float).reshape(-1)
+        if value.shape != (2,) or not np.all(np.isfinite(value)):
+            raise ValueError(f"{self.get_name()!r}: desired image point {value} must be 2 finite numbers")
+        return value
+
+    def _compute(self, context):
+        X = self._pose.Eval(context)
+        velocity = self._point_velocity.Eval(context) if self._point_velocity.HasValue(context) else None
+        try:
+            return fmath.visual_point(
+                X.rotation().matrix(),
+                X.translation(),
+                self._J.Eval(context),
+                self._point.Eval(context),
+                np.asarray(self._desired(context)),
+                velocity,
+            )
+        except ValueError as error:
+            raise ValueError(f"{self.get_name()!r} at t = {context.get_time():.4f} s: {error}") from None
+
+
 class FeaturePosture(_Feature):
     """Joint positions against a reference posture, on a selection of joints.
 

@@ -227,13 +227,33 @@ def test_half_sitting_angles_and_limits_are_hrp2(control):
     )
 
 
+def test_the_head_camera_looks_forward_from_the_face_with_image_x_right_and_y_down(control):
+    """In half-sitting (head straight), the optical axis z_C is the world's +x, image x (right of
+    the robot) the world's -y, image y (down) the world's -z; the camera sits on the front face of
+    the head box (0.16 m deep, centred 1 cm ahead of the head frame)."""
+    plant, info = control
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, half_sitting_configuration(plant, info))
+    X_WC = plant.GetFrameByName(info.frames["head_camera"]).CalcPoseInWorld(context)
+    X_WH = plant.GetFrameByName(info.frames["head"]).CalcPoseInWorld(context)
+    R = X_WC.rotation().matrix()
+    np.testing.assert_allclose(R[:, 2], [1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(R[:, 0], [0, -1, 0], atol=1e-12)
+    np.testing.assert_allclose(R[:, 1], [0, 0, -1], atol=1e-12)
+    np.testing.assert_allclose(
+        X_WC.translation() - X_WH.translation(), [0.01 + 0.16 / 2, 0, 0.05], atol=1e-12
+    )
+    assert plant.GetFrameByName("head_camera").body().name() == "head"
+
+
 def test_bodies_frames_and_force_sensors_exist(control):
     plant, info = control
     for body in ("pelvis", "torso", "head", "r_foot", "l_foot", "r_hand", "l_hand"):
         assert plant.HasBodyNamed(body, info.model_instance)
     assert dict(info.frames) == {
-        "pelvis": "pelvis", "torso": "torso", "head": "head", "left_foot": "l_sole",
-        "right_foot": "r_sole", "left_hand": "l_hand_tool", "right_hand": "r_hand_tool",
+        "pelvis": "pelvis", "torso": "torso", "head": "head", "head_camera": "head_camera",
+        "left_foot": "l_sole", "right_foot": "r_sole",
+        "left_hand": "l_hand_tool", "right_hand": "r_hand_tool",
     }  # fmt: skip
     for frame in info.frames.values():
         assert plant.HasFrameNamed(frame, info.model_instance)

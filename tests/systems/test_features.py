@@ -18,6 +18,7 @@ from drake_sot.systems.features import (
     FeaturePoint6d,
     FeaturePoint6dRelative,
     FeaturePosture,
+    FeatureVisualPoint,
 )
 
 EPS = 1e-6
@@ -126,6 +127,73 @@ def test_point6d_relative_jacobian(control_model):
         v_base = np.zeros(plant.num_velocities())
         v_base[:6] = rng.normal(size=6)
         np.testing.assert_allclose(signal.jacobian @ v_base, 0.0, atol=1e-12)
+
+
+def _visual_bench(plant, info, feature):
+    bench = FeatureBench(plant, [feature], op_points=[("camera", info.frames["head_camera"])])
+    bench.connect(bench.dyn.GetOutputPort("camera"), feature.GetInputPort("position"))
+    bench.connect(bench.dyn.GetOutputPort("Jcamera"), feature.GetInputPort("Jq"))
+    return bench.build()
+
+
+def _camera_pose(plant, info, q):
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q)
+    return plant.GetFrameByName(info.frames["head_camera"]).CalcPoseInWorld(context)
+
+
+def test_visual_point_jacobian_and_image_coordinates(control_model):
+    """J matches finite differences on the configuration; s = (X/Z, Y/Z) of the point in the
+    camera frame, computed here with Drake's transforms."""
+    plant, info, q0 = control_model
+    rng = np.random.default_rng(6)
+    feature = FeatureVisualPoint(name="gaze", desired=[0.05, -0.1])
+    bench = _visual_bench(plant, info, feature)
+    point = feature.GetInputPort("point")
+    for _ in range(4):
+        q = random_configuration(plant, q0, rng)
+        # A point 0.5-2 m ahead of the camera, anywhere in a 90° field of view.
+        p_C = np.array([*rng.uniform(-0.9, 0.9, 2), 1.0]) * rng.uniform(0.5, 2.0)
+        p_W = _camera_pose(plant, info, q) @ p_C
+        point.FixValue(feature.GetMyMutableContextFromRoot(bench.context), p_W)
+        signal = fd_check(bench, feature, plant, q, rng)
+        X, Y, Z = _camera_pose(plant, info, q).inverse() @ p_W
+        np.testing.assert_allclose(signal.error, [X / Z - 0.05, Y / Z + 0.1], atol=1e-12)
+        np.testing.assert_array_equal(signal.feedforward, 0.0)  # no velocity given: a still point
+
+
+def test_visual_point_feedforward_is_minus_time_derivative(control_model):
+    """With the point moving at ṗ, feedforward = -∂e/∂t (finite differences in time)."""
+    plant, info, q0 = control_model
+    rng = np.random.default_rng(7)
+    feature = FeatureVisualPoint(name="gaze")
+    bench = _visual_bench(plant, info, feature)
+    fctx = feature.GetMyMutableContextFromRoot(bench.context)
+    p_W = _camera_pose(plant, info, q0) @ np.array([0.2, -0.3, 1.2])
+    velocity = rng.normal(size=3)
+    feature.GetInputPort("point_velocity").FixValue(fctx, velocity)
+
+    def signal_at(t):
+        feature.GetInputPort("point").FixValue(fctx, p_W + velocity * t)
+        return bench.signal(feature, q0)
+
+    h = 1e-6
+    de_dt = (signal_at(h).error - signal_at(-h).error) / (2 * h)
+    np.testing.assert_allclose(signal_at(0.0).feedforward, -de_dt, atol=1e-7)
+
+
+def test_visual_point_behind_the_camera_is_refused_naming_the_feature(control_model):
+    plant, info, q0 = control_model
+    feature = FeatureVisualPoint(name="gaze")
+    bench = _visual_bench(plant, info, feature)
+    behind = _camera_pose(plant, info, q0) @ np.array([0.1, 0.0, -0.5])
+    feature.GetInputPort("point").FixValue(feature.GetMyMutableContextFromRoot(bench.context), behind)
+    with pytest.raises(
+        ValueError, match=r"'gaze' at t = 0.0000 s: depth Z = -0.5\d* m: the point must be in front"
+    ):
+        bench.signal(feature, q0)
+    with pytest.raises(ValueError, match="'g': desired image point \\[nan  0.\\] must be 2 finite numbers"):
+        FeatureVisualPoint(name="g", desired=[np.nan, 0.0])
 
 
 def test_com_jacobian_and_generic_passthrough(control_model):
