@@ -23,6 +23,7 @@ def test_list_names_the_scenarios():
     out = subprocess.run([*DRAKE_SOT, "list"], capture_output=True, text=True, check=True).stdout
     listed = [line.split()[0] for line in out.splitlines()]
     assert listed == [
+        "look_and_reach",
         "priority_switching",
         "reach",
         "table_pounding",

@@ -2,6 +2,7 @@
 
 from drake_sot.diagrams import (
     alpha_sweep,
+    look_and_reach,
     priority_switching,
     reach,
     table_pounding,
@@ -16,6 +17,7 @@ SCENARIOS: dict[str, Scenario] = {
         reach.SCENARIO,
         walk.SCENARIO,
         walk_then_interact.SCENARIO,
+        look_and_reach.SCENARIO,
         priority_switching.SCENARIO,
         table_pounding.SCENARIO,
     )

@@ -32,6 +32,7 @@ from drake_sot.systems.features import (
     FeaturePoint6d,
     FeaturePoint6dRelative,
     FeaturePosture,
+    FeatureVisualPoint,
     _Feature,
 )
 from drake_sot.systems.force_sensor import ForceSensor, payload
@@ -241,6 +242,43 @@ class HumanoidTaskBuilder:
         task = self._add_task(task_name, feature, gain)
         self.builder.Connect(self.dyn.GetOutputPort("com"), feature.GetInputPort("com"))
         self.builder.Connect(self.dyn.GetOutputPort("Jcom"), feature.GetInputPort("Jcom"))
+        return task
+
+    def add_visual_point_task(
+        self,
+        task_name: str,
+        point: OutputPort,
+        *,
+        point_velocity: OutputPort | None = None,
+        camera: str = "head_camera",
+        gain: Gain = 1.0,
+        desired: np.ndarray | None = None,
+        selection: SelectionLike = None,
+    ) -> Task:
+        """A gaze task (``FeatureVisualPoint``): keep the world point ``point`` at the image
+        point ``desired`` (the image centre ``(0, 0)`` by default) of the camera frame
+        ``camera``.
+
+        The humanoid's ``head_camera`` sits on the face of the head and looks along the
+        head's +x (forward), x to the image's right and y down (``models.humanoid.HEAD_CAMERA``);
+        ``camera`` may name another frame of the robot, whose z axis is then the optical axis.
+
+        Args:
+            task_name: the task.
+            point: an output (3,) [m], the point's position in world (e.g.
+                ``MovingPoint.position``).
+            point_velocity: an output (3,) [m/s], its velocity, fed forward; None for a still point.
+            camera: the camera frame's logical name.
+            gain: λ [1/s]; desired: s* (2,) in normalised image coordinates; selection: of x, y.
+        """
+        op = self.op_point(camera)
+        feature = FeatureVisualPoint(selection=selection, name=f"feature_{task_name}", desired=desired)
+        task = self._add_task(task_name, feature, gain)
+        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        self.builder.Connect(point, feature.GetInputPort("point"))
+        if point_velocity is not None:
+            self.builder.Connect(point_velocity, feature.GetInputPort("point_velocity"))
         return task
 
     def add_posture_task(
