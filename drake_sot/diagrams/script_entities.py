@@ -115,26 +115,31 @@ def _text(value: Value, what: str) -> str:
     raise SessionError(f"{what} must be a name, got {format_value(value)}")
 
 
+# Values from the parser are finite; a command value made in Python may not be: every
+# number is checked here (validation.finite / validation.vector) before it goes further.
+
+
 def _number(value: Value, what: str) -> float:
+    """A finite number."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise SessionError(f"{what} must be a number, got {format_value(value)}")
-    return float(value)
+    return validation.finite(what, value)
 
 
 def _numbers(args: Iterable[Value], what: str) -> np.ndarray:
-    """Numbers, or one vector, as a float array."""
+    """Finite numbers, or one vector, as a float array."""
     args = tuple(args)
     if len(args) == 1 and isinstance(args[0], Vector):
-        return args[0].array
+        return validation.vector(what, args[0].array)
     return np.array([_number(a, what) for a in args], dtype=float)
 
 
 def vector_value(value: Value, what: str) -> np.ndarray:
-    """A vector value (a number is a vector of size 1)."""
+    """A finite vector value (a number is a vector of size 1)."""
     if isinstance(value, Vector):
-        return value.array
+        return validation.vector(what, value.array)
     if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return np.array([float(value)])
+        return np.array([_number(value, what)])
     raise SessionError(f"{what} takes a vector [n](…) or a number, got {format_value(value)}")
 
 
@@ -498,6 +503,7 @@ class FeatureEntity(Entity):
     def __init__(self, session: ScriptSession, name: str, statement: Statement | None) -> None:
         super().__init__(session, name, statement)
         self.selection: str | None = None
+        self._selection_was_a_number = False
 
     def parameters(self) -> dict[str, str]:
         return {
@@ -516,6 +522,7 @@ class FeatureEntity(Entity):
         records s* as the value the feature is made with)."""
         if signal == "selec":
             self.selection = _flags(value, f"{self.name}.selec")
+            self._selection_was_a_number = isinstance(value, int)
         else:
             self.system.set_desired(context, self.desired_value(value, self.system.desired(context)))
 
@@ -547,7 +554,15 @@ class FeatureEntity(Entity):
         return self.FEATURE(selection=self.selection, name=self.name, desired=desired)
 
     def construct(self) -> System:
-        return self.session.builder.builder.AddSystem(self.make(self.desired_default()))
+        try:
+            feature = self.make(self.desired_default())
+        except ValueError as error:
+            if self._selection_was_a_number and "selection" in str(error):
+                raise SessionError(
+                    f'{error} (selec written as a number loses its leading zeros: quote it, "0…")'
+                ) from error
+            raise
+        return self.session.builder.builder.AddSystem(feature)
 
 
 class FeatureGenericEntity(FeatureEntity):

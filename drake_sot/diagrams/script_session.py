@@ -58,7 +58,16 @@ B's value (``errorIN``, ``com``, ``position`` or ``q``): the paper's ``set featu
 featureComDes``. Pose values are ``[4,4]`` homogeneous matrices, or a ``[3]`` position that
 keeps the current orientation. A feature whose desired value is neither set nor plugged
 holds where it starts (the CoM at q0, or the pose at q0 of the ``dyn`` operational points
-plugged into it), except ``FeatureGeneric``, whose s* is 0 as in the SoT.
+plugged into it), except ``FeatureGeneric``, whose s* is 0 as in the SoT. A feature's
+``selec`` is written ``110``, or quoted when it starts with 0 (``"000111"``: a number
+loses its leading zeros).
+
+Wiring the build does itself: ``dyn.q`` and, unless plugged, the ``q`` of the posture and
+joint-limit features are the reference configuration the loop integrates; a ``FeatureCoM``
+reads ``dyn.com`` and ``dyn.Jcom`` unless plugged; every task goes into the solver; an
+``AdmittanceController``'s wrist sensor and poses follow from ``hand right|left``. Once a
+``PatternGenerator``'s CoM, feet or waist references are plugged, its ``load`` splits the
+torque feed-forward between the feet (``examples/walk_two_steps.sot``).
 
 Files: ``run FILE`` and ``pool.writegraph FILE`` stay inside the session's script and
 output directories (a path that resolves outside them is refused).
@@ -787,7 +796,7 @@ def schedule(
             session.execute(statement)  # refused, saying why
         session.build(statement)
         if isinstance(statement.command, RunFor):
-            t += statement.command.duration
+            t += validation.positive(f"{statement.where}: run", statement.command.duration, unit="s")
             continue
 
         def apply(context: Context, statement: Statement = statement) -> None:

@@ -447,3 +447,64 @@ def test_a_failed_build_says_so_to_every_later_run_time_command():
         session.execute("sot.push t")
     with pytest.raises(SessionError, match=r"sot.list: the build failed \(building 'f'.*a diagram half made"):
         session.execute("sot.list")
+
+
+def test_commands_made_in_python_are_checked_like_parsed_ones():
+    """The parser reads finite numbers only; a command value built in Python is checked too."""
+    from drake_sot.script import Call, Name, RunFor, Set, Signal, Vector
+
+    session = ScriptSession()
+    session.run_script("new FeatureGeneric g\nset g.errorIN [3](0,0,0)\nnew Task t\nt.add g")
+    for command, expected in (
+        (Set(Signal("g", "sdes"), Vector((0.0, float("nan"), 0.0))), r"contains NaN or Inf \(entry \[1\]\)"),
+        (Call("t", "controlGain", (float("inf"),)), "the gain = inf: must be a finite number"),
+        (Call("t", "add", (Name("nothing"),)), "unknown entity 'nothing'"),
+    ):
+        with pytest.raises(SessionError, match=expected):
+            session.execute(command)
+    session.execute("sot.push t")
+    with pytest.raises(SessionError, match="run DURATION = nan s: must be finite and > 0"):
+        session.execute(RunFor(float("nan")))
+
+
+def test_the_walking_script_takes_the_steps_it_asks_for():
+    """examples/walk_two_steps.sot: the pattern generator's references plugged into the feet,
+    CoM and waist features; `:stepseq 0.15 -0.19 0 0.15 0.19 0` (each footprint in the frame
+    of the other foot's) lands the right sole 15 cm ahead of the left one, then the left 15 cm
+    ahead of that, on the simulated plant; the robot stays upright and stops."""
+    script = REPO / "examples" / "walk_two_steps.sot"
+    session = ScriptSession()
+    session.run_script(script.read_text(), source=script.name)
+    built = session.built
+    context = session.simulator.get_context()
+    assert ("pg", "load", "torque_feedforward", "load") in connections(built.diagram)
+    assert session.execute("get pg.in_process") == "[1](0.0)"
+    plant, info = make_control_model()
+    start = plant.CreateDefaultContext()
+    plant.SetPositions(start, half_sitting_configuration(plant, info))
+    left0 = plant.GetFrameByName(info.frames["left_foot"]).CalcPoseInWorld(start).translation()
+    right = built.frame_pose(context, "right_foot").translation()
+    left = built.frame_pose(context, "left_foot").translation()
+    np.testing.assert_allclose(right[:2], left0[:2] + [0.15, -0.19], atol=0.01)
+    np.testing.assert_allclose(left[:2], left0[:2] + [0.30, 0.0], atol=0.01)
+    assert abs(right[2]) < 0.002 and abs(left[2]) < 0.002  # both on the ground
+    q = built.plant.GetPositions(built.plant.GetMyContextFromRoot(context), built.info.model_instance)
+    assert abs(q[6] - built.q0[6]) < 0.02, "the pelvis dropped"
+
+
+def test_selection_flags_with_a_leading_zero_must_be_quoted():
+    session = ScriptSession()
+    session.run_script(
+        "dyn.createOpPoint w pelvis\nnew FeaturePoint6d f\nplug dyn.w f.position\nnew Task t\nt.add f\n"
+        "set f.selec 000111"
+    )
+    with pytest.raises(SessionError, match=r"'111' must be 6 characters.*loses its leading zeros: quote it"):
+        session.build()
+    quoted = ScriptSession()
+    quoted.run_script(
+        "dyn.createOpPoint w pelvis\nnew FeaturePoint6d f\nplug dyn.w f.position\nnew Task t\nt.add f"
+    )
+    with pytest.raises(SessionError, match="f.selec takes 0/1 flags"):
+        quoted.execute("set f.selec 012")
+    quoted.execute('set f.selec "000111"')
+    assert quoted.build().tasks["t"].dimension == 3
