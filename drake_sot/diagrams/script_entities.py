@@ -858,21 +858,7 @@ class PatternGeneratorEntity(Entity):
     REFERENCES = ("com", "com_vel", "left_foot", "right_foot", "left_foot_vel", "right_foot_vel", "waist")
 
     def outputs(self) -> tuple[str, ...]:
-        return (
-            "com",
-            "com_vel",
-            "left_foot",
-            "right_foot",
-            "left_foot_vel",
-            "right_foot_vel",
-            "waist",
-            "zmp_ref",
-            "zmp",
-            "phase",
-            "contacts",
-            "load",
-            "in_process",
-        )
+        return (*self.REFERENCES, "zmp_ref", "zmp", "phase", "contacts", "load", "in_process")
 
     def construct(self) -> System:
         pg, _, _ = add_pattern_generator(self.session.builder, self.name)
