@@ -280,6 +280,9 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
         )
     elif result.failure is not None:
         print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
+    elif result.not_reached:
+        later = ", ".join(f"{label!r} at {t:g} s" for t, label in result.not_reached)
+        print(f"after the end of the run, not applied: {later}", file=sys.stderr)
     return exit_status(result)
 
 

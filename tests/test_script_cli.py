@@ -140,3 +140,13 @@ def test_duration_extends_or_cuts_the_scripted_time(tmp_path, capsys):
     )
     assert code == 0, err
     assert np.load(tmp_path / "short.npz")["time"][-1] == pytest.approx(0.2, abs=0.006)
+
+
+def test_lines_after_a_shorter_duration_are_said_not_applied(tmp_path, capsys):
+    script = tmp_path / "long.sot"
+    script.write_text("new FeatureCoM f\nnew Task t\nt.add f\nrun 0.3\nsot.push t\n")
+    code, _, err = _main(
+        ["script", str(script), "--duration", "0.1", "--out", str(tmp_path), "--no-record"], capsys
+    )
+    assert code == 0, err
+    assert "after the end of the run, not applied: 'sot.push t' at 0.3 s" in err
