@@ -489,8 +489,9 @@ class DynamicEntity(Entity):
             raise SessionError(f"joint rank {rank}: must be 0 (the free flyer) to {len(joints) - 1}")
         return plant.get_joint(joints[rank]).child_body().body_frame().name()
 
-    def construct(self) -> System:
-        return self.session.builder.dyn
+    def __init__(self, session: ScriptSession, name: str, statement: Statement | None) -> None:
+        super().__init__(session, name, statement)
+        self.system = session.builder.dyn  # the builder's, made with it
 
 
 class FeatureEntity(Entity):

@@ -213,7 +213,6 @@ class ScriptSession:
         self.builder.control_plant.SetPositions(self._probe, self.builder.q0)
         self._add(PoolEntity(self, "pool", None))
         self._add(DynamicEntity(self, "dyn", None))
-        self._entities["dyn"].system = self.builder.dyn
 
     # --- the pool -------------------------------------------------------------------------
     def _add(self, entity: Entity) -> Entity:
