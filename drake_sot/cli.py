@@ -1,9 +1,11 @@
-"""The ``drake-sot`` command: ``drake-sot list`` and ``drake-sot run SCENARIO``.
+"""The ``drake-sot`` command: ``drake-sot list``, ``drake-sot run SCENARIO`` and
+``drake-sot script FILE`` (a SoT script, see :mod:`drake_sot.diagrams.script_session`).
 
-Exit status of ``run``: 0 the run completed, 1 it failed (the exception on stderr), 2 bad
-arguments (one line on stderr, nothing built), 130 interrupted by SIGINT (Ctrl-C), 143 by
-SIGTERM. Interrupted or failed, the artefacts of the simulated part are written; a signal
-that comes while they are written waits until they all are.
+Exit status of ``run`` and ``script``: 0 the run completed, 1 it failed (the exception on
+stderr), 2 bad arguments or a script that cannot be built (one line on stderr, nothing
+simulated), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM. Interrupted or failed, the
+artefacts of the simulated part are written; a signal that comes while they are written
+waits until they all are.
 """
 
 from __future__ import annotations
@@ -20,7 +22,9 @@ from typing import NoReturn, TextIO
 from drake_sot.diagrams import SCENARIOS, STUDIES
 from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.run import Interrupted, RunResult
-from drake_sot.diagrams.scenario import run_scenario
+from drake_sot.diagrams.scenario import Scenario, run_scenario
+from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
+from drake_sot.script import ScriptError, Statement
 from drake_sot.validation import nonnegative, positive, positive_int
 
 
@@ -82,8 +86,8 @@ def _checked(check: Callable[..., float | int], name: str, **kwargs) -> Callable
     return convert
 
 
-def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
-    """The command's parser and its ``run`` subparser."""
+def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argparse.ArgumentParser]:
+    """The command's parser and its ``run`` and ``script`` subparsers."""
     parser = _Parser(prog="drake-sot", description="The Stack of Tasks on Drake.")
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the scenarios")
@@ -94,15 +98,7 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
     )
     names = sorted(SCENARIOS) + sorted(STUDIES)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
-    run.add_argument(
-        "--duration",
-        type=_checked(positive, "duration", unit="s"),
-        default=None,
-        metavar="S",
-        help="simulated seconds (of each run of a study), finite and > 0",
-    )
-    run.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
-    run.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
+    _simulation_options(run, "simulated seconds (of each run of a study), finite and > 0")
     run.add_argument(
         "--workers",
         type=_checked(positive_int, "workers"),
@@ -117,7 +113,29 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
         metavar="S",
         help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)",
     )
-    return parser, run
+    script = sub.add_parser(
+        "script",
+        help="run a SoT script (new, plug, set, sot.push, run SECONDS, ...) and write its artefacts",
+        epilog="exit status: 0 completed, 1 failed, 2 bad arguments or script, 130 interrupted, 143 SIGTERM",
+    )
+    script.add_argument("file", metavar="FILE", help="the script (e.g. examples/paper_III_B.sot)")
+    _simulation_options(
+        script, "simulated seconds (default: what the script's 'run SECONDS' lines add up to)"
+    )
+    return parser, run, script
+
+
+def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> None:
+    """``--duration S``, ``--out DIR`` and ``--no-record``."""
+    parser.add_argument(
+        "--duration",
+        type=_checked(positive, "duration", unit="s"),
+        default=None,
+        metavar="S",
+        help=duration_help,
+    )
+    parser.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
+    parser.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
 
 
 def exit_status(result: RunResult) -> int:
@@ -128,8 +146,10 @@ def exit_status(result: RunResult) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser, run = _parser()
+    parser, run, script = _parser()
     args = parser.parse_args(argv)
+    if args.command == "script":
+        return _script(args, script)
     if args.command == "list":
         for name in sorted(SCENARIOS):
             print(f"{name:20s} {SCENARIOS[name].description}")
@@ -151,16 +171,52 @@ def main(argv: Sequence[str] | None = None) -> int:
         output_directory(args.out)
     except OSError as exc:
         run.error(f"--out: {exc}")
-    progress = ProgressBar(unit="runs" if study else "s simulated")
+    if study:
+        progress = ProgressBar(unit="runs")
+        return _interruptible(lambda: _run_study(args, progress), progress, args.out, study=True)
+    parameters = {"transition": args.transition} if args.transition is not None else {}
+    return _run_scenario(SCENARIOS[args.scenario], args, parameters)
+
+
+def _script(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """``drake-sot script FILE``: the script read and checked, then run as a scenario."""
+    try:
+        program: ScriptProgram = load_script(args.file)
+    except (ScriptError, SessionError) as exc:
+        parser.error(str(exc))
+    duration = args.duration if args.duration is not None else program.scripted_duration
+    if not (duration > 0):
+        parser.error(f"{args.file} simulates nothing: give --duration S or add 'run SECONDS' lines")
+    try:
+        output_directory(args.out)
+    except OSError as exc:
+        parser.error(f"--out: {exc}")
+    args.duration = duration
+    scenario = script_scenario(program, output_dir=args.out, echo=_echo)
+    try:
+        return _run_scenario(scenario, args, {})
+    except SessionError as exc:  # raised while the script built its diagram: nothing simulated
+        parser.error(str(exc))
+
+
+def _echo(statement: Statement, time: float, output: str) -> None:
+    """A script command's output on stdout, under its time and line."""
+    print(f"t = {time:.3f} s  {statement.where}: {statement.text}")
+    print("\n".join(f"  {line}" for line in output.splitlines()), flush=True)
+
+
+def _interruptible(run: Callable[[], int], progress: ProgressBar, out: str, *, study: bool = False) -> int:
+    """``run()``, with SIGTERM as Ctrl-C; an interruption outside the simulation is reported and
+    gives 128 + the signal's number."""
     try:
         with _sigterm_as_interrupt():
-            return _run_study(args, progress) if study else _run_scenario(args, progress)
+            return run()
     except KeyboardInterrupt as exc:  # before the simulation, or held while its artefacts were written
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
         if study:
-            when = f": the runs done (and which, 'done') are in {args.out}"
+            when = f": the runs done (and which, 'done') are in {out}"
         elif progress.started:
-            when = f" while the artefacts were written: they all were, in {args.out}"
+            when = f" while the artefacts were written: they all were, in {out}"
         else:
             when = " before the simulation started"
         print(f"interrupted by {signum.name}{when}", file=sys.stderr)
@@ -196,10 +252,14 @@ def _run_study(args: argparse.Namespace, progress: ProgressBar) -> int:
     return 0
 
 
-def _run_scenario(args: argparse.Namespace, progress: ProgressBar) -> int:
-    parameters = {"transition": args.transition} if args.transition is not None else {}
+def _run_scenario(scenario: Scenario, args: argparse.Namespace, parameters: dict) -> int:
+    progress = ProgressBar()
+    return _interruptible(lambda: _simulate(scenario, args, parameters, progress), progress, args.out)
+
+
+def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, progress: ProgressBar) -> int:
     output = run_scenario(
-        SCENARIOS[args.scenario],
+        scenario,
         args.out,
         duration=args.duration,
         record=not args.no_record,
@@ -220,6 +280,9 @@ def _run_scenario(args: argparse.Namespace, progress: ProgressBar) -> int:
         )
     elif result.failure is not None:
         print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
+    elif result.not_reached:
+        later = ", ".join(f"{label!r} at {t:g} s" for t, label in result.not_reached)
+        print(f"after the end of the run, not applied: {later}", file=sys.stderr)
     return exit_status(result)
 
 

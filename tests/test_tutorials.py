@@ -123,3 +123,13 @@ def test_tutorial_01_writes_the_graph(tutorial_01) -> None:
     assert svg.is_file(), stdout
     text = svg.read_text()
     assert "<svg" in text and "featureTwofeet" in text and "taskCom" in text
+
+
+def test_tutorial_01_plays_the_papers_script_into_the_same_diagram(tutorial_01):
+    """The script section: the paper's lines beside their Python, every plug of the script a
+    connection of the hand-wired diagram, and the script's robot where the script says."""
+    stdout, _ = tutorial_01
+    assert re.search(r"^set featureCom\.sdes featureComDes +\| builder\.Connect\(", stdout, re.MULTILINE)
+    assert "script plugs that are connections of the hand-wired diagram: 8 of 8" in stdout
+    assert "script stack at t = 4.0 s: taskLeftFoot taskTwofeet taskCom" in stdout
+    assert _number(stdout, "script CoM xy error") < 0.005

@@ -356,6 +356,80 @@ print(
 print(f"wall time (manual diagram, 2.5 s simulated): {time.perf_counter() - wall_start:.1f} s")
 
 # %% [markdown]
+# ## The same diagram from the paper's script
+#
+# drake_sot also reads the script language itself. `examples/paper_III_B.sot` holds the
+# paper's III-B lines as printed, plus the lines the paper leaves out (the selection of
+# the CoM's x and y, the gains, the left-foot task), build-time lines first:
+# a Drake diagram is fixed once built, so the first run-time line (`sot.push`) builds it
+# through `HumanoidSoTBuilder`, and from then on only run-time commands act.
+# `drake-sot script examples/paper_III_B.sot` runs it and writes the usual artefacts; here
+# a `ScriptSession` plays it line by line. Side by side, the paper's lines and this
+# tutorial's Python:
+
+# %%
+from drake_sot.diagrams.script_session import ScriptSession, load_script  # noqa: E402
+from drake_sot.script import Plug  # noqa: E402
+
+SIDE_BY_SIDE = [
+    (
+        "new FeatureGeneric featureCom",
+        'builder.AddSystem(FeatureGeneric(3, selection="110", name="featureCom"))',
+    ),
+    (
+        "plug dyn.com featureCom.errorIN",
+        'builder.Connect(dyn.GetOutputPort("com"), featureCom.GetInputPort("errorIN"))',
+    ),
+    ("set featureComDes.errorIN [3](0,-0,0.64)", "builder.AddSystem(ConstantVectorSource(COM_DES_PAPER))"),
+    (
+        "set featureCom.sdes featureComDes",
+        'builder.Connect(featureComDes.get_output_port(), featureCom.GetInputPort("sdes"))',
+    ),
+    (
+        "taskCom.add featureCom",
+        'builder.Connect(featureCom.GetOutputPort("feature"), taskCom.add(featureCom))',
+    ),
+    ("dyn2.createOpPoint rleg 6", 'dyn.add_operational_point("rleg", right_sole)'),
+    (
+        "plug dyn.Jrleg featureTwofeet.Jq",
+        'builder.Connect(dyn.GetOutputPort("Jrleg"), featureTwofeet.GetInputPort("Jq"))',
+    ),
+    ("sot.push taskCom", 'sot.push(context, "taskCom")'),
+]
+for line, python in SIDE_BY_SIDE:
+    print(f"{line:42s} | {python}")
+
+SCRIPT = Path("examples/paper_III_B.sot")  # run the tutorial from the repository root
+session = ScriptSession()
+for statement in load_script(SCRIPT).statements:
+    session.execute(statement)  # its `run SECONDS` lines advance the session's own simulator
+
+
+def named_connections(d) -> set[tuple[str, str, str, str]]:
+    """(source system, output, target system, input) of every connection of a diagram."""
+    return {
+        (src.get_name(), src.get_output_port(o).get_name(), dst.get_name(), dst.get_input_port(i).get_name())
+        for (dst, i), (src, o) in d.connection_map().items()
+    }
+
+
+plugs = [s.command for s in load_script(SCRIPT).statements if isinstance(s.command, Plug)]
+by_hand = named_connections(diagram)
+same = [p for p in plugs if ("dyn", p.source.name, p.target.entity, p.target.name) in by_hand]
+print(f"script plugs that are connections of the hand-wired diagram: {len(same)} of {len(plugs)}")
+
+# set, at run time, as in the hand-wired run above; then the script's own `run`
+session.execute("set featureComDes.errorIN [3](0,0.03,0.64)")
+session.execute("run 1.5")
+script_context = session.simulator.get_context()
+script_plant = session.built.plant
+script_com = script_plant.CalcCenterOfMassPositionInWorld(
+    script_plant.GetMyContextFromRoot(script_context), [session.built.info.model_instance]
+)
+print(f"script stack at t = {script_context.get_time():.1f} s: {session.execute('sot.list')}")
+print(f"script CoM xy error: {np.linalg.norm(script_com[:2] - COM_DES[:2]):.4f}")
+
+# %% [markdown]
 # ## The same, in six lines
 #
 # `HumanoidSoTBuilder` does all of the above wiring: plant, ground, `dyn`, the

@@ -18,7 +18,7 @@ import numpy as np
 from pydrake.geometry import Meshcat, MeshcatVisualizer, MeshcatVisualizerParams
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.framework import Diagram, DiagramBuilder, InputPort, OutputPort
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
 from drake_sot.diagrams.world import add_humanoid_plant
@@ -132,6 +132,22 @@ class HumanoidTaskBuilder:
             self.dyn.add_operational_point(frame_key, frame_name)
         return frame_key
 
+    def add_task(self, task: Task) -> Task:
+        """Add a task made elsewhere (its features added and plugged by the caller, e.g. the
+        script interpreter's ``new Task``): it joins the diagram and, at ``build``, the solver.
+
+        Raises ValueError when a task of that name exists already.
+        """
+        if task.get_name() in self.tasks:
+            raise ValueError(f"a task named {task.get_name()!r} exists already")
+        self.tasks[task.get_name()] = self.builder.AddSystem(task)
+        return task
+
+    def use_reference_q(self, port: InputPort) -> None:
+        """Feed ``port`` (a configuration input, e.g. ``FeaturePosture.q``) with the reference
+        configuration the loop integrates, as ``dyn.q`` is (connected at ``build``)."""
+        self._q_consumers.append(port)
+
     def _add_task(
         self, task_name: str, feature: _Feature, gain: Gain, selection: SelectionLike = None
     ) -> Task:
@@ -140,9 +156,8 @@ class HumanoidTaskBuilder:
             raise ValueError(f"a task named {task_name!r} exists already")
         if feature not in self.features.values():
             self.builder.AddSystem(feature)
-        task = self.builder.AddSystem(Task(task_name, gain=gain))
+        task = self.add_task(Task(task_name, gain=gain))
         self.builder.Connect(feature.GetOutputPort("feature"), task.add(feature, selection=selection))
-        self.tasks[task_name] = task
         self.features[task_name] = feature
         return task
 
@@ -297,32 +312,32 @@ class HumanoidTaskBuilder:
             desired=self.q0 if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain)
-        self._q_consumers.append(feature.GetInputPort("q"))
+        self.use_reference_q(feature.GetInputPort("q"))
         return task
 
-    def add_admittance_task(
+    def add_admittance_controller(
         self,
-        task_name: str,
+        name: str,
         side: str,
         *,
         mass: float | Sequence[float],
         damping: float | Sequence[float],
         stiffness: float | Sequence[float] = 0.0,
-        gain: Gain = 5.0,
         max_velocity=(0.5, 1.0),
     ) -> AdmittanceController:
-        """A force-based hand task (Mansard et al. 2009, IV-C): the hand's wrist sensor drives an
-        ``AdmittanceController`` whose reference pose and velocity feed a 6D hand task.
+        """An ``AdmittanceController`` named ``name`` on one hand, read by its wrist sensor
+        (Mansard et al. 2009, IV-C): the sensor's wrench, the sensor frame's and the hand's
+        poses (``dyn`` operational points ``<side>_wrist_sensor`` and ``<side>_hand``) are wired.
 
         Args:
-            task_name: the task (e.g. the paper's ``taskForce``).
             side: ``"right"`` or ``"left"``.
             mass, damping, stiffness: the virtual mass [kg, kg·m²], damping [N·s/m,
                 N·m·s/rad] and stiffness of the admittance, per axis or one value.
-            gain: the hand task's gain [1/s]; max_velocity: saturation (linear, angular).
+            max_velocity: saturation (linear, angular).
         Returns:
-            the controller, whose ``active``, ``wrench_ref`` inputs are left for the
-            scenario to drive (active and zero when unconnected).
+            the controller; its ``pose_des`` and ``velocity_des`` are for a hand feature,
+            its ``active`` and ``wrench_ref`` inputs are left for the caller to drive
+            (active and zero when unconnected).
         """
         if side not in ("right", "left"):
             raise ValueError(f"side {side!r} must be 'right' or 'left'")
@@ -344,13 +359,46 @@ class HumanoidTaskBuilder:
                 hand_com=hand_com,
                 period=self.control_period,
                 max_velocity=max_velocity,
-                name=f"admittance_{task_name}",
+                name=name,
             )
         )
         hand = self.op_point(f"{side}_hand")
         self.builder.Connect(sensor.GetOutputPort("wrench"), admittance.GetInputPort("wrench"))
         self.builder.Connect(self.dyn.GetOutputPort(sensor_op), admittance.GetInputPort("sensor_pose"))
         self.builder.Connect(self.dyn.GetOutputPort(hand), admittance.GetInputPort("hand_pose"))
+        return admittance
+
+    def add_admittance_task(
+        self,
+        task_name: str,
+        side: str,
+        *,
+        mass: float | Sequence[float],
+        damping: float | Sequence[float],
+        stiffness: float | Sequence[float] = 0.0,
+        gain: Gain = 5.0,
+        max_velocity=(0.5, 1.0),
+    ) -> AdmittanceController:
+        """A force-based hand task (Mansard et al. 2009, IV-C): the hand's wrist sensor drives an
+        ``AdmittanceController`` (:meth:`add_admittance_controller`, named
+        ``admittance_<task_name>``) whose reference pose and velocity feed a 6D hand task.
+
+        Args:
+            task_name: the task (e.g. the paper's ``taskForce``).
+            side, mass, damping, stiffness, max_velocity: as :meth:`add_admittance_controller`.
+            gain: the hand task's gain [1/s].
+        Returns:
+            the controller, whose ``active``, ``wrench_ref`` inputs are left for the
+            scenario to drive (active and zero when unconnected).
+        """
+        admittance = self.add_admittance_controller(
+            f"admittance_{task_name}",
+            side,
+            mass=mass,
+            damping=damping,
+            stiffness=stiffness,
+            max_velocity=max_velocity,
+        )
         self.add_op_point_task(task_name, f"{side}_hand", gain=gain)
         feature = self.features[task_name]
         self.builder.Connect(admittance.GetOutputPort("pose_des"), feature.GetInputPort("position_des"))
@@ -369,7 +417,7 @@ class HumanoidTaskBuilder:
             name=f"feature_{task_name}",
         )
         task = self._add_task(task_name, feature, gain)
-        self._q_consumers.append(feature.GetInputPort("q"))
+        self.use_reference_q(feature.GetInputPort("q"))
         return task
 
     def log(self, name: str, port: OutputPort) -> None:

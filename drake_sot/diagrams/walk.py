@@ -63,19 +63,31 @@ def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: 
     return forward + alternating_steps(last["left"], last["right"], 5, turn=turns, first_side="left")
 
 
-def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:
-    """The pattern generator and the walking tasks: joint limits, left and right foot 6D
-    and CoM xy (references and velocity feed-forward from the generator), waist
-    orientation, both hands held relative to the waist. Returns the generator and the
-    initial footprints."""
+def add_pattern_generator(
+    b: HumanoidSoTBuilder, name: str = "pg"
+) -> tuple[PatternGenerator, Footstep, Footstep]:
+    """A pattern generator ``name`` standing on the robot's initial footprints, its CoM height
+    the initial CoM's, ticking at the control period, with this scenario's ``TIMING``.
+    Returns it and the initial footprints."""
     left, right = (
         footstep(b.initial_pose("left_foot"), "left"),
         footstep(b.initial_pose("right_foot"), "right"),
     )
     com0 = b.initial_com()
     pg = b.builder.AddSystem(
-        PatternGenerator(left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2])
+        PatternGenerator(
+            left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2], name=name
+        )
     )
+    return pg, left, right
+
+
+def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:
+    """The pattern generator and the walking tasks: joint limits, left and right foot 6D
+    and CoM xy (references and velocity feed-forward from the generator), waist
+    orientation, both hands held relative to the waist. Returns the generator and the
+    initial footprints."""
+    pg, left, right = add_pattern_generator(b)
     b.add_joint_limits_task("taskJL")
     for task_name, foot in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
         b.add_op_point_task(task_name, foot, gain=20.0)
