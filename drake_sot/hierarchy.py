@@ -690,7 +690,8 @@ def solve_hqp(
     (a higher level's slack larger, never smaller); exit flags -6 or 3 in 5 %. Where
     it is right it is right to ~4e-7 only: it makes each level soft with a fixed
     penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), and says
-    "relaxed" (exit flag 2) on feasible stacks. The equality-only case must equal :func:`solve_strict` to 1e-9.
+    "relaxed" (exit flag 2) on feasible stacks. The equality-only case must equal
+    :func:`solve_strict` to 1e-9.
 
     Args:
         levels: ``(J_k, target_k)`` or ``(J_k, lower_k, upper_k)``, highest priority
