@@ -1,7 +1,8 @@
 """Scenario ``walk_then_interact``: the case study of Mansard et al. 2009 (IV-B, IV-D).
 
-The robot walks 4 steps to a meeting point under the walking tasks (feet, CoM and
-waist references from the pattern generator, hands carried in the waist frame).
+The robot walks 4 steps to a meeting point under the walking tasks (joint velocity and
+position limits on top, as inequalities solved by ``solve_hqp``; feet, CoM and waist
+references from the pattern generator, hands carried in the waist frame).
 A ``TaskSequencer`` plays the paper's DecisionServer: every 1 s it checks whether the
 pattern generator still provides references (its ``in_process`` flag); once the walk
 is over it removes the walking hand tasks and pushes ``taskForce`` and ``taskForceLH``
@@ -28,7 +29,17 @@ from drake_sot.systems.sequencer import TaskSequencer
 
 WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
 FORCE_TASKS = ("taskForce", "taskForceLH")
-STACK = ("taskJL", "taskLF", "taskRF", "taskCom", "taskWaist", "taskRHwaist", "taskLHwaist", "taskPosture")
+STACK = (
+    "taskVL",
+    "taskJL",
+    "taskLF",
+    "taskRF",
+    "taskCom",
+    "taskWaist",
+    "taskRHwaist",
+    "taskLHwaist",
+    "taskPosture",
+)
 #: The partner's grip offsets from where it takes each hand: (time from grip [s], offset [m]).
 PULL_PUSH = (
     (0.0, (0.0, 0.0, 0.0)),
@@ -109,6 +120,7 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
         load=pg.GetOutputPort("load"),
         dynamic_feedforward=True,
         stack_source=sequencer.GetOutputPort("stack"),
+        solver="hqp",
     )
     steps = forward_steps(left, right, n=4, stride=0.15)
     return ScenarioSetup(
