@@ -782,18 +782,26 @@ class _ActiveSet:
             J, lower, upper, equality = J[keep], lower[keep], upper[keep], equality[keep]
             if not J.shape[0]:
                 return
+        if not equality.any():
+            value = J @ self.x
+            if ((value <= upper + self.tol) & (value >= lower - self.tol)).all():
+                # Inequalities that all hold: the level is met where it stands, its rows turn hard.
+                self.iterations += 1
+                self._add_hard(J, lower, upper)
+                return
         soft = np.flatnonzero(~equality)
         side = np.full(J.shape[0], 2, dtype=np.int8)  # 2: equality; ±1: held at upper/lower; 0: free
         if soft.size:
-            value = J[soft] @ self.x
-            side[soft] = np.where(
-                value > upper[soft] + self.tol, 1, np.where(value < lower[soft] - self.tol, -1, 0)
-            )
+            # The inequality rows (all of them, without copies, in a level of inequalities only).
+            Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])
+            value = Js @ self.x
+            side[soft] = np.where(value > us + self.tol, 1, np.where(value < ls - self.tol, -1, 0))
         last, iterations = self._minimise(J, lower, upper, side, soft, name)
         # The level's optimum: its equality rows and violated rows keep their values below.
         if soft.size:
-            residual = J[soft] @ self.x - np.where(side[soft] == -1, lower[soft], upper[soft])
-            violated = (side[soft] != 0) & (np.abs(residual) > self.tol)
+            held = side[soft]
+            residual = Js @ self.x - np.where(held == -1, ls, us)
+            violated = (held != 0) & (np.abs(residual) > self.tol)
             fixed = equality.copy()
             fixed[soft[violated]] = True
             hard = soft[~violated]
@@ -814,11 +822,14 @@ class _ActiveSet:
                 N = SvdSplit.of(F if self.Z is None else F @ self.Z, self.rank_threshold).null_basis()
             self.Z = N if self.Z is None else self.Z @ N
         if hard.size:
-            rows = J[hard]
-            self.C = np.vstack((self.C, rows))
-            self.lo = np.concatenate((self.lo, lower[hard]))
-            self.hi = np.concatenate((self.hi, upper[hard]))
-            self.c_norms = np.concatenate((self.c_norms, np.sqrt(np.einsum("ij,ij->i", rows, rows))))
+            self._add_hard(J[hard], lower[hard], upper[hard])
+
+    def _add_hard(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        """Rows that hold at this level's optimum: the levels below must keep them holding."""
+        self.C = np.vstack((self.C, rows))
+        self.lo = np.concatenate((self.lo, lower))
+        self.hi = np.concatenate((self.hi, upper))
+        self.c_norms = np.concatenate((self.c_norms, _row_norms(rows)))
 
     def regularise(self) -> None:
         """The last level ``I q̇ = 0``: the minimum-norm q̇ among the solutions of all levels.
@@ -851,7 +862,6 @@ class _ActiveSet:
         Z, C, tol, rt = self.Z, self.C, self.tol, self.rank_threshold
         hard = np.zeros(C.shape[0], dtype=np.int8)  # 0 free, ±1 held at upper/lower
         held = _NO_ROWS
-        soft_norms = np.sqrt(np.einsum("ij,ij->i", A[soft], A[soft])) if soft.size else None
         limit = self.ITERATIONS_PER_ROW * (A.shape[0] + C.shape[0] + 1)
         x = self.x
         for iteration in range(1, limit + 1):
@@ -883,13 +893,9 @@ class _ActiveSet:
                     if soft.size:
                         free = soft[side[soft] == 0]
                         if free.size:
+                            Af = A[free]
                             k, step, bound = _first_block(
-                                A[free],
-                                lower[free],
-                                upper[free],
-                                x,
-                                d,
-                                1e-10 * d_norm * soft_norms[side[soft] == 0],
+                                Af, lower[free], upper[free], x, d, 1e-10 * d_norm * _row_norms(Af)
                             )
                             if step < alpha:
                                 alpha, blocker = step, (side, int(free[k]), bound)
@@ -951,6 +957,11 @@ class _ActiveSet:
 _NO_ROWS = np.zeros(0, dtype=np.intp)
 
 
+def _row_norms(M: np.ndarray) -> np.ndarray:
+    """The 2-norm of each row of ``M``."""
+    return np.sqrt(np.einsum("ij,ij->i", M, M))
+
+
 def _first_block(
     M: np.ndarray, lower: np.ndarray, upper: np.ndarray, x: np.ndarray, d: np.ndarray, eps: np.ndarray
 ) -> tuple[int, float, int]:
@@ -959,6 +970,9 @@ def _first_block(
     moves when ``|M_i d| > eps_i``; one already past its bound (rounding) blocks at once."""
     rate = M @ d
     value = M @ x
+    after = value + rate
+    if ((after <= upper) & (after >= lower)).all():
+        return -1, _INF, 0  # the whole step stays inside every row (the common case)
     up = rate > eps
     down = rate < -eps
     if not (up.any() or down.any()):
