@@ -1,8 +1,9 @@
 """Scenario ``reach``: stand, reach with the right hand, then push and remove a left-hand task.
 
-Stack (highest priority first, solved by ``solve_hqp``): joint velocity limits, joint
-position limits (velocity bounds over the control period, 0.02 rad inside each limit),
-both inequalities; left foot 6D, right foot 6D, CoM xy, right hand 6D, posture. Script:
+Stack (highest priority first, solved by ``solve_hqp``): joint position and velocity
+limits (an inequality: velocity bounds over the control period that stop each joint
+0.02 rad inside its limits, clipped to its velocity limits), left foot 6D, right foot
+6D, CoM xy, right hand 6D, posture. Script:
 
 - t = 1 s: the right-hand target moves 25 cm forward and 20 cm up from where the hand
   started (orientation kept);
@@ -25,7 +26,7 @@ from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 
 RIGHT_HAND_OFFSET = np.array([0.25, 0.0, 0.20])  # [m] from the initial hand position, world frame
 LEFT_HAND_OFFSET = np.array([0.20, 0.0, 0.15])
-STACK = ("taskVL", "taskJL", "taskLF", "taskRF", "taskCom", "taskRH", "taskPosture")
+STACK = ("taskJL", "taskLF", "taskRF", "taskCom", "taskRH", "taskPosture")
 
 
 def _shifted(X: RigidTransform, offset: np.ndarray) -> RigidTransform:
@@ -37,8 +38,7 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     b = HumanoidSoTBuilder(meshcat=meshcat)
     target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
     target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
-    b.add_joint_velocity_limits_task("taskVL")
-    b.add_joint_position_limits_task("taskJL")
+    b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     b.add_op_point_task("taskLF", "left_foot", gain=5.0)
     b.add_op_point_task("taskRF", "right_foot", gain=5.0)
     b.add_com_task("taskCom", selection="110", gain=3.0)

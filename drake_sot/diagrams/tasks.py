@@ -352,17 +352,24 @@ class HumanoidTaskBuilder:
         return task
 
     def add_joint_position_limits_task(
-        self, task_name: str, *, margin: float = 0.02, joints: Sequence[str] | None = None
+        self,
+        task_name: str,
+        *,
+        margin: float = 0.02,
+        velocity_scale: float | None = None,
+        joints: Sequence[str] | None = None,
     ) -> JointPositionLimits:
         """Joint position limits as velocity bounds over the control period, ``margin`` inside
         each limit (``JointPositionLimits``), on ``joints`` (every actuated joint by default);
-        the solver's q̇ output feeds its ``qdot`` input (the device's one-tick latency).
-        An inequality task: the stack needs ``build(..., solver="hqp")``."""
+        with ``velocity_scale``, the velocity limits (times it) in the same rows. The solver's
+        q̇ output feeds its ``qdot`` input (the device's one-tick latency). An inequality
+        task: the stack needs ``build(..., solver="hqp")``."""
         task = JointPositionLimits(
             self.control_plant,
             period=self.control_period,
             joints=list(joints) if joints is not None else list(self.control_info.actuated_joints),
             margin=margin,
+            velocity_scale=velocity_scale,
             name=task_name,
         )
         self._add_inequality(task)

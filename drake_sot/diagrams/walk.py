@@ -1,7 +1,7 @@
 """Scenario ``walk``: the humanoid walks in physics on pattern-generator references.
 
-Stack (highest priority first, solved by ``solve_hqp``): joint velocity limits and joint
-position limits (inequalities), left foot 6D, right foot 6D (references
+Stack (highest priority first, solved by ``solve_hqp``): joint position and velocity
+limits (an inequality task), left foot 6D, right foot 6D (references
 and velocity feed-forward from the pattern generator), CoM xy (preview-control CoM),
 waist orientation (yaw midway between the feet), both hands held relative to the
 waist, posture. Script: at t = 0.5 s, 8 steps of 0.2 m forward, then 4 steps turning
@@ -32,7 +32,6 @@ from drake_sot.systems.zmp import ZmpEstimator
 TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
 START = 0.5  # [s] when the steps are given
 STACK = (
-    "taskVL",
     "taskJL",
     "taskLF",
     "taskRF",
@@ -66,8 +65,8 @@ def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: 
 
 
 def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:
-    """The pattern generator and the walking tasks: joint velocity and position limits
-    (inequality tasks: the stack needs ``solver="hqp"``), left and right foot 6D
+    """The pattern generator and the walking tasks: joint position and velocity limits
+    (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
     and CoM xy (references and velocity feed-forward from the generator), waist
     orientation, both hands held relative to the waist. Returns the generator and the
     initial footprints."""
@@ -79,8 +78,7 @@ def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Foot
     pg = b.builder.AddSystem(
         PatternGenerator(left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2])
     )
-    b.add_joint_velocity_limits_task("taskVL")
-    b.add_joint_position_limits_task("taskJL")
+    b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     for task_name, foot in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
         b.add_op_point_task(task_name, foot, gain=20.0)
         b.builder.Connect(pg.GetOutputPort(foot), b.features[task_name].GetInputPort("position_des"))

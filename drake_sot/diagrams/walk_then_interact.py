@@ -1,7 +1,7 @@
 """Scenario ``walk_then_interact``: the case study of Mansard et al. 2009 (IV-B, IV-D).
 
-The robot walks 4 steps to a meeting point under the walking tasks (joint velocity and
-position limits on top, as inequalities solved by ``solve_hqp``; feet, CoM and waist
+The robot walks 4 steps to a meeting point under the walking tasks (joint position and
+velocity limits on top, an inequality solved by ``solve_hqp``; feet, CoM and waist
 references from the pattern generator, hands carried in the waist frame).
 A ``TaskSequencer`` plays the paper's DecisionServer: every 1 s it checks whether the
 pattern generator still provides references (its ``in_process`` flag); once the walk
@@ -30,7 +30,6 @@ from drake_sot.systems.sequencer import TaskSequencer
 WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
 FORCE_TASKS = ("taskForce", "taskForceLH")
 STACK = (
-    "taskVL",
     "taskJL",
     "taskLF",
     "taskRF",

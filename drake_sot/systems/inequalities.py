@@ -102,6 +102,12 @@ class JointPositionLimits(InequalityTask):
     it while the task holds; a joint already past the margin is brought back in one
     period. Rows of joints without limits (±inf) constrain nothing.
 
+    With ``velocity_scale`` the rows also hold the joint velocity limits (times the
+    scale): both bounds are clipped to ``[-scale v_max, scale v_max]``, which keeps
+    ``lower <= upper`` and gives what a velocity-limit level above a position-limit level
+    would (the position bound relaxed to the nearest velocity the limits allow), in one
+    level of the hierarchy instead of two.
+
     The latency: ``Device`` integrates, at each tick, the q̇ that ``StackOfTasks`` solved
     at the tick before (Drake computes the updates of one instant from the state before
     it). The q̇ solved now from ``q`` acts from the next tick on, after the joint has
@@ -124,6 +130,8 @@ class JointPositionLimits(InequalityTask):
         joints: one-DoF joints to guard; None for all.
         margin: distance kept from each limit [rad or m], finite >= 0, less than half
             of every joint's range.
+        velocity_scale: None, or the fraction in (0, 1] of the model's velocity limits
+            the rows also hold.
         name: the task's name.
     """
 
@@ -134,6 +142,7 @@ class JointPositionLimits(InequalityTask):
         period: float,
         joints: Sequence[str] | None = None,
         margin: float = 0.02,
+        velocity_scale: float | None = None,
         name: str = "taskJointPositionLimits",
     ) -> None:
         objs = _joints(plant, joints, f"JointPositionLimits {name!r}")
@@ -151,6 +160,9 @@ class JointPositionLimits(InequalityTask):
                 f"{self.joint_names[k]!r} has [{lower[k]:g}, {upper[k]:g}]"
             )
         self._low, self._high = lower + margin, upper - margin
+        self._rates = (
+            (-np.inf, np.inf) if velocity_scale is None else _velocity_limits(objs, velocity_scale, name)
+        )
         self._q_index = np.array([j.position_start() for j in objs])
         self._v_index = np.array([j.velocity_start() for j in objs])
         self._J = _selection(plant, objs)
@@ -163,8 +175,19 @@ class JointPositionLimits(InequalityTask):
         ahead = (
             q + self._period * self._qdot.Eval(context)[self._v_index] if self._qdot.HasValue(context) else q
         )
-        lower, upper = ineq.velocity_bounds(ahead, self._low, self._high, 1.0 / self._period)
+        lower, upper = ineq.velocity_bounds(ahead, self._low, self._high, 1.0 / self._period, *self._rates)
         return ineq.outside(q, self._low, self._high), self._J, lower, upper
+
+
+def _velocity_limits(joints: list, scale: float, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """``scale`` times the joints' velocity limits (lower, upper), ``scale`` checked in (0, 1]."""
+    scale = validation.bounded(f"{name!r}: velocity scale", scale, 0.0, 1.0)
+    if not scale > 0.0:
+        raise ValueError(f"{name!r}: velocity scale = {scale!r}: must be > 0")
+    return (
+        scale * np.array([j.velocity_lower_limits()[0] for j in joints]),
+        scale * np.array([j.velocity_upper_limits()[0] for j in joints]),
+    )
 
 
 class JointVelocityLimits(InequalityTask):
@@ -194,15 +217,7 @@ class JointVelocityLimits(InequalityTask):
         objs = _joints(plant, joints, f"JointVelocityLimits {name!r}")
         super().__init__(name, len(objs))
         self.joint_names = tuple(j.name() for j in objs)
-        scale = validation.bounded(f"{name!r}: scale", scale, 0.0, 1.0)
-        if not scale > 0.0:
-            raise ValueError(f"{name!r}: scale = {scale!r}: must be > 0")
-        self._signal = (
-            np.zeros(len(objs)),
-            _selection(plant, objs),
-            scale * np.array([j.velocity_lower_limits()[0] for j in objs]),
-            scale * np.array([j.velocity_upper_limits()[0] for j in objs]),
-        )
+        self._signal = (np.zeros(len(objs)), _selection(plant, objs), *_velocity_limits(objs, scale, name))
         self._declare_task({self.nothing_ticket()})
 
     def _compute(self, context):

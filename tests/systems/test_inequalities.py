@@ -100,10 +100,12 @@ def test_joint_velocity_limits_are_the_models(control_model):
     assert task.dimension == 2 and not signal.error.any()
 
 
-def closed_loop(plant, info, q0, *, target, solver, with_limits=True, latency_input=True, duration=1.5):
-    """Posture task toward ``target`` (gain 20/s) under joint position and velocity limits, solved
-    and integrated at the control period (StackOfTasks + Device, no physics). Returns the
-    device's q and v logs (one sample per tick) and the limit systems."""
+def closed_loop(
+    plant, info, q0, *, target, solver, with_limits=True, latency_input=True, combined=False, duration=1.5
+):
+    """Posture task toward ``target`` (gain 20/s) under joint velocity then position limits (two
+    levels, or one with ``combined``), solved and integrated at the control period
+    (StackOfTasks + Device, no physics). Returns the device's q and v logs (one sample per tick)."""
     b = DiagramBuilder()
     joints = list(info.actuated_joints)
     feature = b.AddSystem(FeaturePosture(plant, joints, name="feature_posture", desired=target))
@@ -111,9 +113,14 @@ def closed_loop(plant, info, q0, *, target, solver, with_limits=True, latency_in
     b.Connect(feature.GetOutputPort("feature"), posture.add(feature))
     tasks = [posture]
     if with_limits:
-        velocity = b.AddSystem(JointVelocityLimits(plant, joints=joints, name="taskVL"))
-        position = b.AddSystem(JointPositionLimits(plant, period=PERIOD, joints=joints, name="taskJL"))
-        tasks = [velocity, position, posture]
+        position = b.AddSystem(
+            JointPositionLimits(
+                plant, period=PERIOD, joints=joints, velocity_scale=1.0 if combined else None, name="taskJL"
+            )
+        )
+        tasks = [position, posture]
+        if not combined:
+            tasks.insert(0, b.AddSystem(JointVelocityLimits(plant, joints=joints, name="taskVL")))
     sot = b.AddSystem(
         StackOfTasks(
             plant.num_velocities(), tasks, period=PERIOD, stack=[t.get_name() for t in tasks], solver=solver
@@ -147,15 +154,16 @@ def _limits(plant, info, margin=0.02):
     return q_index, v_index, low, high, vmax
 
 
-def test_limits_on_top_keep_the_reference_inside_while_a_posture_pulls_out(control_model):
+@pytest.mark.parametrize("combined", [False, True], ids=["two levels", "one level"])
+def test_limits_on_top_keep_the_reference_inside_while_a_posture_pulls_out(control_model, combined):
     """A posture 0.5 rad past every joint's upper limit, reached at 20/s: with the limits on top
-    the reference stops at the margin and never moves faster than the model allows; without
-    them it goes past."""
+    (velocity limits above position limits, or both in one level) the reference stops at the
+    margin and never moves faster than the model allows; without them it goes past."""
     plant, info, q0 = control_model
     q_index, v_index, low, high, vmax = _limits(plant, info)
     target = q0.copy()
     target[q_index] = high + 0.5
-    q, v = closed_loop(plant, info, q0, target=target, solver="hqp")
+    q, v = closed_loop(plant, info, q0, target=target, solver="hqp", combined=combined)
     joints_q, joints_v = q[q_index], v[v_index]
     assert (joints_q <= high[:, None] + 1e-9).all() and (joints_q >= low[:, None] - 1e-9).all()
     assert (np.abs(joints_v) <= vmax[:, None] + 1e-9).all()
@@ -164,6 +172,18 @@ def test_limits_on_top_keep_the_reference_inside_while_a_posture_pulls_out(contr
     # The same pull without the limits (the svd solver) passes them: the check above can fail.
     q_free, _ = closed_loop(plant, info, q0, target=target, solver="svd", with_limits=False, duration=0.5)
     assert (q_free[q_index, -1] > high + 0.1).all()
+
+
+def test_velocity_limits_in_the_position_rows_equal_a_level_above_them(control_model):
+    """Clipping the position bounds to the velocity limits (one level) gives the reference of a
+    velocity-limit level above a position-limit level, here with the limits binding both ways."""
+    plant, info, q0 = control_model
+    q_index, *_ = _limits(plant, info)
+    target = q0.copy()
+    target[q_index] += np.where(np.arange(len(q_index)) % 2, 3.0, -3.0)
+    two, _ = closed_loop(plant, info, q0, target=target, solver="hqp", duration=0.6)
+    one, _ = closed_loop(plant, info, q0, target=target, solver="hqp", combined=True, duration=0.6)
+    np.testing.assert_allclose(one, two, atol=1e-9)
 
 
 def test_without_the_committed_velocity_the_bound_is_overshot(control_model):
