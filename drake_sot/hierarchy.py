@@ -1,5 +1,6 @@
-"""Strict-priority solver of the Stack of Tasks (Mansard et al. 2009, eq. 8-9) and the
-generalized projector of soft priorities (Liu, Lober, Padois 2016, eq. 4 and 8).
+"""Strict-priority solvers of the Stack of Tasks (Mansard et al. 2009, eq. 8-9; with
+inequalities, Escande et al. 2014) and the generalized projector of soft priorities
+(Liu, Lober, Padois 2016, eq. 4 and 8).
 
 The recursion of eq. (8),
 
@@ -14,6 +15,11 @@ Each level costs one SVD of the small matrix ``J_i Z_{i-1}`` (m_i, k_{i-1}),
 which gives at once the pseudo-inverse and the basis of what remains free:
 ``Z_i = Z_{i-1} V_i[:, r_i:]``.  The free space shrinks level by level and the
 solver stops doing work once it is empty.
+
+:func:`solve_hqp` extends the strict hierarchy to levels of inequalities
+``l <= J q̇ <= u`` (Escande, Mansard, Wieber 2014): a primal active set in the same
+basis form, each level minimising its slack given the levels above, then the
+minimum-norm q̇.
 
 The generalized projector (:func:`generalized_projector`; Liu, Lober, Padois 2016,
 section 3.2) replaces the strict order by a priority matrix ``A_i = diag(alpha_ij I_mj)``

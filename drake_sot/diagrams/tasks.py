@@ -447,9 +447,7 @@ class HumanoidTaskBuilder:
                 normal=normal, origin=origin, clearance=clearance, offset=offset, gain=gain, name=task_name
             )
         )
-        op = self.op_point(frame_key)
-        self.builder.Connect(self.dyn.GetOutputPort(op), task.GetInputPort("position"))
-        self.builder.Connect(self.dyn.GetOutputPort("J" + op), task.GetInputPort("Jq"))
+        self._wire_op_point(frame_key, task)
         return task
 
     def add_distance_task(
@@ -468,11 +466,16 @@ class HumanoidTaskBuilder:
         task = self._add_inequality(
             DistanceAbove(minimum=minimum, offset_a=offset_a, offset_b=offset_b, gain=gain, name=task_name)
         )
-        for frame_key, k in ((frame_a, "a"), (frame_b, "b")):
-            op = self.op_point(frame_key)
-            self.builder.Connect(self.dyn.GetOutputPort(op), task.GetInputPort(f"position_{k}"))
-            self.builder.Connect(self.dyn.GetOutputPort("J" + op), task.GetInputPort(f"Jq_{k}"))
+        self._wire_op_point(frame_a, task, "_a")
+        self._wire_op_point(frame_b, task, "_b")
         return task
+
+    def _wire_op_point(self, frame_key: str, system, suffix: str = "") -> None:
+        """The pose and Jacobian of the operational point on ``frame_key`` into ``system``'s
+        ``position<suffix>`` and ``Jq<suffix>`` inputs."""
+        op = self.op_point(frame_key)
+        self.builder.Connect(self.dyn.GetOutputPort(op), system.GetInputPort("position" + suffix))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + op), system.GetInputPort("Jq" + suffix))
 
     def log(self, name: str, port: OutputPort) -> None:
         """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""

@@ -29,16 +29,7 @@ from drake_sot.systems.sequencer import TaskSequencer
 
 WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
 FORCE_TASKS = ("taskForce", "taskForceLH")
-STACK = (
-    "taskJL",
-    "taskLF",
-    "taskRF",
-    "taskCom",
-    "taskWaist",
-    "taskRHwaist",
-    "taskLHwaist",
-    "taskPosture",
-)
+STACK = ("taskJL", "taskLF", "taskRF", "taskCom", "taskWaist", "taskRHwaist", "taskLHwaist", "taskPosture")
 #: The partner's grip offsets from where it takes each hand: (time from grip [s], offset [m]).
 PULL_PUSH = (
     (0.0, (0.0, 0.0, 0.0)),
