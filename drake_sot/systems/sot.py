@@ -71,7 +71,8 @@ class StackOfTasks(LeafSystem):
 
     Args:
         nv: size of q̇ (the model's number of velocities), >= 1.
-        tasks: the tasks (their names and dimensions), or task name → dimension.
+        tasks: the tasks (their names and dimensions; inequality tasks need ``solver="hqp"``), or
+            task name → dimension (the kind of each task is then known from its signal).
         period: the control period [s], finite and > 0.
         rank_threshold: singular values at or below it are treated as zero (finite, >= 0;
             see :func:`~drake_sot.hierarchy.solve_strict`).
@@ -86,8 +87,8 @@ class StackOfTasks(LeafSystem):
         ValueError: at construction, naming the bad argument (a task name twice, a
             task named "stack", a dimension < 1, a NaN period, ...); an initial stack
             naming an unknown task raises :class:`~drake_sot.stack.UnknownTaskError`
-            (a ValueError and a KeyError) listing the known tasks; an inequality task or
-            a damping with ``solver="svd"``, or an unknown solver. At the tick, a
+            (a ValueError and a KeyError) listing the known tasks; an inequality task with
+            ``solver="svd"``, a damping with ``solver="hqp"``, an unknown solver. At the tick, a
             RuntimeError naming the task when its signal carries another task's name,
             has the wrong sizes (e, J or ė*; or the bounds), holds NaN/Inf (NaN only, in
             bounds), has a lower bound above its upper one (naming the row), or is an
@@ -97,7 +98,7 @@ class StackOfTasks(LeafSystem):
     def __init__(
         self,
         nv: int,
-        tasks: Sequence[Task] | Mapping[str, int],
+        tasks: Sequence[Task | InequalityTask] | Mapping[str, int],
         *,
         period: float = 0.005,
         rank_threshold: float = 1e-6,
