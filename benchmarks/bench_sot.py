@@ -4,7 +4,9 @@
 
 1. ``solve_strict`` (null-space basis form) vs the textbook projector form of paper
    000 eq. 8-9 (n x n projectors, same pseudo-inverse threshold), on the ``reach``
-   stack's sizes, calls interleaved so both see the same load.
+   stack's sizes, calls interleaved so both see the same load; and ``solve_hqp`` vs
+   ``solve_strict`` on the same levels (equalities only: the same q̇), then with the
+   joint-limit level of the scenarios on top (a 30-row box, not binding).
 2. One full control tick of ``reach`` (kinematics, 7 features and tasks, the solve)
    against the 5 ms control period.
 3. The ``reach`` scenario's real-time factor against the plant alone, standing on
@@ -18,7 +20,7 @@ import time
 
 import numpy as np
 
-from drake_sot.hierarchy import solve_strict
+from drake_sot.hierarchy import solve_hqp, solve_strict
 from drake_sot.linalg import pinv
 
 
@@ -63,6 +65,34 @@ def bench_solver(repeat: int = 2000) -> dict[str, float]:
         "basis_us": 1e6 * statistics.median(basis),
         "projector_us": 1e6 * statistics.median(proj),
         "ratio": ratio,
+    }
+
+
+def bench_hqp(repeat: int = 2000) -> dict[str, float]:
+    """``solve_hqp`` against ``solve_strict`` on the reach stack's sizes, interleaved, unvalidated
+    (as ``StackOfTasks`` calls them): equalities only, then with a box of joint limits on top."""
+    rng = np.random.default_rng(0)
+    n = 36
+    levels = [(rng.normal(size=(m, n)), rng.normal(size=m)) for m in (6, 6, 2, 6, 30)]
+    triples = [(J, e, e) for J, e in levels]
+    box = (np.eye(n)[6:], -np.full(n - 6, 5.0), np.full(n - 6, 5.0))  # |q̇_joint| <= 5 rad/s: not binding
+    limited = [box, *triples]
+    strict = solve_strict(levels).qdot
+    assert np.allclose(solve_hqp(triples, validate=False).qdot, strict, atol=1e-9), "hqp and strict disagree"
+    assert np.allclose(solve_hqp(limited, validate=False).qdot, strict, atol=1e-9), "the box should not bind"
+    times: dict[str, list[float]] = {"strict": [], "hqp": [], "limited": []}
+    for _ in range(repeat):
+        times["strict"] += _timeit(lambda: solve_strict(levels, validate=False), 1)
+        times["hqp"] += _timeit(lambda: solve_hqp(triples, validate=False), 1)
+        times["limited"] += _timeit(lambda: solve_hqp(limited, validate=False), 1)
+    pairs = zip(times["strict"], times["hqp"], times["limited"], strict=True)
+    ratios = [(h / s, lim / s) for s, h, lim in pairs]
+    return {
+        "strict_us": 1e6 * statistics.median(times["strict"]),
+        "hqp_us": 1e6 * statistics.median(times["hqp"]),
+        "limited_us": 1e6 * statistics.median(times["limited"]),
+        "ratio": statistics.median(r for r, _ in ratios),
+        "limited_ratio": statistics.median(r for _, r in ratios),
     }
 
 
@@ -137,6 +167,7 @@ def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, flo
 
 def main() -> None:
     solver = bench_solver()
+    hqp = bench_hqp()
     tick = bench_tick()
     rtf = bench_realtime()
     rows = [
@@ -145,6 +176,18 @@ def main() -> None:
             f"{solver['basis_us']:.0f} µs",
             f"projector form eq. 8-9: {solver['projector_us']:.0f} µs",
             f"projector / basis time: {solver['ratio']:.2f}",
+        ),
+        (
+            "solve_hqp, the same levels (equalities only: the same q̇)",
+            f"{hqp['hqp_us']:.0f} µs",
+            f"solve_strict: {hqp['strict_us']:.0f} µs",
+            f"hqp / strict time: {hqp['ratio']:.2f}",
+        ),
+        (
+            "solve_hqp, the same below a level of joint limits (+30 rows, not binding)",
+            f"{hqp['limited_us']:.0f} µs",
+            f"solve_strict without them: {hqp['strict_us']:.0f} µs",
+            f"hqp / strict time: {hqp['limited_ratio']:.2f}",
         ),
         (
             "full control tick of reach (median / p99)",

@@ -42,3 +42,24 @@ class TaskSignal:
     error: np.ndarray
     jacobian: np.ndarray
     edot_des: np.ndarray
+
+
+@dataclass(frozen=True)
+class BoundedTaskSignal:
+    """An inequality task as the solver sees it: ``lower <= J q̇ <= upper`` row by row
+    (a level of :func:`drake_sot.hierarchy.solve_hqp`; Escande, Mansard, Wieber 2014).
+
+    Attributes:
+        name: the task's name (the key the stack uses).
+        error: (m,) how far the task's quantity is outside its allowed set, in the
+            quantity's units (0 inside): what a plot of the task's error shows.
+        jacobian: ``J`` (m, nv).
+        lower: (m,) lower bounds of ``J q̇``; ``-inf`` where there is none.
+        upper: (m,) upper bounds of ``J q̇``; ``+inf`` where there is none.
+    """
+
+    name: str
+    error: np.ndarray
+    jacobian: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray

@@ -19,6 +19,7 @@ import numpy as np
 
 __all__ = [
     "bounded",
+    "bounds",
     "finite",
     "matrix",
     "nonempty_string",
@@ -136,6 +137,31 @@ def per_axis(name: str, value, n: int, *, sign: Sign = "any", allow_inf: bool = 
             what += " (or +inf)"
         raise ValueError(f"{name} = {a}: every value must be {what}; entry {int(np.argmin(ok))} is not")
     return a
+
+
+def bounds(name: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(lower, upper)`` as float arrays (``size``,) with ``lower <= upper`` row by row.
+
+    Infinite bounds are allowed on their own side (``lower = -inf``: no lower bound;
+    ``upper = +inf``: no upper bound); NaN, ``lower = +inf`` and ``upper = -inf`` are
+    not. The message names the row.
+    """
+    lo = np.asarray(lower, dtype=float)
+    hi = np.asarray(upper, dtype=float)
+    for side, a in (("lower", lo), ("upper", hi)):
+        if a.shape != (size,):
+            raise ValueError(f"{name}: {side} must have shape ({size},), got shape {a.shape}")
+    ok = (lo < np.inf) & (hi > -np.inf) & (lo <= hi)  # NaN fails every comparison
+    if not ok.all():
+        row = int(np.argmin(ok))
+        what = "NaN" if math.isnan(lo[row]) or math.isnan(hi[row]) else "lower > upper"
+        if what != "NaN" and (lo[row] == np.inf or hi[row] == -np.inf):
+            what = "an infinite bound on the wrong side"
+        raise ValueError(
+            f"{name}: row {row}: lower = {float(lo[row])!r}, upper = {float(hi[row])!r} ({what}): "
+            "bounds must satisfy lower <= upper, -inf <= lower < inf, -inf < upper <= inf"
+        )
+    return lo, hi
 
 
 def nonempty_string(name: str, value) -> str:

@@ -56,6 +56,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         load: OutputPort | None = None,
         dynamic_feedforward: bool = False,
         stack_source: OutputPort | None = None,
+        solver: str = "svd",
     ) -> HumanoidSoT:
         """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
 
@@ -70,12 +71,18 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             stack_source: an abstract ``tuple[str, ...]`` output that drives the stack
                 (e.g. ``TaskSequencer.stack``); then ``stack`` is only the stack's name list
                 for validation and the context commands are refused.
+            solver: the ``StackOfTasks`` solver, ``"svd"`` (equality tasks) or ``"hqp"``
+                (also the inequality tasks, e.g. :meth:`add_joint_position_limits_task`).
         """
         b = self.builder
         period = self.control_period
         sot = b.AddSystem(
             StackOfTasks(
-                self.control_plant.num_velocities(), list(self.tasks.values()), period=period, stack=stack
+                self.control_plant.num_velocities(),
+                list(self.tasks.values()),
+                period=period,
+                stack=stack,
+                solver=solver,
             )
         )
         for task_name, task in self.tasks.items():
@@ -86,6 +93,8 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             Device(self.control_plant, self.control_info.actuated_joints, self.q0, period=period)
         )
         b.Connect(sot.GetOutputPort("qdot"), device.GetInputPort("qdot"))
+        for port in self._qdot_consumers:
+            b.Connect(sot.GetOutputPort("qdot"), port)
         for port in self._q_consumers:
             b.Connect(device.GetOutputPort("q"), port)
         b.Connect(

@@ -1,8 +1,9 @@
 """Scenario ``reach``: stand, reach with the right hand, then push and remove a left-hand task.
 
-Stack (highest priority first): joint limits, left foot 6D, right foot 6D, CoM xy,
-right hand 6D, posture. The joint-limit task is inactive (zero rows) until a joint
-comes within 2 cm·rad of a limit. Script:
+Stack (highest priority first, solved by ``solve_hqp``): joint position and velocity
+limits (an inequality: velocity bounds over the control period that stop each joint
+0.02 rad inside its limits, clipped to its velocity limits), left foot 6D, right foot
+6D, CoM xy, right hand 6D, posture. Script:
 
 - t = 1 s: the right-hand target moves 25 cm forward and 20 cm up from where the hand
   started (orientation kept);
@@ -37,14 +38,14 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     b = HumanoidSoTBuilder(meshcat=meshcat)
     target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
     target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
-    b.add_joint_limits_task("taskJL")
+    b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     b.add_op_point_task("taskLF", "left_foot", gain=5.0)
     b.add_op_point_task("taskRF", "right_foot", gain=5.0)
     b.add_com_task("taskCom", selection="110", gain=3.0)
     b.add_op_point_task("taskRH", "right_hand", gain=2.5)
     b.add_op_point_task("taskLH", "left_hand", gain=2.5, desired=target_lh)
     b.add_posture_task("taskPosture", gain=1.0)
-    built = b.build(stack=STACK)
+    built = b.build(stack=STACK, solver="hqp")
     sot, feature_rh = built.sot, built.features["taskRH"]
     commands = [
         Command(1.0, "taskRH target +25 cm x, +20 cm z", lambda c: feature_rh.set_desired(c, target_rh)),

@@ -25,6 +25,7 @@ from drake_sot.diagrams.world import add_humanoid_plant
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, half_sitting_configuration, make_control_model
+from drake_sot.models.humanoid import SOLE
 from drake_sot.systems.admittance import AdmittanceController
 from drake_sot.systems.features import (
     FeatureCoM,
@@ -37,6 +38,14 @@ from drake_sot.systems.features import (
 )
 from drake_sot.systems.force_sensor import ForceSensor, payload
 from drake_sot.systems.generalized_controller import VECTOR_OUTPUTS
+from drake_sot.systems.inequalities import (
+    CoMInSupportPolygon,
+    DistanceAbove,
+    InequalityTask,
+    JointPositionLimits,
+    JointVelocityLimits,
+    PointAbovePlane,
+)
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive
@@ -96,10 +105,11 @@ class HumanoidTaskBuilder:
         self.meshcat = meshcat
         self.dyn = self.builder.AddSystem(RobotKinematics(self.control_plant))
         self.dyn.set_name("dyn")
-        self.tasks: dict[str, Task] = {}
+        self.tasks: dict[str, Task | InequalityTask] = {}
         self.features: dict[str, _Feature] = {}
         self._pose_feature_frames: dict[FeaturePoint6d, str] = {}  # op-point feature -> its frame key
         self._q_consumers: list = [self.dyn.GetInputPort("q")]
+        self._qdot_consumers: list = []  # inputs of the q̇ the solver committed (its output)
         self._extra_logs: dict[str, OutputPort] = {}
         self._probe_context = self.control_plant.CreateDefaultContext()
         self.control_plant.SetPositions(self._probe_context, self.q0)
@@ -419,6 +429,139 @@ class HumanoidTaskBuilder:
         task = self._add_task(task_name, feature, gain)
         self.use_reference_q(feature.GetInputPort("q"))
         return task
+
+    # --- inequality tasks (StackOfTasks(solver="hqp")) ---------------------------------
+    def _add_inequality(self, task: InequalityTask) -> InequalityTask:
+        if task.get_name() in self.tasks:
+            raise ValueError(f"a task named {task.get_name()!r} exists already")
+        self.tasks[task.get_name()] = self.builder.AddSystem(task)
+        return task
+
+    def add_joint_position_limits_task(
+        self,
+        task_name: str,
+        *,
+        margin: float = 0.02,
+        velocity_scale: float | None = None,
+        joints: Sequence[str] | None = None,
+    ) -> JointPositionLimits:
+        """Joint position limits as velocity bounds over the control period, ``margin`` inside
+        each limit (``JointPositionLimits``), on ``joints`` (every actuated joint by default);
+        with ``velocity_scale``, the velocity limits (times it) in the same rows. The solver's
+        q̇ output feeds its ``qdot`` input (the device's one-tick latency). An inequality
+        task: the stack needs ``build(..., solver="hqp")``."""
+        task = JointPositionLimits(
+            self.control_plant,
+            period=self.control_period,
+            joints=list(joints) if joints is not None else list(self.control_info.actuated_joints),
+            margin=margin,
+            velocity_scale=velocity_scale,
+            name=task_name,
+        )
+        self._add_inequality(task)
+        self._q_consumers.append(task.GetInputPort("q"))
+        self._qdot_consumers.append(task.GetInputPort("qdot"))
+        return task
+
+    def add_joint_velocity_limits_task(
+        self, task_name: str, *, scale: float = 1.0, joints: Sequence[str] | None = None
+    ) -> JointVelocityLimits:
+        """The model's joint velocity limits, times ``scale`` (``JointVelocityLimits``), on
+        ``joints`` (every actuated joint by default). An inequality task."""
+        joints = list(joints) if joints is not None else list(self.control_info.actuated_joints)
+        return self._add_inequality(
+            JointVelocityLimits(self.control_plant, joints=joints, scale=scale, name=task_name)
+        )
+
+    def add_com_support_task(
+        self,
+        task_name: str,
+        *,
+        margin: float = 0.02,
+        gain: float = 5.0,
+        contacts: OutputPort | None = None,
+        polygon: OutputPort | None = None,
+        max_vertices: int = 8,
+    ) -> CoMInSupportPolygon:
+        """The CoM's ground projection ``margin`` inside the support polygon (``CoMInSupportPolygon``).
+
+        The polygon is that of the feet in contact (the soles' frames from ``dyn``; both
+        feet unless ``contacts``, a (2,) [left, right] output such as
+        ``PatternGenerator.contacts``, says otherwise), or the output ``polygon`` (abstract
+        (k, 2) vertices, counter-clockwise) when given. An inequality task.
+        """
+        if polygon is not None and contacts is not None:
+            raise ValueError(f"{task_name!r}: contacts select feet; with a polygon output there are none")
+        task = self._add_inequality(
+            CoMInSupportPolygon(
+                sole_size=None if polygon is not None else SOLE,
+                margin=margin,
+                gain=gain,
+                max_vertices=max_vertices,
+                name=task_name,
+            )
+        )
+        b = self.builder
+        b.Connect(self.dyn.GetOutputPort("com"), task.GetInputPort("com"))
+        b.Connect(self.dyn.GetOutputPort("Jcom"), task.GetInputPort("Jcom"))
+        if polygon is not None:
+            b.Connect(polygon, task.GetInputPort("polygon"))
+            return task
+        for side in ("left", "right"):
+            b.Connect(
+                self.dyn.GetOutputPort(self.op_point(f"{side}_foot")), task.GetInputPort(f"{side}_sole")
+            )
+        if contacts is not None:
+            b.Connect(contacts, task.GetInputPort("contacts"))
+        return task
+
+    def add_above_plane_task(
+        self,
+        task_name: str,
+        frame_key: str,
+        *,
+        normal: Sequence[float] = (0.0, 0.0, 1.0),
+        origin: Sequence[float] = (0.0, 0.0, 0.0),
+        clearance: float = 0.0,
+        offset: Sequence[float] = (0.0, 0.0, 0.0),
+        gain: float = 5.0,
+    ) -> PointAbovePlane:
+        """A point (``offset`` in a humanoid frame) kept ``clearance`` above a plane
+        (``PointAbovePlane``; e.g. a hand above a table). An inequality task."""
+        task = self._add_inequality(
+            PointAbovePlane(
+                normal=normal, origin=origin, clearance=clearance, offset=offset, gain=gain, name=task_name
+            )
+        )
+        self._wire_op_point(frame_key, task)
+        return task
+
+    def add_distance_task(
+        self,
+        task_name: str,
+        frame_a: str,
+        frame_b: str,
+        *,
+        minimum: float,
+        offset_a: Sequence[float] = (0.0, 0.0, 0.0),
+        offset_b: Sequence[float] = (0.0, 0.0, 0.0),
+        gain: float = 5.0,
+    ) -> DistanceAbove:
+        """Two humanoid frames' points kept at least ``minimum`` apart (``DistanceAbove``; e.g. a
+        hand and the torso, each inside a sphere). An inequality task."""
+        task = self._add_inequality(
+            DistanceAbove(minimum=minimum, offset_a=offset_a, offset_b=offset_b, gain=gain, name=task_name)
+        )
+        self._wire_op_point(frame_a, task, "_a")
+        self._wire_op_point(frame_b, task, "_b")
+        return task
+
+    def _wire_op_point(self, frame_key: str, system, suffix: str = "") -> None:
+        """The pose and Jacobian of the operational point on ``frame_key`` into ``system``'s
+        ``position<suffix>`` and ``Jq<suffix>`` inputs."""
+        op = self.op_point(frame_key)
+        self.builder.Connect(self.dyn.GetOutputPort(op), system.GetInputPort("position" + suffix))
+        self.builder.Connect(self.dyn.GetOutputPort("J" + op), system.GetInputPort("Jq" + suffix))
 
     def log(self, name: str, port: OutputPort) -> None:
         """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""

@@ -28,6 +28,7 @@ from drake_sot.systems.generalized_controller import (
     GeneralizedHierarchyController,
     MotionTask,
 )
+from drake_sot.systems.inequalities import InequalityTask
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.systems.stack_history import StackHistory
 from drake_sot.validation import positive
@@ -108,6 +109,12 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
         unknown = [n for n, *_ in (*motion, *force) if n not in self.tasks]
         if unknown:
             raise ValueError(f"unknown task(s) {unknown}; known tasks: {', '.join(self.tasks)}")
+        bounded = [n for n, *_ in (*motion, *force) if isinstance(self.tasks[n], InequalityTask)]
+        if bounded:
+            raise ValueError(
+                f"inequality task(s) {bounded}: they belong to the kinematic StackOfTasks(solver='hqp'); "
+                "the torque controller takes equality tasks"
+            )
         stray = sorted(set(force_inputs or {}) - {n for n, *_ in force})
         if stray:
             raise ValueError(

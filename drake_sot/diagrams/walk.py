@@ -1,6 +1,7 @@
 """Scenario ``walk``: the humanoid walks in physics on pattern-generator references.
 
-Stack (highest priority first): joint limits, left foot 6D, right foot 6D (references
+Stack (highest priority first, solved by ``solve_hqp``): joint position and velocity
+limits (an inequality task), left foot 6D, right foot 6D (references
 and velocity feed-forward from the pattern generator), CoM xy (preview-control CoM),
 waist orientation (yaw midway between the feet), both hands held relative to the
 waist, posture. Script: at t = 0.5 s, 8 steps of 0.2 m forward, then 4 steps turning
@@ -83,12 +84,13 @@ def add_pattern_generator(
 
 
 def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:
-    """The pattern generator and the walking tasks: joint limits, left and right foot 6D
+    """The pattern generator and the walking tasks: joint position and velocity limits
+    (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
     and CoM xy (references and velocity feed-forward from the generator), waist
     orientation, both hands held relative to the waist. Returns the generator and the
     initial footprints."""
     pg, left, right = add_pattern_generator(b)
-    b.add_joint_limits_task("taskJL")
+    b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     for task_name, foot in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
         b.add_op_point_task(task_name, foot, gain=20.0)
         b.builder.Connect(pg.GetOutputPort(foot), b.features[task_name].GetInputPort("position_des"))
@@ -123,7 +125,7 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
         ("phase", pg.GetOutputPort("phase")),
     ):
         b.log(name, port)
-    built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True)
+    built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, solver="hqp")
     steps = walk_steps(left, right)
     commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
     duration = START + len(steps) * (TIMING.single_support + TIMING.double_support) + 2.0

@@ -1,7 +1,8 @@
 """Scenario ``walk_then_interact``: the case study of Mansard et al. 2009 (IV-B, IV-D).
 
-The robot walks 4 steps to a meeting point under the walking tasks (feet, CoM and
-waist references from the pattern generator, hands carried in the waist frame).
+The robot walks 4 steps to a meeting point under the walking tasks (joint position and
+velocity limits on top, an inequality solved by ``solve_hqp``; feet, CoM and waist
+references from the pattern generator, hands carried in the waist frame).
 A ``TaskSequencer`` plays the paper's DecisionServer: every 1 s it checks whether the
 pattern generator still provides references (its ``in_process`` flag); once the walk
 is over it removes the walking hand tasks and pushes ``taskForce`` and ``taskForceLH``
@@ -109,6 +110,7 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
         load=pg.GetOutputPort("load"),
         dynamic_feedforward=True,
         stack_source=sequencer.GetOutputPort("stack"),
+        solver="hqp",
     )
     steps = forward_steps(left, right, n=4, stride=0.15)
     return ScenarioSetup(

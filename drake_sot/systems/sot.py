@@ -11,14 +11,17 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot import validation
-from drake_sot.hierarchy import solve_strict
-from drake_sot.signals import TaskSignal
+from drake_sot.hierarchy import solve_hqp, solve_strict
+from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Stack, StackError
 from drake_sot.systems._context import own_context, settable_context
+from drake_sot.systems.inequalities import InequalityTask
 from drake_sot.systems.task import Task
 
 #: Name of the optional input port that drives the stack.
 STACK_PORT = "stack"
+#: The solvers a ``StackOfTasks`` can use.
+SOLVERS = ("svd", "hqp")
 
 
 class StackOfTasks(LeafSystem):
@@ -34,8 +37,11 @@ class StackOfTasks(LeafSystem):
 
     On a periodic discrete update (the control period, 5 ms by default as on HRP-2)
     it evaluates the tasks of the stack and solves them with
-    :func:`drake_sot.hierarchy.solve_strict`; outputs are held in state between ticks,
-    so physics steps in between do not run any of the controller's Python.
+    :func:`drake_sot.hierarchy.solve_strict` (``solver="svd"``: equality tasks only) or
+    :func:`drake_sot.hierarchy.solve_hqp` (``solver="hqp"``: the stack may also hold
+    inequality tasks, :class:`~drake_sot.systems.inequalities.InequalityTask`, at any
+    level; with equality tasks only both give the same q̇); outputs are held in state
+    between ticks, so physics steps in between do not run any of the controller's Python.
 
     Smooth changes (``transition=T`` on a command, T > 0 [s]): q̇ moves continuously,
     over T, from the solution of the stack before the command to that of the stack
@@ -81,14 +87,17 @@ class StackOfTasks(LeafSystem):
     Input ports:
         <task name>: one per declared task, abstract :class:`~drake_sot.signals.TaskSignal`
             carrying that task's name; e (m,), J (m, nv), ė* (m,) with m the task's
-            dimension.
+            dimension; or, with ``solver="hqp"``, a
+            :class:`~drake_sot.signals.BoundedTaskSignal` (error (m,), J (m, nv), bounds
+            (m,) of J q̇, ±inf allowed).
         stack: optional, abstract ``tuple[str, ...]``, the active task names, highest
             priority first (the name "stack" is therefore not a valid task name).
             Validated at every tick: an unknown task name or a task listed twice
             raises a RuntimeError naming them and listing the known tasks.
     Output ports:
         qdot: joint velocity (nv,) computed at the last tick [rad/s, m/s] (v layout of the model).
-        errors: every declared task's error, concatenated in declaration order
+        errors: every declared task's error (an inequality task's: how far it is outside
+            its allowed set), concatenated in declaration order
             (Σ m_i,), NaN for the tasks that were not in the stack at the last tick
             (:meth:`error_slices` gives each task's rows).
         stack: abstract ``tuple[str, ...]``, the current active task names, highest
@@ -97,42 +106,59 @@ class StackOfTasks(LeafSystem):
 
     Args:
         nv: size of q̇ (the model's number of velocities), >= 1.
-        tasks: the tasks (their names and dimensions), or task name → dimension.
+        tasks: the tasks (their names and dimensions; inequality tasks need ``solver="hqp"``), or
+            task name → dimension (the kind of each task is then known from its signal).
         period: the control period [s], finite and > 0.
         rank_threshold: singular values at or below it are treated as zero (finite, >= 0;
             see :func:`~drake_sot.hierarchy.solve_strict`).
-        damping: damped least-squares factor (finite, >= 0; 0 is the exact pseudo-inverse).
+        damping: damped least-squares factor (finite, >= 0; 0 is the exact pseudo-inverse);
+            ``solver="svd"`` only.
         stack: the initial active tasks, highest priority first.
         name: the system's name.
+        solver: ``"svd"`` (:func:`~drake_sot.hierarchy.solve_strict`) or ``"hqp"``
+            (:func:`~drake_sot.hierarchy.solve_hqp`, equalities and inequalities).
 
     Raises:
         ValueError: at construction, naming the bad argument (a task name twice, a
             task named "stack", a dimension < 1, a NaN period, ...); an initial stack
             naming an unknown task raises :class:`~drake_sot.stack.UnknownTaskError`
-            (a ValueError and a KeyError) listing the known tasks. At the tick, a
+            (a ValueError and a KeyError) listing the known tasks; an inequality task with
+            ``solver="svd"``, a damping with ``solver="hqp"``, an unknown solver. At the tick, a
             RuntimeError naming the task when its signal carries another task's name,
-            has the wrong sizes (e, J or ė*), or holds NaN/Inf.
+            has the wrong sizes (e, J or ė*; or the bounds), holds NaN/Inf (NaN only, in
+            bounds), has a lower bound above its upper one (naming the row), or is an
+            inequality task's signal while ``solver="svd"``.
     """
 
     def __init__(
         self,
         nv: int,
-        tasks: Sequence[Task] | Mapping[str, int],
+        tasks: Sequence[Task | InequalityTask] | Mapping[str, int],
         *,
         period: float = 0.005,
         rank_threshold: float = 1e-6,
         damping: float = 0.0,
         stack: Sequence[str] = (),
         name: str = "sot",
+        solver: str = "svd",
     ) -> None:
         super().__init__()
         self.set_name(name)
         where = f"StackOfTasks {name!r}"
         self._nv = validation.positive_int(f"{where}: nv", nv)
+        if solver not in SOLVERS:
+            raise ValueError(f"{where}: solver = {solver!r}: must be one of {', '.join(map(repr, SOLVERS))}")
+        self._solver = solver
         if isinstance(tasks, Mapping):
             pairs = list(tasks.items())
+            bounded: set[str] = set()
         else:
             pairs = [(t.get_name(), t.dimension) for t in tasks]
+            bounded = {t.get_name() for t in tasks if isinstance(t, InequalityTask)}
+        if bounded and solver != "hqp":
+            raise ValueError(
+                f"{where}: inequality tasks {sorted(bounded)} need solver='hqp' (solver={solver!r})"
+            )
         if not pairs:
             raise ValueError(f"{where} needs at least one task")
         try:
@@ -149,6 +175,8 @@ class StackOfTasks(LeafSystem):
         self._period = validation.positive(f"{where}: period", period, unit="s")
         self._rank_threshold = validation.nonnegative(f"{where}: rank_threshold", rank_threshold)
         self._damping = validation.nonnegative(f"{where}: damping", damping)
+        if self._damping and solver == "hqp":
+            raise ValueError(f"{where}: damping = {damping!r}: solver='hqp' solves exactly (damping 0)")
         self._dims = dims
         self._empty = empty
         self._slices: dict[str, slice] = {}
@@ -159,7 +187,11 @@ class StackOfTasks(LeafSystem):
         self._ports = {
             task_name: self.DeclareAbstractInputPort(
                 task_name,
-                AbstractValue.Make(TaskSignal(task_name, np.zeros(0), np.zeros((0, nv)), np.zeros(0))),
+                AbstractValue.Make(
+                    BoundedTaskSignal(task_name, np.zeros(0), np.zeros((0, nv)), np.zeros(0), np.zeros(0))
+                    if task_name in bounded
+                    else TaskSignal(task_name, np.zeros(0), np.zeros((0, nv)), np.zeros(0))
+                ),
             )
             for task_name in dims
         }
@@ -185,6 +217,11 @@ class StackOfTasks(LeafSystem):
     def task_names(self) -> tuple[str, ...]:
         """Every declared task, in declaration order."""
         return self._empty.tasks
+
+    @property
+    def solver(self) -> str:
+        """``"svd"`` or ``"hqp"``."""
+        return self._solver
 
     @property
     def period(self) -> float:
@@ -259,7 +296,7 @@ class StackOfTasks(LeafSystem):
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         blend = self._current_stack(context).blend(context.get_time())
         errors = np.full(discrete_state.get_vector(self._errors).size(), np.nan)
-        signals: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        signals: dict[str, tuple[np.ndarray, ...]] = {}  # task name -> its level
         for task_name in dict.fromkeys(name for active, _ in blend for name in active):
             signal = self._ports[task_name].Eval(context)
             m = self._dims[task_name]
@@ -268,6 +305,10 @@ class StackOfTasks(LeafSystem):
                     f"{self.get_name()!r}: input port {task_name!r} carries the signal of task "
                     f"{signal.name!r}: a task is wired into another task's port"
                 )
+            if isinstance(signal, BoundedTaskSignal):
+                signals[task_name] = self._bounded_level(task_name, signal, m, context)
+                errors[self._slices[task_name]] = signal.error
+                continue
             shapes = (signal.error.shape, signal.jacobian.shape, signal.edot_des.shape)
             if shapes != ((m,), (m, self._nv), (m,)):
                 raise RuntimeError(
@@ -285,17 +326,51 @@ class StackOfTasks(LeafSystem):
                     f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s"
                 )
             errors[self._slices[task_name]] = signal.error
-            signals[task_name] = (signal.jacobian, signal.edot_des)
+            signals[task_name] = (
+                (signal.jacobian, signal.edot_des, signal.edot_des)
+                if self._solver == "hqp"
+                else (signal.jacobian, signal.edot_des)
+            )
         qdot = np.zeros(self._nv)
         for active, weight in blend:  # one stack, weight 1, unless a change is in progress
-            if active:
-                # Shapes and finiteness were checked above, with the task's name.
+            if not active:
+                continue
+            levels = [signals[task_name] for task_name in active]
+            # Shapes, finiteness and bounds were checked above, with the task's name.
+            if self._solver == "hqp":
+                result = solve_hqp(levels, names=active, rank_threshold=self._rank_threshold, validate=False)
+            else:
                 result = solve_strict(
-                    [signals[task_name] for task_name in active],
-                    rank_threshold=self._rank_threshold,
-                    damping=self._damping,
-                    validate=False,
+                    levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
                 )
-                qdot += weight * result.qdot
+            qdot += weight * result.qdot
         discrete_state.get_mutable_vector(self._qdot).SetFromVector(qdot)
         discrete_state.get_mutable_vector(self._errors).SetFromVector(errors)
+
+    def _bounded_level(
+        self, task_name: str, signal: BoundedTaskSignal, m: int, context: Context
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(J, lower, upper)`` of an inequality task's signal, checked, or RuntimeError naming the task."""
+        if self._solver != "hqp":
+            raise RuntimeError(
+                f"task {task_name!r} is an inequality task: it needs StackOfTasks(solver='hqp') "
+                f"({self.get_name()!r} has solver={self._solver!r})"
+            )
+        J, lower, upper = signal.jacobian, signal.lower, signal.upper
+        shapes = (signal.error.shape, J.shape, lower.shape, upper.shape)
+        if shapes != ((m,), (m, self._nv), (m,), (m,)):
+            raise RuntimeError(
+                f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, lower {shapes[2]}, "
+                f"upper {shapes[3]}; expected ({m},), ({m}, {self._nv}), ({m},), ({m},)"
+            )
+        with np.errstate(over="ignore"):  # an overflow of the sum is handled just below
+            total = J.sum()
+        if not math.isfinite(total) and not np.isfinite(J).all():
+            raise RuntimeError(
+                f"task {task_name!r}: NaN or Inf in its Jacobian at t = {context.get_time():.4f} s"
+            )
+        try:
+            validation.bounds(f"task {task_name!r} at t = {context.get_time():.4f} s", lower, upper, m)
+        except ValueError as error:
+            raise RuntimeError(str(error)) from None
+        return J, lower, upper

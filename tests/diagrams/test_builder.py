@@ -77,3 +77,66 @@ def test_tasks_on_one_frame_can_share_its_pose_feature():
     np.testing.assert_allclose(rh.error, -shift, atol=1e-12)  # e = p - p*
     np.testing.assert_allclose(rho.error, np.zeros(3), atol=1e-12)  # same orientation
     assert rh.jacobian.shape == rho.jacobian.shape == (3, built.control_plant.num_velocities())
+
+
+def test_inequality_tasks_by_name_need_the_hqp_solver():
+    """Building an svd stack that holds inequality tasks is refused, naming them all."""
+    b = HumanoidSoTBuilder()
+    b.add_joint_velocity_limits_task("taskVL", scale=0.5)
+    b.add_joint_position_limits_task("taskJL", margin=0.05)
+    b.add_com_support_task("taskSupport", margin=0.01, gain=2.0)
+    table = b.initial_pose("right_hand").translation()[2] - 0.1  # a table 10 cm under the hand
+    b.add_above_plane_task("taskTable", "right_hand", origin=(0.0, 0.0, table), clearance=0.03, gain=4.0)
+    b.add_distance_task("taskHands", "right_hand", "left_hand", minimum=0.1, gain=3.0)
+    b.add_posture_task("taskPosture")
+    names = ["taskVL", "taskJL", "taskSupport", "taskTable", "taskHands", "taskPosture"]
+    with pytest.raises(ValueError, match=r"inequality tasks \['taskHands', .*'taskVL'\] need solver='hqp'"):
+        b.build(stack=names)
+
+
+def test_inequality_tasks_by_name_at_the_initial_posture():
+    """Each builder method wires its inequality task to dyn (and the device): the bounds at the
+    initial posture against the geometry measured here."""
+    b = HumanoidSoTBuilder()
+    b.add_joint_position_limits_task("taskJL", margin=0.05)
+    b.add_com_support_task("taskSupport", margin=0.01, gain=2.0)
+    hand = b.initial_pose("right_hand").translation()
+    b.add_above_plane_task(
+        "taskTable", "right_hand", origin=(0.0, 0.0, hand[2] - 0.1), clearance=0.03, gain=4.0
+    )
+    b.add_distance_task("taskHands", "right_hand", "left_hand", minimum=0.1, gain=3.0)
+    b.add_posture_task("taskPosture")
+    built = b.build(stack=["taskJL", "taskSupport", "taskTable", "taskHands", "taskPosture"], solver="hqp")
+    context = built.diagram.CreateDefaultContext()
+
+    def signal(name):
+        task = built.tasks[name]
+        return task.GetOutputPort("task").Eval(task.GetMyContextFromRoot(context))
+
+    assert signal("taskTable").lower[0] == pytest.approx(4.0 * (0.03 - 0.1), abs=1e-12)
+    distance = np.linalg.norm(hand - b.initial_pose("left_hand").translation())
+    assert signal("taskHands").lower[0] == pytest.approx(3.0 * (0.1 - distance), abs=1e-12)
+    support = signal("taskSupport")
+    assert not support.error.any() and (support.lower[np.isfinite(support.lower)] < 0.0).all()  # CoM inside
+    # Half-sitting is inside every joint's limits: the position bounds straddle zero.
+    jl = signal("taskJL")
+    assert (jl.lower < 0.0).all() and (jl.upper > 0.0).all()
+    assert built.sot.solver == "hqp"
+    # Standing still, the stack holds: q̇ stays zero (no limit, no support row is violated).
+    simulator = built.create_simulator()
+    simulator.AdvanceTo(0.05)
+    np.testing.assert_allclose(
+        built.sot.GetOutputPort("qdot").Eval(built.sot.GetMyContextFromRoot(simulator.get_context())),
+        0.0,
+        atol=1e-9,
+    )
+
+
+def test_the_torque_builder_refuses_inequality_tasks():
+    from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
+
+    b = TorqueHumanoidBuilder(fixed_base=True)
+    b.add_joint_velocity_limits_task("taskVL")
+    b.add_posture_task("taskPosture")
+    with pytest.raises(ValueError, match=r"inequality task\(s\) \['taskVL'\]: they belong to the kinematic"):
+        b.build(motion=[("taskVL", 10, 1), ("taskPosture", 16, 8)], priorities=None)  # refused before

@@ -1,0 +1,326 @@
+"""Tests of the strict hierarchy with inequalities, drake_sot.hierarchy.solve_hqp.
+
+The reference is a cascade written here with scipy only (lstsq, null_space), exact up to
+rounding: each level minimises its slack with the levels above held at their optimum, over
+candidate solutions made by guessing, for every inequality row, whether it holds
+strictly (dropped) or binds at its lower or upper bound (kept as an equality there). For
+one guess, the candidate is the lexicographic least-squares solution of the equality
+hierarchy so formed, of minimum norm. The true optimum is one of the candidates: with
+the guess that matches it, each level's least-squares cost bounds its true slack
+(``(a q̇ - bound)² >= dist(a q̇, [l, u])²``) and equals it at the optimum, so that
+candidate is lexicographically at least as good as the optimum, hence the optimum (it
+is unique, thanks to the last level, the norm of q̇). The cascade over candidates: keep
+those whose level-1 slack is minimal, among them those whose level-2 slack is minimal,
+and so on, then the smallest norm. It costs 3^(inequality rows) least-squares
+hierarchies: the problems have at most 5 inequality rows.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+import scipy.linalg
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_hierarchy import stacks
+
+from drake_sot.hierarchy import solve_hqp, solve_strict
+
+SETTINGS = settings(max_examples=120, deadline=None)
+Level3 = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+# --- the independent reference ----------------------------------------------------------
+
+
+def equality_hierarchy(levels: list[tuple[np.ndarray, np.ndarray]], n: int) -> np.ndarray:
+    """Lexicographic least squares of minimum norm (scipy lstsq and null_space, from scratch)."""
+    x, N = np.zeros(n), np.eye(n)
+    for A, t in levels:
+        if not A.shape[0] or not N.shape[1]:
+            continue
+        B = A @ N
+        if np.linalg.norm(B, 2) <= 1e-9:
+            continue
+        x = x + N @ scipy.linalg.lstsq(B, t - A @ x, cond=1e-9)[0]
+        N = N @ scipy.linalg.null_space(B, rcond=1e-9)
+    return x - N @ (N.T @ x)
+
+
+def slacks(levels: list[Level3], x: np.ndarray) -> list[float]:
+    """Per level, ||J x - clip(J x, l, u)||², then ||x||²: the lexicographic objective."""
+    out = []
+    for J, lo, hi in levels:
+        v = J @ x
+        out.append(float(np.sum((v - np.clip(v, lo, hi)) ** 2)))
+    return out + [float(x @ x)]
+
+
+def cascade(levels: list[Level3], n: int) -> np.ndarray:
+    """The lexicographic optimum by a cascade over the candidates (module docstring)."""
+    inequality_rows = [
+        (k, i) for k, (_, lo, hi) in enumerate(levels) for i in range(lo.size) if lo[i] < hi[i]
+    ]
+    guesses = [
+        [0] + ([1] if np.isfinite(levels[k][2][i]) else []) + ([-1] if np.isfinite(levels[k][1][i]) else [])
+        for k, i in inequality_rows
+    ]
+    candidates = []
+    for guess in itertools.product(*guesses):
+        binds = dict(zip(inequality_rows, guess, strict=True))
+        hierarchy = []
+        for k, (J, lo, hi) in enumerate(levels):
+            rows, targets = [], []
+            for i in range(J.shape[0]):
+                side = 2 if lo[i] == hi[i] else binds[(k, i)]
+                if side:
+                    rows.append(i)
+                    targets.append(hi[i] if side in (1, 2) else lo[i])
+            hierarchy.append((J[rows], np.array(targets)))
+        x = equality_hierarchy(hierarchy, n)
+        candidates.append((slacks(levels, x), x))
+    for level in range(len(levels) + 1):  # each level keeps the candidates that minimise its slack
+        best = min(f[level] for f, _ in candidates)
+        candidates = [(f, x) for f, x in candidates if f[level] <= best + 1e-9 * (1.0 + best)]
+    return candidates[0][1]
+
+
+# --- random problems --------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Problem:
+    levels: list[Level3]
+    n: int
+
+
+@st.composite
+def problems(draw: st.DrawFn, max_inequalities: int = 5) -> Problem:
+    """1-4 levels of 1-3 rows on 2-7 joints; each row an equality, a two-sided or a one-sided
+    inequality; some rows repeat a row of a level above with other bounds (conflicts,
+    parallel constraints); at most ``max_inequalities`` inequality rows in all."""
+    n = draw(st.integers(2, 7))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    levels: list[Level3] = []
+    inequalities = 0
+    for _ in range(draw(st.integers(1, 4))):
+        m = draw(st.integers(1, 3))
+        J = rng.normal(size=(m, n))
+        if levels and draw(st.booleans()):  # repeat a row from above
+            J_src = levels[rng.integers(len(levels))][0]
+            J[rng.integers(m)] = J_src[rng.integers(J_src.shape[0])]
+        lo, hi = np.empty(m), np.empty(m)
+        for i in range(m):
+            kind = draw(st.sampled_from(["equality", "box", "above", "below"]))
+            if kind != "equality" and inequalities >= max_inequalities:
+                kind = "equality"
+            centre, width = rng.uniform(-2.0, 2.0), rng.uniform(0.0, 2.0)
+            lo[i], hi[i] = {
+                "equality": (centre, centre),
+                "box": (centre - width, centre + width),
+                "above": (centre, np.inf),
+                "below": (-np.inf, centre),
+            }[kind]
+            inequalities += kind != "equality"
+        levels.append((J, lo, hi))
+    return Problem(levels=levels, n=n)
+
+
+def scale(x: np.ndarray) -> float:
+    return 1.0 + float(np.linalg.norm(x))
+
+
+# --- a) the lexicographic optimum ---------------------------------------------------------
+
+
+@SETTINGS
+@given(problems())
+def test_equals_an_independent_cascade_of_exact_qps(problem):
+    reference = cascade(problem.levels, problem.n)
+    result = solve_hqp(problem.levels)
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
+    # The reported slacks are those of the reference (each level's optimum).
+    for k, (J, lo, hi) in enumerate(problem.levels):
+        v = J @ reference
+        np.testing.assert_allclose(result.levels[k].slack, v - np.clip(v, lo, hi), atol=1e-6 * scale(v))
+
+
+@SETTINGS
+@given(problems())
+def test_a_lower_level_never_degrades_a_higher_one(problem):
+    """Level k's slack is the same whether the levels below it are solved or not."""
+    full = solve_hqp(problem.levels)
+    for k in range(len(problem.levels)):
+        alone = solve_hqp(problem.levels[: k + 1])
+        tolerance = 1e-9 * (1.0 + alone.levels[k].violation) * scale(alone.qdot)
+        for j in range(k + 1):
+            assert full.levels[j].violation <= alone.levels[j].violation + tolerance, f"level {j} below {k}"
+        assert full.levels[k].violation == pytest.approx(alone.levels[k].violation, abs=tolerance)
+
+
+@settings(max_examples=150, deadline=None)
+@given(stacks())
+def test_equalities_only_give_solve_strict_minimum_norm_solution(stack):
+    """With equalities only, q̇ is solve_strict's (minimum norm, no regularisation level needed)."""
+    strict = solve_strict(stack.levels).qdot
+    hqp = solve_hqp(stack.levels)
+    np.testing.assert_allclose(hqp.qdot, strict, rtol=0.0, atol=1e-9 * scale(strict))
+    # Minimum norm: no component in the null space of the augmented Jacobian.
+    C = np.vstack([J for J, _ in stack.levels])
+    N = scipy.linalg.null_space(C, rcond=1e-9) if np.linalg.norm(C) > 1e-9 else np.eye(stack.n)
+    np.testing.assert_allclose(N.T @ hqp.qdot, 0.0, atol=1e-9 * scale(strict))
+    # The same stack written as (J, lower, upper) with lower == upper.
+    triples = solve_hqp([(J, e, e.copy()) for J, e in stack.levels]).qdot
+    np.testing.assert_allclose(triples, strict, rtol=0.0, atol=1e-9 * scale(strict))
+
+
+# --- b) by hand ---------------------------------------------------------------------------
+
+
+def test_a_velocity_bound_on_top_caps_a_task_below():
+    # Level 1: -1 <= q̇ <= 1. Level 2: q̇ = 3. The task gets 1, its slack is 2, the bound binds.
+    result = solve_hqp([(np.eye(1), [-1.0], [1.0]), (np.eye(1), [3.0])], names=["limits", "task"])
+    np.testing.assert_allclose(result.qdot, [1.0], atol=1e-14)
+    assert result.level("limits").active_upper == (0,) and result.level("limits").active_lower == ()
+    np.testing.assert_allclose(result.level("task").slack, [-2.0], atol=1e-14)
+    assert result.level("limits").violation == 0.0
+
+
+def test_an_inequality_is_met_with_the_smallest_velocity():
+    # 1 <= q̇1 + q̇2 <= 2: the minimum-norm point of the strip is (0.5, 0.5) (the regularisation level).
+    result = solve_hqp([(np.array([[1.0, 1.0]]), [1.0], [2.0])])
+    np.testing.assert_allclose(result.qdot, [0.5, 0.5], atol=1e-14)
+    assert result.levels[0].active_lower == (0,)
+    # Inside the strip, no motion at all.
+    np.testing.assert_allclose(solve_hqp([(np.array([[1.0, 1.0]]), [-1.0], [2.0])]).qdot, 0.0, atol=0)
+
+
+def test_conflicting_inequalities_of_one_level_share_the_violation():
+    # q̇ >= 2 and q̇ <= 1 on one level: min (q̇ - 1)² + (2 - q̇)² -> q̇ = 1.5, slacks (-0.5, 0.5).
+    result = solve_hqp([(np.array([[1.0], [1.0]]), [2.0, -np.inf], [np.inf, 1.0])])
+    np.testing.assert_allclose(result.qdot, [1.5], atol=1e-14)
+    np.testing.assert_allclose(result.levels[0].slack, [-0.5, 0.5], atol=1e-14)
+    assert result.levels[0].active_lower == (0,) and result.levels[0].active_upper == (1,)
+
+
+def test_a_hard_row_from_above_is_released_when_a_lower_level_pulls_inward():
+    # Level 1: 0 <= q̇1 <= 1 (holds at 0). Level 2: q̇1 + q̇2 = -1, pulled against q̇1 >= 0 it is
+    # met with q̇2 alone. Level 3: q̇1 = 0.5 moves q̇1 inside its bounds (the row is released),
+    # while level 2 is kept: q̇2 = -1.5.
+    levels = [
+        (np.array([[1.0, 0.0]]), [0.0], [1.0]),
+        (np.array([[1.0, 1.0]]), [-1.0]),
+        (np.array([[1.0, 0.0]]), [0.5]),
+    ]
+    result = solve_hqp(levels)
+    np.testing.assert_allclose(result.qdot, [0.5, -1.5], atol=1e-14)
+    assert [r.violation for r in result.levels] == pytest.approx([0.0, 0.0, 0.0], abs=1e-14)
+
+
+def test_an_equality_cannot_push_a_bound_of_a_higher_level():
+    # Level 1: q̇1 <= 0.2. Level 2: q̇ = (1, 1): q̇1 stops at 0.2 and q̇2 reaches 1.
+    result = solve_hqp([(np.array([[1.0, 0.0]]), [-np.inf], [0.2]), (np.eye(2), [1.0, 1.0])])
+    np.testing.assert_allclose(result.qdot, [0.2, 1.0], atol=1e-14)
+    np.testing.assert_allclose(result.levels[1].slack, [-0.8, 0.0], atol=1e-14)
+
+
+def test_parallel_bounds_at_two_levels_and_duplicated_rows():
+    # Velocity limit |q̇| <= 1 on top, a tighter position-derived bound q̇ <= 0.5 below it
+    # written twice (parallel rows, degenerate), then q̇ = 2: q̇ = 0.5.
+    levels = [
+        (np.eye(1), [-1.0], [1.0]),
+        (np.array([[1.0], [2.0]]), [-np.inf, -np.inf], [0.5, 1.0]),
+        (np.eye(1), [2.0]),
+    ]
+    result = solve_hqp(levels)
+    np.testing.assert_allclose(result.qdot, [0.5], atol=1e-14)
+    assert result.levels[1].active_upper == (0, 1)
+
+
+def test_zero_rows_and_unbounded_rows_constrain_nothing():
+    rng = np.random.default_rng(3)
+    J, e = rng.normal(size=(2, 4)), rng.normal(size=2)
+    reference = solve_hqp([(J, e)]).qdot
+    padded = [
+        (np.zeros((3, 4)), [-1.0, -np.inf, 0.0], [1.0, np.inf, 0.0]),
+        (rng.normal(size=(1, 4)), [-np.inf], [np.inf]),
+        (J, e),
+    ]
+    result = solve_hqp(padded)
+    np.testing.assert_allclose(result.qdot, reference, atol=1e-14)
+    np.testing.assert_allclose(result.levels[0].slack, 0.0, atol=0)
+
+
+def test_no_levels():
+    result = solve_hqp([])
+    assert result.qdot.shape == (0,) and result.levels == () and result.free_dims == ()
+
+
+def test_reports_name_levels_and_lookup_lists_them():
+    result = solve_hqp([(np.eye(2), [0.0, 0.0], [1.0, 1.0]), (np.eye(2), [2.0, -1.0])], names=["jl", "task"])
+    assert [r.name for r in result.levels] == ["jl", "task"]
+    assert result.level("jl").active_upper == (0,) and result.level("jl").active_lower == (1,)
+    assert result.free_dims == (2, 0)
+    with pytest.raises(KeyError, match="no level named 'x'; levels: jl, task"):
+        result.level("x")
+    assert [r.name for r in solve_hqp([(np.eye(1), [0.0])]).levels] == ["0"]
+
+
+def test_unvalidated_fast_path_gives_the_same_result():
+    rng = np.random.default_rng(5)
+    levels = [
+        (rng.normal(size=(3, 6)), -np.ones(3), np.ones(3)),
+        (rng.normal(size=(4, 6)), rng.normal(size=4)),
+    ]
+    a = solve_hqp(levels)
+    b = solve_hqp([(J, *rest) for J, *rest in levels], validate=False)
+    np.testing.assert_array_equal(a.qdot, b.qdot)
+
+
+# --- c) bad input -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("levels", "kwargs", "message"),
+    [
+        (
+            [(np.eye(2), [0.0, 0.0]), (np.eye(2), [0.0, 1.0], [1.0, 0.5])],
+            {"names": ["feet", "taskJL"]},
+            r"levels\[1\] \('taskJL'\): row 1: lower = 1.0, upper = 0.5 \(lower > upper\)",
+        ),
+        (
+            [(np.eye(2), [0.0, np.nan], [1.0, 1.0])],
+            {},
+            r"levels\[0\] \('0'\): row 1: lower = nan, upper = 1.0 \(NaN\)",
+        ),
+        ([(np.eye(1), [np.inf], [np.inf])], {}, r"row 0: .*an infinite bound on the wrong side"),
+        (
+            [(np.eye(2), [0.0, 0.0], [1.0])],
+            {},
+            r"levels\[0\] \('0'\): upper must have shape \(2,\), got shape \(1,\)",
+        ),
+        (
+            [(np.eye(2), [0.0, np.nan])],
+            {},
+            r"levels\[0\] \('0'\): target = .* contains NaN or Inf \(entry \[1\]\)",
+        ),
+        ([(np.eye(2), [0.0, np.inf])], {}, r"levels\[0\] \('0'\): target = .* contains NaN or Inf"),
+        ([(np.array([[1.0, np.nan]]), [0.0])], {}, r"levels\[0\] \('0'\): J of shape \(1, 2\) contains NaN"),
+        (
+            [(np.eye(2), [0.0, 0.0]), (np.eye(3), np.zeros(3))],
+            {},
+            r"levels\[1\] \('1'\): J has shape \(3, 3\) but levels\[0\] J has shape \(2, 2\)",
+        ),
+        ([(np.eye(2),)], {}, r"levels\[0\] \('0'\) must be \(J, target\) or \(J, lower, upper\)"),
+        ([(np.eye(1), [0.0])], {"names": ["a", "b"]}, "names has 2 entries but there are 1 levels"),
+        ([(np.eye(1), [0.0])], {"names": [""]}, r"names\[0\] = '': must be a non-empty string"),
+        ([(np.eye(1), [0.0])], {"tolerance": 0.0}, "tolerance = 0.0: must be finite and > 0"),
+        ([(np.eye(1), [0.0])], {"rank_threshold": np.nan}, "rank_threshold = nan: must be finite"),
+    ],
+)
+def test_invalid_input_names_the_level_and_row(levels, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        solve_hqp(levels, **kwargs)
