@@ -16,7 +16,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
-from drake_sot.models import HumanoidInfo, add_ground, load_humanoid, weld_base
+from drake_sot.models import HumanoidInfo, add_body_collision, add_ground, load_humanoid, weld_base
 from drake_sot.systems.features import _Feature
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.stack_history import StackHistory
@@ -76,13 +76,16 @@ def add_humanoid_plant(
     time_step: float = 1e-3,
     pd_gains: bool = True,
     fixed_base: bool = False,
+    body_collision: bool = True,
     before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
 ) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
     """The simulated world in a finalized ``MultibodyPlant`` (SAP, point contact,
     ``time_step`` [s]) and its ``SceneGraph``: the humanoid with PD-controlled actuators
     (or torque-controlled ones, ``pd_gains=False``) on the ground, or with its pelvis
-    welded in the air (``fixed_base``, no ground). ``before_finalize`` may add to the
-    world (a table, collision shapes on the hands) before the plant is finalized.
+    welded in the air (``fixed_base``, no ground). With ``body_collision`` the whole body
+    collides (:func:`~drake_sot.models.humanoid.add_body_collision`), else only the soles.
+    ``before_finalize`` may add to the world (a table, collision shapes on the hands)
+    before the plant is finalized.
 
     Raises ValueError when ``time_step`` is not finite and > 0 (checked here: Drake
     would end the interpreter on it).
@@ -93,6 +96,8 @@ def add_humanoid_plant(
     )
     plant, scene_graph = AddMultibodyPlant(config, builder)
     info = load_humanoid(plant, pd_gains=pd_gains)
+    if body_collision:
+        add_body_collision(plant, scene_graph, info)
     if fixed_base:
         weld_base(plant, info)
     else:
