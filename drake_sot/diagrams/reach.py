@@ -15,11 +15,14 @@ comes within 2 cm·rad of a limit. Script:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 
@@ -32,9 +35,9 @@ def _shifted(X: RigidTransform, offset: np.ndarray) -> RigidTransform:
     return RigidTransform(X.rotation(), X.translation() + offset)
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """Build the ``reach`` diagram and its script."""
-    b = HumanoidSoTBuilder(meshcat=meshcat)
+def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+    """Build the ``reach`` diagram and its script, with ``pushes`` on the robot."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
     target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
     b.add_joint_limits_task("taskJL")

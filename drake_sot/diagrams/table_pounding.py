@@ -14,6 +14,7 @@ hand's position task over ``transition`` seconds (eq. 12); on release it does th
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +26,7 @@ from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, PrismaticSp
 from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
@@ -158,11 +160,12 @@ def initial_alpha() -> np.ndarray:
     return alpha
 
 
-def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
+def build(meshcat=None, transition: float = 0.6, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
     """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]
-    (finite, >= 0; ValueError naming it otherwise, before anything is built)."""
+    (finite, >= 0; ValueError naming it otherwise, before anything is built) and ``pushes``
+    on the robot."""
     transition = nonnegative("transition", transition, unit="s")
-    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table)
+    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table, pushes=pushes)
     X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
     b.add_com_task("taskCom", selection="110")
     b.add_op_point_task("taskRH", "right_hand", selection="111000", desired=X["right"])

@@ -12,12 +12,14 @@ hands comply.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk import add_walking, forward_steps
@@ -44,9 +46,9 @@ RELEASE_AT = GRIP_AT + 7.0
 ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (60.0, 60.0, 60.0, 4.0, 4.0, 4.0)}
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """Build the ``walk_then_interact`` diagram and its script."""
-    b = HumanoidSoTBuilder(meshcat=meshcat)
+def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on the robot."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     pg, left, right = add_walking(b)
     admittances = {
         "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
@@ -96,7 +98,7 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     b.builder.Connect(
         b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities")
     )
-    b.builder.Connect(partner.GetOutputPort("spatial_forces"), b.plant.get_applied_spatial_force_input_port())
+    b.apply_spatial_forces(partner.GetOutputPort("spatial_forces"))
 
     b.log("partner_forces", partner.GetOutputPort("forces"))
     for task_name, admittance in admittances.items():

@@ -16,7 +16,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.models import HumanoidInfo, add_body_collision, add_ground, load_humanoid, weld_base
+from drake_sot.systems.fall_monitor import FallMonitor
 from drake_sot.systems.features import _Feature
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.stack_history import StackHistory
@@ -32,6 +34,8 @@ class BuiltHumanoid:
     name → slice), as the controller that produced them declares it; ``stack_history``
     records the controller's ``stack`` output by name (the kinematic SoT's stack; the
     torque controller's active tasks and what is short, saturated or in fallback).
+    ``fall_monitor`` is the diagram's ``FallMonitor`` (None on a fixed base or when the
+    builder was asked for none); ``pushes`` the disturbances the diagram applies.
     """
 
     diagram: Diagram
@@ -47,6 +51,8 @@ class BuiltHumanoid:
     visualizer: MeshcatVisualizer | None
     error_layout: dict[str, slice] = field(default_factory=dict)
     stack_history: StackHistory | None = None
+    fall_monitor: FallMonitor | None = None
+    pushes: tuple[ExternalPush, ...] = ()
 
     def create_simulator(self) -> Simulator:
         """A simulator whose plant starts in the reference configuration q0, at rest."""
