@@ -19,6 +19,7 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import simulate
 from drake_sot.diagrams.tasks import FALL_CRITERIA
+from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import (
     add_body_collision,
     add_ground,
@@ -27,6 +28,7 @@ from drake_sot.models import (
     make_control_model,
 )
 from drake_sot.models.humanoid import LINKS
+from drake_sot.systems.fall_monitor import FallCriteria
 
 #: What "lying on the ground" allows: no part of the body deeper than this below z = 0 [m].
 SINK = -0.02
@@ -81,6 +83,36 @@ def test_a_robot_dropped_on_its_back_lies_on_the_ground():
     assert min(lowest.values()) < 0.01  # on the ground, not held above it
     assert pelvis.EvalPoseInWorld(context).translation()[2] < 0.15
     assert np.abs(plant.GetVelocities(context)[3:6]).max() < 0.05  # at rest
+
+
+def _standing(**kwargs):
+    b = HumanoidSoTBuilder(**kwargs)
+    b.add_com_task("taskCom")
+    return b.build(stack=["taskCom"])
+
+
+def test_floating_base_builders_monitor_falls_unless_asked_not_to():
+    built = _standing()
+    assert built.fall_monitor is not None and built.fall_monitor.criteria == FALL_CRITERIA
+    assert "fallen" in built.loggers
+    assert _standing(fall_criteria=None).fall_monitor is None
+    strict = FallCriteria(min_pelvis_height=0.6, max_tilt=0.2, stop_after=0.0)
+    assert _standing(fall_criteria=strict).fall_monitor.criteria == strict
+    fixed = TorqueHumanoidBuilder(fixed_base=True)  # welded in the air: it cannot fall
+    assert fixed.fall_criteria is None
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"fall_criteria": 0.4}, "fall_criteria = 0.4: must be a FallCriteria or None"),
+        ({"pushes": [ExternalPush(1.0, "elbow", (0, 1, 0), 0.1)]}, "push body = 'elbow': unknown frame"),
+        ({"pushes": [(1.0, "pelvis", (0, 1, 0), 0.1)]}, "is not an ExternalPush"),
+    ],
+)
+def test_builders_refuse_bad_pushes_and_criteria(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        HumanoidSoTBuilder(**kwargs)
 
 
 @pytest.mark.slow
