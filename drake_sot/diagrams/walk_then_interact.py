@@ -148,8 +148,10 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
     """Hand forces (measured by the wrist sensors, applied by the partner) and hand displacements."""
     hands = hand_positions(setup, arrays)
     t = arrays["time"]
-    grip = int(np.searchsorted(t, GRIP_AT))
-    window = slice(int(np.searchsorted(t, GRIP_AT - 1.0)), None)  # the interaction, after the walk
+    # The interaction, after the walk; the whole run when it ended before the partner took the
+    # hands (a short --duration, Ctrl-C, a fall), displacements then from its last sample.
+    grip = min(int(np.searchsorted(t, GRIP_AT)), len(t) - 1)
+    window = slice(int(np.searchsorted(t, GRIP_AT - 1.0)) if t[-1] >= GRIP_AT else 0, None)
     path = Path(out_dir) / "walk_then_interact_hands.png"
     plot_interaction(
         t[window],

@@ -15,9 +15,11 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_sot import cli
 from drake_sot.diagrams import scenario as scenario_module
+from drake_sot.diagrams import walk_then_interact
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import simulate
+from drake_sot.diagrams.scenario import run_scenario
 from drake_sot.diagrams.tasks import FALL_CRITERIA
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import (
@@ -113,6 +115,14 @@ def test_floating_base_builders_monitor_falls_unless_asked_not_to():
 def test_builders_refuse_bad_pushes_and_criteria(kwargs, message):
     with pytest.raises(ValueError, match=message):
         HumanoidSoTBuilder(**kwargs)
+
+
+def test_a_run_that_stops_before_the_partner_takes_the_hands_writes_every_plot(tmp_path):
+    """walk_then_interact cut short (as by a fall or Ctrl-C) before its interaction at 7 s."""
+    output = run_scenario(walk_then_interact.SCENARIO, tmp_path, duration=1.0, record=False)
+    assert output.result.completed
+    for name in ("svg", "npz", "png", "hands"):
+        assert output.files[name].stat().st_size > 1000, name
 
 
 @pytest.mark.slow
