@@ -377,13 +377,12 @@ class HumanoidTaskBuilder:
         if self.pushes:
             logs["push_forces"] = self._add_pushes()
         if self.fall_criteria is not None:
+            torso = self.plant.GetFrameByName(self.info.frames["torso"], self.info.model_instance).body()
             self.fall_monitor = b.AddSystem(
                 FallMonitor(
                     self.plant,
                     pelvis=self.info.base_body,
-                    trunk=self.plant.GetFrameByName(self.info.frames["torso"], self.info.model_instance)
-                    .body()
-                    .name(),
+                    trunk=torso.name(),
                     model_instance=self.info.model_instance,
                     criteria=self.fall_criteria,
                     period=self.control_period,

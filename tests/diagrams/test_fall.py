@@ -31,6 +31,7 @@ from drake_sot.models import (
 )
 from drake_sot.models.humanoid import LINKS
 from drake_sot.systems.fall_monitor import FallCriteria
+from drake_sot.systems.partner import ConstantForce, Partner
 
 #: What "lying on the ground" allows: no part of the body deeper than this below z = 0 [m].
 SINK = -0.02
@@ -115,6 +116,31 @@ def test_floating_base_builders_monitor_falls_unless_asked_not_to():
 def test_builders_refuse_bad_pushes_and_criteria(kwargs, message):
     with pytest.raises(ValueError, match=message):
         HumanoidSoTBuilder(**kwargs)
+
+
+def test_pushes_and_other_external_forces_reach_the_plant_together():
+    """A push on the right hand's tool point and a partner's force on the pelvis, both at once."""
+    b = HumanoidSoTBuilder(pushes=[ExternalPush(0.0, "right_hand", (10.0, 0.0, 0.0), 1.0)])
+    partner = b.builder.AddSystem(Partner(b.plant, {"pelvis": [ConstantForce(0.0, 1.0, (0.0, -20.0, 0.0))]}))
+    b.builder.Connect(b.plant.get_body_poses_output_port(), partner.GetInputPort("body_poses"))
+    b.builder.Connect(
+        b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities")
+    )
+    b.apply_spatial_forces(partner.GetOutputPort("spatial_forces"))
+    b.add_com_task("taskCom")
+    built = b.build(stack=["taskCom"])
+    simulator = built.create_simulator()
+    simulator.AdvanceTo(0.01)
+    plant = built.plant
+    applied = plant.get_applied_spatial_force_input_port().Eval(
+        plant.GetMyContextFromRoot(simulator.get_context())
+    )
+    got = {plant.get_body(f.body_index).name(): (f.p_BoBq_B, f.F_Bq_W.translational()) for f in applied}
+    tool = plant.GetFrameByName(built.info.frames["right_hand"]).GetFixedPoseInBodyFrame().translation()
+    assert set(got) == {"r_hand", "pelvis"}
+    np.testing.assert_array_equal(got["r_hand"][0], tool)
+    np.testing.assert_array_equal(got["r_hand"][1], [10.0, 0.0, 0.0])
+    np.testing.assert_array_equal(got["pelvis"][1], [0.0, -20.0, 0.0])
 
 
 def test_a_run_that_stops_before_the_partner_takes_the_hands_writes_every_plot(tmp_path):
