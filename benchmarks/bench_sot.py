@@ -124,24 +124,18 @@ def bench_tick(repeat: int = 300) -> dict[str, float]:
     }
 
 
-def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, float]:
-    """Real-time factor of a scenario module (``reach`` by default; its whole script when
-    ``duration`` is None) and of the plant alone on constant set points, same duration."""
+def plant_alone_realtime(duration: float, *, body_collision: bool = True) -> float:
+    """Real-time factor of the humanoid's plant alone (SAP, 1 ms, point contact) standing on
+    constant PD set points (half-sitting) for ``duration`` [s], with no controller."""
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import ConstantVectorSource
 
-    from drake_sot.diagrams import reach
-    from drake_sot.diagrams.run import simulate
-
-    setup = (scenario or reach).build(None)
-    duration = duration or setup.duration
     from drake_sot.diagrams.world import add_humanoid_plant
     from drake_sot.models import half_sitting_configuration
 
-    # Baseline: the same plant on constant set points.
     builder = DiagramBuilder()
-    plant, _, info = add_humanoid_plant(builder)
+    plant, _, info = add_humanoid_plant(builder, body_collision=body_collision)
     q0 = half_sitting_configuration(plant, info)
     x_des = np.concatenate(
         [
@@ -156,8 +150,18 @@ def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, flo
     baseline.Initialize()
     t0 = time.perf_counter()
     baseline.AdvanceTo(duration)
-    rtf_plant = duration / (time.perf_counter() - t0)
+    return duration / (time.perf_counter() - t0)
 
+
+def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, float]:
+    """Real-time factor of a scenario module (``reach`` by default; its whole script when
+    ``duration`` is None) and of the plant alone on constant set points, same duration."""
+    from drake_sot.diagrams import reach
+    from drake_sot.diagrams.run import simulate
+
+    setup = (scenario or reach).build(None)
+    duration = duration or setup.duration
+    rtf_plant = plant_alone_realtime(duration)
     simulator = setup.built.create_simulator()
     result = simulate(simulator, duration, setup.commands)
     if not result.completed:

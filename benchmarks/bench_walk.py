@@ -9,6 +9,9 @@ real-time factor, each beside a baseline measured in the same run.
    own cost of such a tick) and the bare ``PreviewController.step`` call.
 2. The ``walk`` scenario (no recording) beside the same plant standing on constant
    PD set points with no controller.
+3. That plant alone with its whole-body collision shapes beside the same plant whose
+   soles alone collide: the price of the shapes when nothing but the soles touches
+   (alternated, best of three each).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from drake_sot.preview import PreviewController
 from drake_sot.systems.pattern_generator import PatternGenerator
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_sot import bench_realtime, print_table
+from bench_sot import bench_realtime, plant_alone_realtime, print_table
 
 DT = 0.005
 
@@ -79,9 +82,18 @@ def bench_walk_realtime() -> dict[str, float]:
     return bench_realtime(duration=None, scenario=walk)
 
 
+def bench_body_collision(duration: float = 5.0, repeat: int = 3) -> dict[str, float]:
+    body, soles = [], []
+    for _ in range(repeat):
+        body.append(plant_alone_realtime(duration, body_collision=True))
+        soles.append(plant_alone_realtime(duration, body_collision=False))
+    return {"rtf_body": max(body), "rtf_soles": max(soles)}
+
+
 def main() -> None:
     pg = bench_pattern_generator()
     rtf = bench_walk_realtime()
+    collision = bench_body_collision()
     rows = [
         (
             "PatternGenerator tick, walking (median / p99)",
@@ -95,6 +107,12 @@ def main() -> None:
             f"{rtf['rtf_scenario']:.2f}",
             f"plant alone on constant set points: {rtf['rtf_plant']:.2f}",
             f"{rtf['rtf_scenario'] / rtf['rtf_plant']:.2f} of baseline",
+        ),
+        (
+            "plant alone standing, whole-body collision shapes",
+            f"{collision['rtf_body']:.2f}",
+            f"soles alone collide: {collision['rtf_soles']:.2f}",
+            f"{collision['rtf_body'] / collision['rtf_soles']:.2f} of baseline",
         ),
     ]
     print_table(rows)

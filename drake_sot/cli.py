@@ -3,9 +3,9 @@
 
 Exit status of ``run`` and ``script``: 0 the run completed, 1 it failed (the exception on
 stderr), 2 bad arguments or a script that cannot be built (one line on stderr, nothing
-simulated), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM. Interrupted or failed, the
-artefacts of the simulated part are written; a signal that comes while they are written
-waits until they all are.
+simulated), 3 the robot fell (when, on stderr), 130 interrupted by SIGINT (Ctrl-C), 143 by
+SIGTERM. Interrupted, failed or fallen, the artefacts of the simulated part are written; a
+signal that comes while they are written waits until they all are.
 """
 
 from __future__ import annotations
@@ -21,11 +21,16 @@ from typing import NoReturn, TextIO
 
 from drake_sot.diagrams import SCENARIOS, STUDIES
 from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.run import Interrupted, RunResult
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
+from drake_sot.models.humanoid import FRAMES
 from drake_sot.script import ScriptError, Statement
-from drake_sot.validation import nonnegative, positive, positive_int
+from drake_sot.validation import finite, nonnegative, positive, positive_int
+
+#: Exit status of a run in which the robot fell.
+FELL = 3
 
 
 class ProgressBar:
@@ -86,6 +91,51 @@ def _checked(check: Callable[..., float | int], name: str, **kwargs) -> Callable
     return convert
 
 
+#: The fields of ``--push`` and the check of each number (drake_sot.validation, named as the field).
+_PUSH_FIELDS: dict[str, Callable[[str, float], float] | None] = {
+    "T": lambda name, value: nonnegative(name, value, unit="s"),
+    "BODY": None,
+    "FX": finite,
+    "FY": finite,
+    "FZ": finite,
+    "DURATION": lambda name, value: positive(name, value, unit="s"),
+}
+
+
+def _push(text: str) -> ExternalPush:
+    """An argparse ``type``: ``T,BODY,FX,FY,FZ,DURATION`` (s, logical frame, N in the world
+    frame, s) as an :class:`ExternalPush`; a bad field is named in argparse's one-line error
+    (exit status 2)."""
+    fields = [f.strip() for f in text.split(",")]
+    if len(fields) != len(_PUSH_FIELDS):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected {','.join(_PUSH_FIELDS)} ({len(_PUSH_FIELDS)} fields), got {len(fields)}"
+        )
+    values: dict[str, float] = {}
+    for (name, check), field in zip(_PUSH_FIELDS.items(), fields, strict=True):
+        if check is None:
+            continue
+        try:
+            values[name] = check(name, float(field))
+        except ValueError as exc:
+            reason = str(exc) if _is_number(field) else f"{name} = {field!r}: must be a number"
+            raise argparse.ArgumentTypeError(f"{text!r}: {reason}") from None
+    body = fields[1]
+    if body not in FRAMES:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: BODY = {body!r}: unknown frame; known: {', '.join(FRAMES)}"
+        )
+    return ExternalPush(values["T"], body, (values["FX"], values["FY"], values["FZ"]), values["DURATION"])
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argparse.ArgumentParser]:
     """The command's parser and its ``run`` and ``script`` subparsers."""
     parser = _Parser(prog="drake-sot", description="The Stack of Tasks on Drake.")
@@ -94,7 +144,8 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
     run = sub.add_parser(
         "run",
         help="simulate a scenario and write its artefacts",
-        epilog="exit status: 0 completed, 1 failed, 2 bad arguments, 130 interrupted (Ctrl-C), 143 SIGTERM",
+        epilog="exit status: 0 completed, 1 failed, 2 bad arguments, 3 the robot fell, "
+        "130 interrupted (Ctrl-C), 143 SIGTERM",
     )
     names = sorted(SCENARIOS) + sorted(STUDIES)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
@@ -112,6 +163,15 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         default=None,
         metavar="S",
         help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)",
+    )
+    run.add_argument(
+        "--push",
+        type=_push,
+        action="append",
+        default=[],
+        metavar="T,BODY,FX,FY,FZ,DURATION",
+        help="push the robot (repeatable): from T [s] for DURATION [s], a force (FX, FY, FZ) [N] in the "
+        f"world frame on the origin of BODY, one of: {', '.join(FRAMES)}",
     )
     script = sub.add_parser(
         "script",
@@ -139,10 +199,13 @@ def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> 
 
 
 def exit_status(result: RunResult) -> int:
-    """0 completed, 1 failed, 128 + the signal's number when interrupted (130 SIGINT, 143 SIGTERM)."""
+    """0 completed, 1 failed, 3 fell, 128 + the signal's number when interrupted (130 SIGINT,
+    143 SIGTERM); a signal or a failure takes precedence over a fall."""
     if result.interrupted_by is not None:
         return 128 + result.interrupted_by
-    return 1 if result.failure is not None else 0
+    if result.failure is not None:
+        return 1
+    return FELL if result.fell is not None else 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -157,16 +220,22 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{name:20s} {STUDIES[name].description}")
         return 0
     study = args.scenario in STUDIES
-    takes = ("--duration", "--out", "--workers") if study else ("--duration", "--out", "--no-record")
+    takes = ("--duration", "--out")
+    takes += ("--workers",) if study else ("--no-record", "--push")
     takes += () if study else tuple(f"--{name}" for name in SCENARIOS[args.scenario].parameters)
     given = {
         "--workers": args.workers is not None,
         "--transition": args.transition is not None,
         "--no-record": args.no_record,
+        "--push": bool(args.push),
     }
     refused = [option for option, present in given.items() if present and option not in takes]
     if refused:
         run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
+    try:
+        check_pushes(args.push, FRAMES)
+    except ValueError as exc:
+        run.error(f"--push: {exc}")
     try:
         output_directory(args.out)
     except OSError as exc:
@@ -265,6 +334,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
         record=not args.no_record,
         progress=progress,
         parameters=parameters,
+        pushes=getattr(args, "push", None) or (),  # `script` takes no --push
     )
     result = output.result
     for path in output.files.values():
@@ -280,6 +350,12 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
         )
     elif result.failure is not None:
         print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
+    elif result.fell is not None:
+        print(
+            f"the robot {result.fell}; the run stopped at t = {result.end_time:.3f} s and the "
+            "artefacts cover the simulated part",
+            file=sys.stderr,
+        )
     elif result.not_reached:
         later = ", ".join(f"{label!r} at {t:g} s" for t, label in result.not_reached)
         print(f"after the end of the run, not applied: {later}", file=sys.stderr)

@@ -204,3 +204,36 @@ def test_importing_the_scenarios_leaves_the_matplotlib_backend_alone():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["pdf", "pdf"]
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        ("1,pelvis,0,300,0", "'1,pelvis,0,300,0': expected T,BODY,FX,FY,FZ,DURATION (6 fields), got 5"),
+        ("abc,pelvis,0,300,0,0.1", "T = 'abc': must be a number"),
+        ("-1,pelvis,0,300,0,0.1", "T = -1.0 s: must be finite and >= 0"),
+        ("nan,pelvis,0,300,0,0.1", "T = nan s: must be finite and >= 0"),
+        ("1,elbow,0,300,0,0.1", "BODY = 'elbow': unknown frame; known: pelvis, torso, head, left_foot"),
+        ("1,pelvis,inf,300,0,0.1", "FX = inf: must be a finite number"),
+        ("1,pelvis,0,N,0,0.1", "FY = 'N': must be a number"),
+        ("1,pelvis,0,300,nan,0.1", "FZ = nan: must be a finite number"),
+        ("1,pelvis,0,300,0,0", "DURATION = 0.0 s: must be finite and > 0"),
+        ("1,pelvis,0,300,0,-0.1", "DURATION = -0.1 s: must be finite and > 0"),
+    ],
+)
+def test_push_is_checked_at_parse_time(capsys, nothing_runs, value, message):
+    err = _refused(capsys, ["run", "reach", f"--push={value}"])
+    assert err.startswith(f"drake-sot run: error: argument --push: '{value}': ")
+    assert message in err
+
+
+def test_overlapping_pushes_on_one_frame_are_refused_at_parse_time(capsys, nothing_runs):
+    err = _refused(
+        capsys, ["run", "walk", "--push", "1,pelvis,0,300,0,0.5", "--push", "1.2,pelvis,0,-300,0,0.1"]
+    )
+    assert "--push: pushes on 'pelvis' overlap" in err
+
+
+def test_a_study_takes_no_push(capsys, nothing_runs):
+    err = _refused(capsys, ["run", "alpha_sweep", "--push", "1,pelvis,0,300,0,0.1"])
+    assert "alpha_sweep takes no --push" in err

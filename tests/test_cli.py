@@ -13,8 +13,9 @@ from headless import chromium, screenshot
 from drake_sot import cli
 from drake_sot.diagrams import reach
 from drake_sot.diagrams import scenario as scenario_module
-from drake_sot.diagrams.run import STOP_SIGNALS, Command, Interrupted, SignalGuard
+from drake_sot.diagrams.run import STOP_SIGNALS, Command, Interrupted, RunResult, SignalGuard
 from drake_sot.diagrams.scenario import Scenario, run_scenario
+from drake_sot.systems.fall_monitor import Fall
 
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 
@@ -280,3 +281,12 @@ def test_sigterm_on_a_study_stops_it_and_writes_the_runs_done(tmp_path):
     done = np.load(tmp_path / "alpha_sweep.npz")["done"]
     assert 1 <= done.sum() < done.size
     assert matplotlib.image.imread(tmp_path / "alpha_sweep.png").ndim == 3
+
+
+def test_exit_status_of_a_fall_is_3_unless_a_signal_or_a_failure_came_too():
+    fall = Fall(1.0, 0.3, 1.2)
+    assert cli.exit_status(RunResult(fell=fall)) == 3
+    assert not RunResult(fell=fall).completed
+    assert cli.exit_status(RunResult(fell=fall, failure=RuntimeError("x"))) == 1
+    assert cli.exit_status(RunResult(fell=fall, interrupted_by=signal.SIGINT)) == 130
+    assert cli.exit_status(RunResult()) == 0

@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from pydrake.systems.framework import Context, Diagram
 
+from drake_sot.diagrams.pushes import pushes_record
 from drake_sot.diagrams.run import RunResult
 from drake_sot.diagrams.world import BuiltHumanoid
 
@@ -91,7 +92,11 @@ def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -
     Keys: ``time`` (T,) [s]; ``q`` (T, nq) and ``v`` (T, nv) of the simulated plant;
     ``q_ref`` (T, nq) the SoT's reference configuration (kinematic SoT only); ``error/<task>`` (T, m) each
     task's error (NaN while out of the stack); ``event_time`` and ``event_label``, the
-    commands applied.
+    commands applied; ``pushes``, the diagram's pushes (a structured array, fields ``time``
+    [s], ``body``, ``force`` (3,) [N, world frame], ``duration`` [s]; empty without pushes);
+    ``fall`` (3,) [s, m, rad] the time, pelvis height and trunk tilt of the fall, when the
+    robot fell. The extra logs of the builder follow their names (``fallen`` (T, 1) when a
+    fall monitor watched, ``push_forces`` when there are pushes, ...).
     """
     state = built.loggers["state"].FindLog(root_context)
     time = state.sample_times()
@@ -113,6 +118,9 @@ def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -
         arrays["stack"] = np.array([" > ".join(stack) for _, stack in history], dtype=str)
     arrays["event_time"] = np.array([t for t, _ in result.events])
     arrays["event_label"] = np.array([label for _, label in result.events], dtype=str)
+    arrays["pushes"] = pushes_record(built.pushes)
+    if result.fell is not None:
+        arrays["fall"] = np.array([result.fell.time, result.fell.pelvis_height, result.fell.tilt])
     return arrays
 
 

@@ -137,4 +137,6 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             q0=self.q0,
             meshcat=self.meshcat,
             visualizer=visualizer,
+            fall_monitor=self.fall_monitor,
+            pushes=self.pushes,
         )

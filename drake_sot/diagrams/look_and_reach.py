@@ -19,6 +19,7 @@ Image coordinates are normalised: x = X/Z, y = Y/Z of the object in the camera f
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +28,7 @@ from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.look_and_reach_plots import plot_look_and_reach
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.world import BuiltHumanoid
@@ -78,9 +80,9 @@ OBJECT_PATH = Lissajous(
 )
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """Build the ``look_and_reach`` diagram and its script."""
-    b = HumanoidSoTBuilder(meshcat=meshcat)
+def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+    """Build the ``look_and_reach`` diagram and its script, with ``pushes`` on the robot."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     target = b.builder.AddSystem(
         MovingPoint(OBJECT_PATH, orientation=b.initial_pose("right_hand").rotation(), name="object")
     )

@@ -19,6 +19,7 @@ from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.priority_switching_plots import plot_priority_switch
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.systems.priority_schedule import PrioritySchedule
@@ -57,13 +58,15 @@ def build_with(
     meshcat: Meshcat | None = None,
     duration: float = DURATION,
     motion_order: Sequence[str] = TASKS,
+    pushes: Sequence[ExternalPush] = (),
 ) -> ScenarioSetup:
     """The scenario's diagram with a given α schedule (the sweep reuses it with constant α).
 
     ``motion_order`` is the order the tasks are handed to the controller: it fixes the
-    layout of the logged vectors only (priorities are matched by name).
+    layout of the logged vectors only (priorities are matched by name). ``pushes`` are
+    applied to the robot.
     """
-    b = TorqueHumanoidBuilder(meshcat=meshcat, fixed_base=True)
+    b = TorqueHumanoidBuilder(meshcat=meshcat, fixed_base=True, pushes=pushes)
     arm_and_body = [j for j in b.control_info.actuated_joints if not j.endswith("gripper")]
     b.add_joint_limits_task("taskJL", margin=0.05, joints=arm_and_body)
     X_head = b.initial_pose("head")
@@ -87,11 +90,11 @@ def build_with(
     )
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """The priority switch of the paper's figure 10."""
+def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+    """The priority switch of the paper's figure 10, with ``pushes`` on the robot."""
     alpha = AlphaSchedule(list(TASKS), initial_alpha())
     alpha.switch("taskHead", "taskLH", start=SWITCH_AT, duration=SWITCH_DURATION)
-    return build_with(alpha, meshcat)
+    return build_with(alpha, meshcat, pushes=pushes)
 
 
 def task_errors(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

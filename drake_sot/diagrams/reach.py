@@ -16,11 +16,14 @@ limits (an inequality: velocity bounds over the control period that stop each jo
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 
@@ -33,9 +36,9 @@ def _shifted(X: RigidTransform, offset: np.ndarray) -> RigidTransform:
     return RigidTransform(X.rotation(), X.translation() + offset)
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """Build the ``reach`` diagram and its script."""
-    b = HumanoidSoTBuilder(meshcat=meshcat)
+def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+    """Build the ``reach`` diagram and its script, with ``pushes`` on the robot."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
     target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
     b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)

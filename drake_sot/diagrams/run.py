@@ -2,9 +2,11 @@
 
 :func:`simulate` advances the simulator to each command's time, applies it to the
 root context (push/rm on the stack, a new target...), reports progress, and on
-Ctrl-C (SIGINT), SIGTERM or a failure stops cleanly and says so, so that whatever was
-simulated can still be written out. :class:`SignalGuard` is how: the first signal stops
-the simulation; later ones wait until the artefacts of the simulated part are written.
+Ctrl-C (SIGINT), SIGTERM, a failure or a fall (seen by a
+:class:`~drake_sot.systems.fall_monitor.FallMonitor` of the diagram) stops cleanly and
+says so, so that whatever was simulated can still be written out. :class:`SignalGuard`
+is how signals are handled: the first signal stops the simulation; later ones wait until
+the artefacts of the simulated part are written.
 """
 
 from __future__ import annotations
@@ -16,9 +18,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import FrameType, TracebackType
 
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import Context
+from pydrake.systems.analysis import Simulator, SimulatorStatus
+from pydrake.systems.framework import Context, Diagram, System
 
+from drake_sot.systems.fall_monitor import Fall, FallMonitor
 from drake_sot.validation import positive
 
 #: The signals that stop a run: Ctrl-C and the polite "terminate" of ``kill``, job schedulers, systemd.
@@ -107,16 +110,19 @@ class SignalGuard:
 
 @dataclass
 class RunResult:
-    """How a run ended, in one of three states:
+    """How a run ended, in one of four states:
 
-    - **completed** (``completed``): simulated up to the requested duration.
+    - **completed** (``completed``): simulated up to the requested duration, standing.
     - **interrupted** (``interrupted``): stopped by a signal, ``interrupted_by`` says which —
       SIGINT (Ctrl-C, or a KeyboardInterrupt raised by a command) or SIGTERM.
     - **failed** (``failure`` is not None): an exception stopped the run; ``end_time`` says when.
+    - **fell** (``fell`` is not None): a ``FallMonitor`` of the diagram detected a fall
+      (time, pelvis height, tilt); the run went on for the monitor's ``stop_after`` (or
+      up to the duration, if sooner) and stopped.
 
     In every state ``end_time`` is the simulated time reached and the simulator's context
     holds the logs up to it. The ``drake-sot`` command exits with 0, 130 (SIGINT), 143
-    (SIGTERM) or 1 (failed).
+    (SIGTERM), 1 (failed) or 3 (fell); a signal or a failure takes precedence over a fall.
 
     Attributes:
         end_time: simulated time reached [s].
@@ -125,6 +131,7 @@ class RunResult:
         not_reached: ``(time, label)`` of the commands scheduled after the run's end.
         interrupted_by: the signal that stopped the run, None when it was not interrupted.
         failure: the exception that stopped the run, if any.
+        fell: the fall, if the robot fell (the earliest, if several monitors saw one).
     """
 
     end_time: float = 0.0
@@ -133,6 +140,7 @@ class RunResult:
     not_reached: list[tuple[float, str]] = field(default_factory=list)
     interrupted_by: signal.Signals | None = None
     failure: BaseException | None = None
+    fell: Fall | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -141,8 +149,8 @@ class RunResult:
 
     @property
     def completed(self) -> bool:
-        """True when the run reached its duration."""
-        return not self.interrupted and self.failure is None
+        """True when the run reached its duration and the robot did not fall."""
+        return not self.interrupted and self.failure is None and self.fell is None
 
     @property
     def realtime_factor(self) -> float:
@@ -165,8 +173,10 @@ def simulate(
     """Advance ``simulator`` to ``duration`` [s], applying ``commands`` at their times.
 
     Never raises for what happens inside the run: SIGINT (Ctrl-C) or SIGTERM sets
-    ``interrupted_by`` and an exception is stored in ``failure``, so the caller can save the
-    partial logs. Signals are handled by ``guard`` (a :class:`SignalGuard` the caller has
+    ``interrupted_by``, an exception is stored in ``failure`` and a fall (seen by a
+    ``FallMonitor`` of the diagram) in ``fell``, so the caller can save the partial logs. A
+    monitor that asks the simulator to stop ends the run there; another system that does
+    is a failure naming it. Signals are handled by ``guard`` (a :class:`SignalGuard` the caller has
     entered and keeps while it writes the artefacts), else by a guard of this call alone.
 
     Args:
@@ -198,11 +208,15 @@ def simulate(
                 command.apply(context)
                 result.events.append((t, command.label))
             target = min(duration, t + chunk, pending[0].time if pending else duration)
-            simulator.AdvanceTo(target)
+            status = simulator.AdvanceTo(target)
             t = context.get_time()
             if progress:
                 progress(t, duration, wallclock.perf_counter() - start)
-        while pending:  # commands due exactly at the end
+            if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+                if not isinstance(status.system(), FallMonitor):
+                    raise RuntimeError(status.FormatMessage())
+                break
+        while pending and t >= duration - 1e-12:  # commands due exactly at the end (not after a stop)
             command = pending.pop(0)
             command.apply(context)
             result.events.append((t, command.label))
@@ -215,4 +229,15 @@ def simulate(
     result.end_time = context.get_time()
     result.wall_time = wallclock.perf_counter() - start
     result.not_reached = [(c.time, c.label) for c in late + pending]
+    falls = [m.fall(m.GetMyContextFromRoot(context)) for m in fall_monitors(simulator.get_system())]
+    result.fell = min((f for f in falls if f is not None), key=lambda f: f.time, default=None)
     return result
+
+
+def fall_monitors(system: System) -> list[FallMonitor]:
+    """The ``FallMonitor`` systems of a diagram (searched through nested diagrams)."""
+    if isinstance(system, FallMonitor):
+        return [system]
+    if isinstance(system, Diagram):
+        return [m for sub in system.GetSystems() for m in fall_monitors(sub)]
+    return []

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,6 +19,7 @@ from drake_sot.diagrams.artifacts import (
     write_replay,
     write_svg,
 )
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.plots import plot_task_errors
@@ -52,7 +53,9 @@ ExtraPlots = Callable[[ScenarioSetup, dict[str, np.ndarray], Path], dict[str, Pa
 @dataclass(frozen=True)
 class Scenario:
     """A scenario of the ``drake-sot`` command: a name, a one-line description, a builder,
-    and optionally its own plots beside the task-error plot."""
+    and optionally its own plots beside the task-error plot. ``build(meshcat, **parameters)``
+    also takes ``pushes=`` (a sequence of :class:`~drake_sot.diagrams.pushes.ExternalPush`)
+    when :func:`run_scenario` is given some."""
 
     name: str
     description: str
@@ -81,13 +84,15 @@ def run_scenario(
     record: bool = True,
     progress: Progress | None = None,
     parameters: dict[str, Any] | None = None,
+    pushes: Sequence[ExternalPush] = (),
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
     ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
     before the run) into ``out_dir``.
 
-    Artefacts are written even when the run is interrupted (SIGINT, SIGTERM) or fails, covering
-    what was simulated; ``result`` says how it ended. While they are written, SIGINT and SIGTERM
+    Artefacts are written even when the run is interrupted (SIGINT, SIGTERM), fails or the
+    robot falls, covering what was simulated; ``result`` says how it ended. The task-error plot
+    marks the commands, the stack changes, the pushes and the fall. While they are written, SIGINT and SIGTERM
     are held and delivered once every file is written (see :class:`SignalGuard`); each file is
     written atomically (see :mod:`drake_sot.diagrams.artifacts`).
 
@@ -98,6 +103,7 @@ def run_scenario(
         record: record the Meshcat replay.
         progress: called as the simulation advances (see :func:`simulate`).
         parameters: keyword arguments of the scenario's ``build`` (only those it declares).
+        pushes: disturbances applied to the robot (passed to ``build`` when there are some).
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built).
@@ -111,7 +117,8 @@ def run_scenario(
             f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}"
         )
     out = output_directory(out_dir)
-    setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}))
+    extra = {"pushes": tuple(pushes)} if pushes else {}
+    setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}), **extra)
     built = setup.built
     files = {"svg": out / f"{scenario.name}.svg"}
     write_svg(built.diagram, files["svg"])
@@ -139,6 +146,9 @@ def run_scenario(
         history = built.stack_history.history(context) if built.stack_history is not None else []
         changes = stack_changes(history)
         marks = result.events + [(t, label) for t, label in changes if round(t, 6) not in command_times]
+        marks += [(p.time, p.label) for p in built.pushes if p.time <= result.end_time]
+        if result.fell is not None:
+            marks.append((result.fell.time, str(result.fell)))
         title = f"{scenario.name}: task errors"
         write_figure(plot_task_errors(arrays["time"], errors, marks, title=title), files["png"])
         if scenario.extra_plots is not None:

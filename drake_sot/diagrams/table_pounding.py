@@ -14,17 +14,19 @@ hand's position task over ``transition`` seconds (eq. 12); on release it does th
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Box, Sphere
+from pydrake.geometry import Box, CollisionFilterDeclaration, GeometrySet, SceneGraph, Sphere
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, PrismaticSpring, SpatialInertia
 from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
@@ -115,6 +117,23 @@ def _add_table(plant: MultibodyPlant, info: HumanoidInfo) -> None:
         )
 
 
+def _press_with_the_spheres_only(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
+    """The table meets the hands only through the spheres at their tool points (the paper's
+    contact points): the whole-body shapes of the hands and fingers, which reach 2 to 6 cm
+    beyond the spheres, are filtered against it."""
+    inspector = scene_graph.model_inspector()
+    shapes = [
+        g
+        for link in ("r_hand", "r_finger", "l_hand", "l_finger")
+        for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link))
+        if not isinstance(inspector.GetShape(g), Sphere)
+    ]
+    table = plant.GetCollisionGeometriesForBody(plant.GetBodyByName("table_top"))
+    scene_graph.collision_filter_manager().Apply(
+        CollisionFilterDeclaration().ExcludeBetween(GeometrySet(shapes), GeometrySet(table))
+    )
+
+
 class TableForce(LeafSystem):
     """The force on the table from its spring's displacement, as in the paper.
 
@@ -158,11 +177,13 @@ def initial_alpha() -> np.ndarray:
     return alpha
 
 
-def build(meshcat=None, transition: float = 0.6) -> ScenarioSetup:
+def build(meshcat=None, transition: float = 0.6, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
     """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]
-    (finite, >= 0; ValueError naming it otherwise, before anything is built)."""
+    (finite, >= 0; ValueError naming it otherwise, before anything is built) and ``pushes``
+    on the robot."""
     transition = nonnegative("transition", transition, unit="s")
-    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table)
+    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table, pushes=pushes)
+    _press_with_the_spheres_only(b.plant, b.scene_graph)
     X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
     b.add_com_task("taskCom", selection="110")
     b.add_op_point_task("taskRH", "right_hand", selection="111000", desired=X["right"])

@@ -17,16 +17,18 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from pydrake.geometry import Meshcat, MeshcatVisualizer, MeshcatVisualizerParams
 from pydrake.math import RigidTransform
-from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.plant import ExternallyAppliedSpatialForceMultiplexer, MultibodyPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder, InputPort, OutputPort
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
+from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.world import add_humanoid_plant
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, half_sitting_configuration, make_control_model
 from drake_sot.models.humanoid import SOLE
 from drake_sot.systems.admittance import AdmittanceController
+from drake_sot.systems.fall_monitor import FallCriteria, FallMonitor
 from drake_sot.systems.features import (
     FeatureCoM,
     FeatureJointLimits,
@@ -47,12 +49,16 @@ from drake_sot.systems.inequalities import (
     PointAbovePlane,
 )
 from drake_sot.systems.kinematics import RobotKinematics
+from drake_sot.systems.partner import ConstantForce, Partner
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive
 
 #: Names of the logs the builders write (the plant state, the kinematic SoT's reference
-#: and errors, the torque controller's outputs); :meth:`HumanoidTaskBuilder.log` refuses them.
-RESERVED_LOGS = ("state", "q_ref", *VECTOR_OUTPUTS)
+#: and errors, the torque controller's outputs, the fall monitor's flag, the pushes'
+#: forces); :meth:`HumanoidTaskBuilder.log` refuses them.
+RESERVED_LOGS = ("state", "q_ref", *VECTOR_OUTPUTS, "fallen", "push_forces")
+#: The fall criteria every floating-base builder monitors by default.
+FALL_CRITERIA = FallCriteria()
 
 
 class HumanoidTaskBuilder:
@@ -70,10 +76,17 @@ class HumanoidTaskBuilder:
             Lober, Padois 2016.
         before_finalize: adds to the simulated world before it is finalized (see
             :func:`~drake_sot.diagrams.world.add_humanoid_plant`).
+        pushes: :class:`~drake_sot.diagrams.pushes.ExternalPush` disturbances applied to the
+            simulated robot (their forces are logged as ``push_forces``, 3 columns per
+            pushed frame, in the order of first push).
+        fall_criteria: on a floating base, a ``FallMonitor`` with these criteria is added
+            (its ``fallen`` flag is logged; :func:`~drake_sot.diagrams.run.simulate` stops
+            the run and reports the fall); None for none. Ignored on a fixed base.
 
     Raises:
         ValueError: a period or step that is NaN, infinite or not > 0 (checked before
-            Drake sees it: a Drake assertion ends the interpreter).
+            Drake sees it: a Drake assertion ends the interpreter); a push on an unknown
+            frame, or two overlapping pushes on one frame.
     """
 
     #: True: PD-controlled actuators that take a desired state (the kinematic SoT);
@@ -88,8 +101,12 @@ class HumanoidTaskBuilder:
         meshcat: Meshcat | None = None,
         fixed_base: bool = False,
         before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
+        pushes: Sequence[ExternalPush] = (),
+        fall_criteria: FallCriteria | None = FALL_CRITERIA,
     ) -> None:
         control_period = positive("control_period", control_period, unit="s")
+        if fall_criteria is not None and not isinstance(fall_criteria, FallCriteria):
+            raise ValueError(f"fall_criteria = {fall_criteria!r}: must be a FallCriteria or None")
         self.fixed_base = fixed_base
         self.builder = DiagramBuilder()
         self.plant, self.scene_graph, self.info = add_humanoid_plant(
@@ -99,6 +116,10 @@ class HumanoidTaskBuilder:
             fixed_base=fixed_base,
             before_finalize=before_finalize,
         )
+        self.pushes = check_pushes(pushes, self.info.frames)
+        self.fall_criteria = None if fixed_base else fall_criteria
+        self.fall_monitor: FallMonitor | None = None  # added by _finish
+        self._spatial_forces: list[OutputPort] = []
         self.control_plant, self.control_info = make_control_model(fixed_base=fixed_base)
         self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
         self.control_period = control_period
@@ -563,6 +584,12 @@ class HumanoidTaskBuilder:
         self.builder.Connect(self.dyn.GetOutputPort(op), system.GetInputPort("position" + suffix))
         self.builder.Connect(self.dyn.GetOutputPort("J" + op), system.GetInputPort("Jq" + suffix))
 
+    def apply_spatial_forces(self, port: OutputPort) -> None:
+        """Apply the forces of an abstract ``list[ExternallyAppliedSpatialForce]`` output (e.g.
+        ``Partner.spatial_forces``) to the simulated plant, beside the pushes and any other
+        such output (the plant has one input for them: the builder gathers them)."""
+        self._spatial_forces.append(port)
+
     def log(self, name: str, port: OutputPort) -> None:
         """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""
         if name in self._extra_logs or name in RESERVED_LOGS:
@@ -572,8 +599,35 @@ class HumanoidTaskBuilder:
     def _finish(
         self, logs: dict[str, OutputPort], log_period: float | None
     ) -> tuple[Diagram, dict[str, VectorLogSink], MeshcatVisualizer | None]:
-        """Loggers (plant state, ``logs``, the extra ones), the visualizer, and the diagram."""
+        """The pushes, the fall monitor, the external forces; loggers (plant state, ``logs``, the
+        extra ones), the visualizer, and the diagram."""
         b = self.builder
+        logs = dict(logs)
+        if self.pushes:
+            logs["push_forces"] = self._add_pushes()
+        if self.fall_criteria is not None:
+            torso = self.plant.GetFrameByName(self.info.frames["torso"], self.info.model_instance).body()
+            self.fall_monitor = b.AddSystem(
+                FallMonitor(
+                    self.plant,
+                    pelvis=self.info.base_body,
+                    trunk=torso.name(),
+                    model_instance=self.info.model_instance,
+                    criteria=self.fall_criteria,
+                    period=self.control_period,
+                )
+            )
+            self.fall_monitor.set_name("fall_monitor")
+            b.Connect(self.plant.get_body_poses_output_port(), self.fall_monitor.GetInputPort("body_poses"))
+            logs["fallen"] = self.fall_monitor.GetOutputPort("fallen")
+        if len(self._spatial_forces) == 1:
+            b.Connect(self._spatial_forces[0], self.plant.get_applied_spatial_force_input_port())
+        elif self._spatial_forces:
+            mux = b.AddSystem(ExternallyAppliedSpatialForceMultiplexer(len(self._spatial_forces)))
+            mux.set_name("external_forces")
+            for i, port in enumerate(self._spatial_forces):
+                b.Connect(port, mux.get_input_port(i))
+            b.Connect(mux.get_output_port(), self.plant.get_applied_spatial_force_input_port())
         log_period = (
             self.control_period if log_period is None else positive("log_period", log_period, unit="s")
         )
@@ -593,3 +647,27 @@ class HumanoidTaskBuilder:
         diagram = b.Build()
         diagram.set_name("drake_sot")
         return diagram, loggers, visualizer
+
+    def _add_pushes(self) -> OutputPort:
+        """A ``Partner`` playing the pushes (one ``ConstantForce`` each, at its frame's origin);
+        returns its ``forces`` output (3 columns per pushed frame, in the order of first push)."""
+        script: dict[str, list[ConstantForce]] = {}  # the partner's script is per body
+        points: dict[str, np.ndarray] = {}
+        for push in self.pushes:
+            frame = self.plant.GetFrameByName(self.info.frames[push.body], self.info.model_instance)
+            body, point = frame.body().name(), frame.GetFixedPoseInBodyFrame().translation()
+            if body in points and not np.array_equal(points[body], point):
+                raise ValueError(f"push body = {push.body!r}: another pushed frame is on body {body!r}")
+            points[body] = point
+            script.setdefault(body, []).append(ConstantForce(push.time, push.end, push.force))
+        partner = self.builder.AddSystem(
+            Partner(self.plant, script, period=self.control_period, points=points)
+        )
+        partner.set_name("pushes")
+        self.builder.Connect(self.plant.get_body_poses_output_port(), partner.GetInputPort("body_poses"))
+        self.builder.Connect(
+            self.plant.get_body_spatial_velocities_output_port(),
+            partner.GetInputPort("body_spatial_velocities"),
+        )
+        self.apply_spatial_forces(partner.GetOutputPort("spatial_forces"))
+        return partner.GetOutputPort("forces")

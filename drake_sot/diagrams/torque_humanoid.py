@@ -200,6 +200,8 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
             q0=self.q0,
             meshcat=self.meshcat,
             visualizer=visualizer,
+            fall_monitor=self.fall_monitor,
+            pushes=self.pushes,
             controller=controller,
             error_layout=controller.error_slices(),
             stack_history=history,

@@ -12,6 +12,7 @@ stops in double support.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform, RollPitchYaw
 
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
@@ -105,9 +107,9 @@ def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Foot
     return pg, left, right
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """Build the ``walk`` diagram and its script."""
-    b = HumanoidSoTBuilder(meshcat=meshcat)
+def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+    """Build the ``walk`` diagram and its script, with ``pushes`` on the robot."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     pg, left, right = add_walking(b)
     b.add_posture_task("taskPosture", gain=1.0)
 

@@ -13,12 +13,14 @@ hands comply.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk import add_walking, forward_steps
@@ -45,9 +47,9 @@ RELEASE_AT = GRIP_AT + 7.0
 ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (60.0, 60.0, 60.0, 4.0, 4.0, 4.0)}
 
 
-def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
-    """Build the ``walk_then_interact`` diagram and its script."""
-    b = HumanoidSoTBuilder(meshcat=meshcat)
+def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on the robot."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     pg, left, right = add_walking(b)
     admittances = {
         "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
@@ -97,7 +99,7 @@ def build(meshcat: Meshcat | None = None) -> ScenarioSetup:
     b.builder.Connect(
         b.plant.get_body_spatial_velocities_output_port(), partner.GetInputPort("body_spatial_velocities")
     )
-    b.builder.Connect(partner.GetOutputPort("spatial_forces"), b.plant.get_applied_spatial_force_input_port())
+    b.apply_spatial_forces(partner.GetOutputPort("spatial_forces"))
 
     b.log("partner_forces", partner.GetOutputPort("forces"))
     for task_name, admittance in admittances.items():
@@ -148,8 +150,10 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
     """Hand forces (measured by the wrist sensors, applied by the partner) and hand displacements."""
     hands = hand_positions(setup, arrays)
     t = arrays["time"]
-    grip = int(np.searchsorted(t, GRIP_AT))
-    window = slice(int(np.searchsorted(t, GRIP_AT - 1.0)), None)  # the interaction, after the walk
+    # The interaction, after the walk; the whole run when it ended before the partner took the
+    # hands (a short --duration, Ctrl-C, a fall), displacements then from its last sample.
+    grip = min(int(np.searchsorted(t, GRIP_AT)), len(t) - 1)
+    window = slice(int(np.searchsorted(t, GRIP_AT - 1.0)) if t[-1] >= GRIP_AT else 0, None)
     path = Path(out_dir) / "walk_then_interact_hands.png"
     plot_interaction(
         t[window],

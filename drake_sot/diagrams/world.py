@@ -16,7 +16,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
-from drake_sot.models import HumanoidInfo, add_ground, load_humanoid, weld_base
+from drake_sot.diagrams.pushes import ExternalPush
+from drake_sot.models import HumanoidInfo, add_body_collision, add_ground, load_humanoid, weld_base
+from drake_sot.systems.fall_monitor import FallMonitor
 from drake_sot.systems.features import _Feature
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.stack_history import StackHistory
@@ -32,6 +34,8 @@ class BuiltHumanoid:
     name → slice), as the controller that produced them declares it; ``stack_history``
     records the controller's ``stack`` output by name (the kinematic SoT's stack; the
     torque controller's active tasks and what is short, saturated or in fallback).
+    ``fall_monitor`` is the diagram's ``FallMonitor`` (None on a fixed base or when the
+    builder was asked for none); ``pushes`` the disturbances the diagram applies.
     """
 
     diagram: Diagram
@@ -47,6 +51,8 @@ class BuiltHumanoid:
     visualizer: MeshcatVisualizer | None
     error_layout: dict[str, slice] = field(default_factory=dict)
     stack_history: StackHistory | None = None
+    fall_monitor: FallMonitor | None = None
+    pushes: tuple[ExternalPush, ...] = ()
 
     def create_simulator(self) -> Simulator:
         """A simulator whose plant starts in the reference configuration q0, at rest."""
@@ -76,13 +82,16 @@ def add_humanoid_plant(
     time_step: float = 1e-3,
     pd_gains: bool = True,
     fixed_base: bool = False,
+    body_collision: bool = True,
     before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
 ) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
     """The simulated world in a finalized ``MultibodyPlant`` (SAP, point contact,
     ``time_step`` [s]) and its ``SceneGraph``: the humanoid with PD-controlled actuators
     (or torque-controlled ones, ``pd_gains=False``) on the ground, or with its pelvis
-    welded in the air (``fixed_base``, no ground). ``before_finalize`` may add to the
-    world (a table, collision shapes on the hands) before the plant is finalized.
+    welded in the air (``fixed_base``, no ground). With ``body_collision`` the whole body
+    collides (:func:`~drake_sot.models.humanoid.add_body_collision`), else only the soles.
+    ``before_finalize`` may add to the world (a table, collision shapes on the hands)
+    before the plant is finalized.
 
     Raises ValueError when ``time_step`` is not finite and > 0 (checked here: Drake
     would end the interpreter on it).
@@ -93,6 +102,8 @@ def add_humanoid_plant(
     )
     plant, scene_graph = AddMultibodyPlant(config, builder)
     info = load_humanoid(plant, pd_gains=pd_gains)
+    if body_collision:
+        add_body_collision(plant, scene_graph, info)
     if fixed_base:
         weld_base(plant, info)
     else:

@@ -2,6 +2,7 @@
 
 from drake_sot.models.humanoid import (
     HumanoidInfo,
+    add_body_collision,
     add_ground,
     half_sitting_configuration,
     load_humanoid,
@@ -12,6 +13,7 @@ from drake_sot.models.humanoid import (
 
 __all__ = [
     "HumanoidInfo",
+    "add_body_collision",
     "add_ground",
     "half_sitting_configuration",
     "load_humanoid",

@@ -32,10 +32,13 @@ l_wrist_pitch, l_gripper``, whereas the actuator order puts both grippers last.
 Use ``plant.MakeActuationMatrix()`` / ``MakeStateSelectorMatrix`` or joint
 ``position_start()`` to map between the two orders.
 
-Contact. Only the feet collide, through four 1 cm spheres at the corners of each
-sole whose lowest points lie on the sole plane (point contact + SAP stands well
-on them and stays fast; standing, the soles sink ~0.2 mm into the ground). The
-rest of the body passes through the ground if the robot falls.
+Contact. The feet stand on four 1 cm spheres at the corners of each sole whose
+lowest points lie on the sole plane (point contact + SAP stands well on them and
+stays fast; standing, the soles sink ~0.2 mm into the ground). :func:`add_body_collision`
+gives the rest of the body simple convex shapes (``COLLISION_LINKS``: the link's own
+box, a capsule for a cylinder, and a box over each foot raised 1 cm above the sole so
+that it never takes part in standing or walking), so that a fallen robot lies on the
+ground; collisions between neighbouring links are filtered.
 
 Drives. Every actuator carries the reflected inertia of its motor and harmonic
 gear (``DRIVES``, 0.001-0.1 kg m^2 at the joint, as on a robot with 1:100-1:200
@@ -53,7 +56,17 @@ from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
-from pydrake.geometry import Box, Cylinder, Rgba, Shape, Sphere
+from pydrake.geometry import (
+    Box,
+    Capsule,
+    CollisionFilterDeclaration,
+    Cylinder,
+    GeometrySet,
+    Rgba,
+    SceneGraph,
+    Shape,
+    Sphere,
+)
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import (
@@ -244,6 +257,27 @@ OPERATIONAL_FRAMES = {
 HEAD_CAMERA = RigidTransform(
     RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])), [0.09, 0.0, 0.05]
 )
+#: Logical frame names (what scenarios, tasks and pushes ask for) -> frame names.
+FRAMES = MappingProxyType(
+    {
+        "pelvis": "pelvis",
+        "torso": "torso",
+        "head": "head",
+        "head_camera": "head_camera",
+        "left_foot": "l_sole",
+        "right_foot": "r_sole",
+        "left_hand": "l_hand_tool",
+        "right_hand": "r_hand_tool",
+    }
+)  # fmt: skip
+#: Links that collide with their own shape (a cylinder becomes a capsule of the same
+#: radius and axis length, whose caps round its ends), right side and centre; the left
+#: side mirrors the right. The feet collide through their sole spheres and FOOT_GUARD.
+_RIGHT_COLLISION_LINKS = ("r_thigh", "r_shank", "r_upper_arm", "r_forearm", "r_hand", "r_finger")
+#: Height above the sole plane [m] of the bottom of the box that covers each foot's sides
+#: and top (the sole spheres carry the robot; this box only meets the ground when the
+#: foot lies on its side or upside down).
+FOOT_GUARD = 0.01
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0), "-y": (0.0, -1.0, 0.0)}
 
 # ======================================================================================
@@ -290,6 +324,10 @@ JOINTS: tuple[_Joint, ...] = (
 #: All force/torque sensor welds, right then left.
 SENSORS = _RIGHT_SENSORS + tuple(
     (_mirror_name(n), _mirror_name(p), _mirror_name(c), d) for n, p, c, d in _RIGHT_SENSORS
+)
+#: Links whose own shape collides in :func:`add_body_collision` (besides the feet).
+COLLISION_LINKS: tuple[str, ...] = (
+    ("pelvis", "torso", "head") + _RIGHT_COLLISION_LINKS + tuple(map(_mirror_name, _RIGHT_COLLISION_LINKS))
 )
 
 
@@ -437,18 +475,7 @@ def load_humanoid(
         model_instance=instance,
         base_body="pelvis",
         actuated_joints=tuple(j.name for j in JOINTS),
-        frames=MappingProxyType(
-            {
-                "pelvis": "pelvis",
-                "torso": "torso",
-                "head": "head",
-                "head_camera": "head_camera",
-                "left_foot": "l_sole",
-                "right_foot": "r_sole",
-                "left_hand": "l_hand_tool",
-                "right_hand": "r_hand_tool",
-            }
-        ),  # fmt: skip
+        frames=FRAMES,
         force_sensors=MappingProxyType(
             {
                 "left_ankle": "l_ankle_ft",
@@ -479,6 +506,78 @@ def add_ground(plant: MultibodyPlant) -> None:
         world, RigidTransform([0.0, 0.0, -0.01]), Box(10.0, 10.0, 0.02), "ground_visual",
         Rgba(0.55, 0.60, 0.55, 1.0).rgba,
     )  # fmt: skip
+
+
+def add_body_collision(plant: MultibodyPlant, scene_graph: SceneGraph, info: HumanoidInfo) -> None:
+    """Give the whole body collision shapes, so that a fallen robot lies on the ground.
+
+    Registers on the plant (before ``Finalize``), with FRICTION: the shape of each of
+    ``COLLISION_LINKS`` (pelvis, torso, head, thighs, shanks, upper arms, forearms, hands,
+    fingers; a cylinder as a capsule of the same radius and axis length) and, over each
+    foot, a box of the sole's length and width from ``FOOT_GUARD`` above the sole plane
+    to the top of the foot (the sole spheres still carry the robot alone). Then it
+    excludes, in ``scene_graph``, the collisions between *neighbouring* colliding links:
+    each colliding link and its nearest colliding ancestor in the kinematic tree (e.g. the
+    pelvis and a thigh, across the hip's shape-less yaw and roll links; a shank and its
+    foot), whose shapes overlap or touch as the joints between them move; a finger counts
+    as part of its hand (one gripper, filtered against the forearm; Drake itself filters
+    the finger's hinge, as every pair of bodies a joint connects). Every other pair
+    collides: an arm with the torso, a hand with a thigh, one leg with the other.
+
+    Raises RuntimeError when the plant is finalized or has no SceneGraph.
+    """
+    if plant.is_finalized():
+        raise RuntimeError("add_body_collision needs a plant that is not finalized yet")
+    if not plant.geometry_source_is_registered():
+        raise RuntimeError("add_body_collision needs a MultibodyPlant registered with a SceneGraph")
+    instance = info.model_instance
+    links = {link.name: link for link in LINKS}
+    for name in COLLISION_LINKS:
+        link = links[name]
+        kind, *dims = link.shape
+        shape = {"box": Box, "cylinder": Capsule, "sphere": Sphere}[kind](*dims)
+        plant.RegisterCollisionGeometry(
+            plant.GetBodyByName(name, instance),
+            RigidTransform(link.centre),
+            shape,
+            f"{name}_collision",
+            FRICTION,
+        )
+    foot = links["r_foot"]
+    foot_top = foot.centre[2] + foot.shape[3] / 2  # top of the foot's box, in the foot frame
+    for side in ("r", "l"):
+        sole_z = OPERATIONAL_FRAMES[f"{side}_sole"][1][2]
+        height = foot_top - (sole_z + FOOT_GUARD)
+        plant.RegisterCollisionGeometry(
+            plant.GetBodyByName(f"{side}_foot", instance),
+            RigidTransform([0.0, 0.0, sole_z + FOOT_GUARD + height / 2]),
+            Box(*SOLE, height),
+            f"{side}_foot_guard_collision",
+            FRICTION,
+        )
+    parent = {j.child: j.parent for j in JOINTS} | {child: p for _, p, child, _ in SENSORS}
+    # A finger and its hand are one gripper: it is filtered against the forearm as the hand is.
+    units = {name: {name} for name in (*COLLISION_LINKS, "r_foot", "l_foot") if not name.endswith("_finger")}
+    for side in ("r", "l"):
+        units[f"{side}_hand"].add(f"{side}_finger")
+    declaration = CollisionFilterDeclaration()
+    for name, members in units.items():
+        ancestor = parent.get(name)
+        while ancestor is not None and ancestor not in units:
+            ancestor = parent.get(ancestor)
+        if ancestor is not None:
+            declaration.ExcludeBetween(
+                _collision_set(plant, instance, members), _collision_set(plant, instance, units[ancestor])
+            )
+    scene_graph.collision_filter_manager().Apply(declaration)
+
+
+def _collision_set(plant: MultibodyPlant, instance: ModelInstanceIndex, links: set[str]) -> GeometrySet:
+    """The collision geometries of ``links``."""
+    ids = [
+        g for link in links for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link, instance))
+    ]
+    return GeometrySet(ids)
 
 
 def half_sitting_configuration(plant: MultibodyPlant, info: HumanoidInfo) -> np.ndarray:

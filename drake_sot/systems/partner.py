@@ -57,10 +57,10 @@ class Hold:
     damping: float = 40.0
 
 
-def _spatial_force(body_index, force: np.ndarray) -> ExternallyAppliedSpatialForce:
+def _spatial_force(body_index, point: np.ndarray, force: np.ndarray) -> ExternallyAppliedSpatialForce:
     f = ExternallyAppliedSpatialForce()
     f.body_index = body_index
-    f.p_BoBq_B = np.zeros(3)
+    f.p_BoBq_B = point
     f.F_Bq_W = SpatialForce(np.zeros(3), force)
     return f
 
@@ -74,7 +74,7 @@ class Partner(LeafSystem):
             ``body_spatial_velocities``).
     Output ports:
         spatial_forces: abstract ``list[ExternallyAppliedSpatialForce]`` for the plant's
-            ``applied_spatial_force`` input, applied at each body's origin.
+            ``applied_spatial_force`` input, applied at each body's point.
         forces: (3·k,) [N] the force on each body, in the order of ``script``, for logging.
 
     Args:
@@ -82,6 +82,8 @@ class Partner(LeafSystem):
         script: body name → a sequence of :class:`ConstantForce` and :class:`Hold` segments
             (non-overlapping in time).
         period: update period [s] (the control period).
+        points: body name → the point (3,) [m], in the body frame, where the forces apply
+            and a :class:`Hold` grips; a body's origin when not given.
     """
 
     def __init__(
@@ -90,10 +92,18 @@ class Partner(LeafSystem):
         script: Mapping[str, Sequence[ConstantForce | Hold]],
         *,
         period: float = 0.005,
+        points: Mapping[str, Sequence[float]] | None = None,
     ) -> None:
         super().__init__()
         self._bodies = [plant.GetBodyByName(name) for name in script]
         self._script = [tuple(segments) for segments in script.values()]
+        stray = sorted(set(points or {}) - set(script))
+        if stray:
+            raise ValueError(f"points for {stray}, which the script does not name; it names {list(script)}")
+        self._points = [
+            validation.vector(f"points[{name!r}]", (points or {}).get(name, np.zeros(3)), 3)
+            for name in script
+        ]
         for name, segments in script.items():
             ordered = sorted(segments, key=lambda s: s.start)
             for a, b in zip(ordered, ordered[1:], strict=False):
@@ -133,13 +143,14 @@ class Partner(LeafSystem):
         velocities = self._velocities.Eval(context)
         grips = dict(context.get_abstract_state(self._grips).get_value())
         forces = np.zeros((len(self._bodies), 3))
-        for i, (body, segments) in enumerate(zip(self._bodies, self._script, strict=True)):
+        for i, (body, segments, p_B) in enumerate(zip(self._bodies, self._script, self._points, strict=True)):
             segment = self._active(segments, t)
             if isinstance(segment, ConstantForce):
                 forces[i] = segment.force
             elif isinstance(segment, Hold):
-                p = poses[int(body.index())].translation()
-                v = velocities[int(body.index())].translational()
+                X_WB, V_WB = poses[int(body.index())], velocities[int(body.index())]
+                p = X_WB @ p_B
+                v = V_WB.Shift(X_WB.rotation() @ p_B).translational()
                 origin = grips.setdefault((i, segment.start), tuple(p))
                 grip, grip_velocity = _interpolate(segment.keyframes, t - segment.start)
                 target = np.array(origin) + grip
@@ -149,7 +160,12 @@ class Partner(LeafSystem):
 
     def _calc_spatial_forces(self, context: Context, value: AbstractValue) -> None:
         forces = context.get_discrete_state(self._force).get_value().reshape(-1, 3)
-        value.set_value([_spatial_force(b.index(), f) for b, f in zip(self._bodies, forces, strict=True)])
+        value.set_value(
+            [
+                _spatial_force(b.index(), p_B, f)
+                for b, p_B, f in zip(self._bodies, self._points, forces, strict=True)
+            ]
+        )
 
 
 def _interpolate(keyframes, t: float) -> tuple[np.ndarray, np.ndarray]:
