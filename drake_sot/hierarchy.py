@@ -788,6 +788,8 @@ class _ActiveSet:
             J, lower, upper, equality = J[keep], lower[keep], upper[keep], equality[keep]
             if not J.shape[0]:
                 return
+        if equality.all() and self._equality_step(J, upper):
+            return
         if not equality.any():
             value = J @ self.x
             if ((value <= upper + self.tol) & (value >= lower - self.tol)).all():
@@ -829,6 +831,27 @@ class _ActiveSet:
             self.Z = N if self.Z is None else self.Z @ N
         if hard.size:
             self._add_hard(J[hard], lower[hard], upper[hard])
+
+    def _equality_step(self, J: np.ndarray, target: np.ndarray) -> bool:
+        """A level of equalities whose minimum-norm step of :func:`solve_strict` keeps every hard
+        row within its bounds (the common case): take that step and fix the level's rows, as
+        :meth:`_minimise` would in its first iteration, without its active-set bookkeeping.
+        Returns False, changing nothing, when a hard row blocks the step."""
+        Z, x = self.Z, self.x
+        split = SvdSplit.of(J if Z is None else J @ Z, self.rank_threshold)
+        y = split.solve(target - J @ x)
+        d = y if Z is None else Z @ y
+        d_norm = math.sqrt(float(d @ d))
+        if d_norm > 1e-15 * (1.0 + math.sqrt(float(x @ x))):
+            if self.C.shape[0]:
+                _, step, _ = _first_block(self.C, self.lo, self.hi, x, d, 1e-10 * d_norm * self.c_norms)
+                if step < 1.0:
+                    return False
+            self.x = x + d
+        self.iterations += 1
+        N = split.null_basis()
+        self.Z = N if Z is None else Z @ N
+        return True
 
     def _add_hard(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
         """Rows that hold at this level's optimum: the levels below must keep them holding."""
@@ -974,11 +997,11 @@ def _first_block(
     """The first of the rows ``lower <= M q̇ <= upper`` that the step ``x + alpha d`` leaves:
     ``(row, alpha >= 0, +1 upper / -1 lower)``, or ``(-1, inf, 0)`` when none does. A row
     moves when ``|M_i d| > eps_i``; one already past its bound (rounding) blocks at once."""
-    rate = M @ d
-    value = M @ x
-    after = value + rate
+    after = M @ (x + d)
     if ((after <= upper) & (after >= lower)).all():
         return -1, _INF, 0  # the whole step stays inside every row (the common case)
+    rate = M @ d
+    value = M @ x
     up = rate > eps
     down = rate < -eps
     if not (up.any() or down.any()):
