@@ -38,6 +38,7 @@ __all__ = [
 
 
 _EPS = float(np.finfo(float).eps)
+_GESDD = scipy.linalg.lapack.dgesdd
 
 
 @dataclass(frozen=True)
@@ -71,7 +72,14 @@ class SvdSplit:
         ``A`` is assumed finite (validate with the public functions first).
         """
         m, k = A.shape
-        U, s, Vt = np.linalg.svd(A, full_matrices=m < k)
+        if m and k:
+            # LAPACK's divide and conquer, as numpy.linalg.svd calls it, without numpy's
+            # wrapper (~3.5 µs a call, a tenth of the small SVDs of a control tick).
+            U, s, Vt, info = _GESDD(A, compute_uv=1, full_matrices=int(m < k))
+            if info:
+                raise np.linalg.LinAlgError(f"SVD of a {m}x{k} matrix did not converge (LAPACK info {info})")
+        else:
+            U, s, Vt = np.linalg.svd(A, full_matrices=m < k)
         floor = max(rank_threshold, max(m, k) * _EPS * float(s[0])) if s.size else rank_threshold
         return cls(U=U, s=s, Vt=Vt, rank=int(np.count_nonzero(s > floor)))
 
