@@ -297,40 +297,13 @@ class StackOfTasks(LeafSystem):
         blend = self._current_stack(context).blend(context.get_time())
         errors = np.full(discrete_state.get_vector(self._errors).size(), np.nan)
         signals: dict[str, tuple[np.ndarray, ...]] = {}  # task name -> its level
-        for task_name in dict.fromkeys(name for active, _ in blend for name in active):
-            signal = self._ports[task_name].Eval(context)
-            m = self._dims[task_name]
-            if signal.name != task_name:
-                raise RuntimeError(
-                    f"{self.get_name()!r}: input port {task_name!r} carries the signal of task "
-                    f"{signal.name!r}: a task is wired into another task's port"
-                )
-            if isinstance(signal, BoundedTaskSignal):
-                signals[task_name] = self._bounded_level(task_name, signal, m, context)
-                errors[self._slices[task_name]] = signal.error
-                continue
-            shapes = (signal.error.shape, signal.jacobian.shape, signal.edot_des.shape)
-            if shapes != ((m,), (m, self._nv), (m,)):
-                raise RuntimeError(
-                    f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, "
-                    f"ė* (edot_des) {shapes[2]}; expected ({m},), ({m}, {self._nv}), ({m},)"
-                )
-            # One sum is finite when every entry is (a cheap test per tick); only if it is not
-            # (NaN, Inf, or an overflow of large finite values) look entry by entry.
-            with np.errstate(over="ignore"):  # an overflow of the sum is handled just below
-                total = signal.jacobian.sum() + signal.edot_des.sum()
-            if not math.isfinite(total) and not (
-                np.isfinite(signal.jacobian).all() and np.isfinite(signal.edot_des).all()
-            ):
-                raise RuntimeError(
-                    f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s"
-                )
-            errors[self._slices[task_name]] = signal.error
-            signals[task_name] = (
-                (signal.jacobian, signal.edot_des, signal.edot_des)
-                if self._solver == "hqp"
-                else (signal.jacobian, signal.edot_des)
-            )
+        evaluated = {
+            task_name: self._ports[task_name].Eval(context)
+            for task_name in dict.fromkeys(name for active, _ in blend for name in active)
+        }
+        with np.errstate(over="ignore"):  # one for all the finiteness sums of _level (it says why)
+            for task_name, signal in evaluated.items():
+                signals[task_name] = self._level(task_name, signal, context, errors)
         qdot = np.zeros(self._nv)
         for active, weight in blend:  # one stack, weight 1, unless a change is in progress
             if not active:
@@ -346,6 +319,43 @@ class StackOfTasks(LeafSystem):
             qdot += weight * result.qdot
         discrete_state.get_mutable_vector(self._qdot).SetFromVector(qdot)
         discrete_state.get_mutable_vector(self._errors).SetFromVector(errors)
+
+    def _level(
+        self, task_name: str, signal: TaskSignal | BoundedTaskSignal, context: Context, errors: np.ndarray
+    ) -> tuple[np.ndarray, ...]:
+        """The solver's level of a task of the stack, its signal checked (RuntimeError naming the
+        task otherwise); writes the task's error into ``errors``. Call under
+        ``np.errstate(over="ignore")``: an overflowing finiteness sum is looked at entry by entry."""
+        m = self._dims[task_name]
+        if signal.name != task_name:
+            raise RuntimeError(
+                f"{self.get_name()!r}: input port {task_name!r} carries the signal of task "
+                f"{signal.name!r}: a task is wired into another task's port"
+            )
+        if isinstance(signal, BoundedTaskSignal):
+            errors[self._slices[task_name]] = signal.error
+            return self._bounded_level(task_name, signal, m, context)
+        shapes = (signal.error.shape, signal.jacobian.shape, signal.edot_des.shape)
+        if shapes != ((m,), (m, self._nv), (m,)):
+            raise RuntimeError(
+                f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, "
+                f"ė* (edot_des) {shapes[2]}; expected ({m},), ({m}, {self._nv}), ({m},)"
+            )
+        # One sum is finite when every entry is (a cheap test per tick); only if it is not
+        # (NaN, Inf, or an overflow of large finite values) look entry by entry.
+        total = signal.jacobian.sum() + signal.edot_des.sum()  # overflow: see the caller's errstate
+        if not math.isfinite(total) and not (
+            np.isfinite(signal.jacobian).all() and np.isfinite(signal.edot_des).all()
+        ):
+            raise RuntimeError(
+                f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s"
+            )
+        errors[self._slices[task_name]] = signal.error
+        return (
+            (signal.jacobian, signal.edot_des, signal.edot_des)
+            if self._solver == "hqp"
+            else (signal.jacobian, signal.edot_des)
+        )
 
     def _bounded_level(
         self, task_name: str, signal: BoundedTaskSignal, m: int, context: Context
@@ -363,8 +373,7 @@ class StackOfTasks(LeafSystem):
                 f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, lower {shapes[2]}, "
                 f"upper {shapes[3]}; expected ({m},), ({m}, {self._nv}), ({m},), ({m},)"
             )
-        with np.errstate(over="ignore"):  # an overflow of the sum is handled just below
-            total = J.sum()
+        total = J.sum()  # under _level's errstate: an overflow is handled just below
         if not math.isfinite(total) and not np.isfinite(J).all():
             raise RuntimeError(
                 f"task {task_name!r}: NaN or Inf in its Jacobian at t = {context.get_time():.4f} s"
