@@ -8,14 +8,21 @@
    ``solve_strict`` on the same levels (equalities only: the same q̇), then with the
    joint-limit level of the scenarios on top (a 30-row box, not binding).
 2. One full control tick of ``reach`` (kinematics, 7 features and tasks, the solve)
-   against the 5 ms control period.
+   against the 5 ms control period, and against the same tick of the tree of
+   ``BASELINE_COMMIT`` (before the speed work of issue 13), interleaved.
 3. The ``reach`` scenario's real-time factor against the plant alone, standing on
    constant PD set points (no controller), with the same physics settings.
 """
 
 from __future__ import annotations
 
+import json
+import os
+import pathlib
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -124,6 +131,38 @@ def bench_tick(repeat: int = 300) -> dict[str, float]:
     }
 
 
+#: The commit whose ``reach`` tick is the baseline of the tick row: the tree before the speed work
+#: of issue 13 (solve_hqp's active set on every level, numpy's SVD wrapper, one errstate per task).
+BASELINE_COMMIT = "9ecd1f9"
+
+
+def bench_tick_against_baseline(rounds: int = 3, repeat: int = 300) -> dict[str, float]:
+    """:func:`bench_tick` of this tree and of :data:`BASELINE_COMMIT`'s tree (``git archive`` into a
+    temporary directory), each round one fresh interpreter per tree, the two interleaved so that
+    both see the same machine load; the ratio is the median of the per-round ratios of medians."""
+    root = pathlib.Path(__file__).resolve().parent.parent
+    code = f"import json, bench_sot; print(json.dumps(bench_sot.bench_tick({repeat})))"
+
+    def run(tree: pathlib.Path) -> dict[str, float]:
+        env = {**os.environ, "PYTHONPATH": str(tree)}
+        out = subprocess.run(
+            [sys.executable, "-c", code], cwd=tree / "benchmarks", env=env, check=True, capture_output=True
+        )
+        return json.loads(out.stdout.decode().splitlines()[-1])
+
+    with tempfile.TemporaryDirectory() as baseline:
+        archive = subprocess.run(
+            ["git", "-C", str(root), "archive", BASELINE_COMMIT], check=True, capture_output=True
+        ).stdout
+        subprocess.run(["tar", "-x", "-C", baseline], input=archive, check=True)
+        pairs = [(run(pathlib.Path(baseline)), run(root)) for _ in range(rounds)]
+    return {
+        "baseline_us": statistics.median(b["tick_median_us"] for b, _ in pairs),
+        "tick_us": statistics.median(t["tick_median_us"] for _, t in pairs),
+        "ratio": statistics.median(t["tick_median_us"] / b["tick_median_us"] for b, t in pairs),
+    }
+
+
 def plant_alone_realtime(duration: float, *, body_collision: bool = True) -> float:
     """Real-time factor of the humanoid's plant alone (SAP, 1 ms, point contact) standing on
     constant PD set points (half-sitting) for ``duration`` [s], with no controller."""
@@ -173,6 +212,7 @@ def main() -> None:
     solver = bench_solver()
     hqp = bench_hqp()
     tick = bench_tick()
+    against = bench_tick_against_baseline()
     rtf = bench_realtime()
     rows = [
         (
@@ -198,6 +238,12 @@ def main() -> None:
             f"{tick['tick_median_us']:.0f} / {tick['tick_p99_us']:.0f} µs",
             "control period: 5000 µs",
             f"{tick['tick_median_us'] / 5000:.1%} of the period",
+        ),
+        (
+            "reach tick, fresh interpreters, interleaved with the baseline tree (median of 3)",
+            f"{against['tick_us']:.0f} µs",
+            f"commit {BASELINE_COMMIT}: {against['baseline_us']:.0f} µs",
+            f"tick / baseline tick: {against['ratio']:.2f}",
         ),
         (
             "reach scenario real-time factor",
