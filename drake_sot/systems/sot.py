@@ -92,7 +92,7 @@ class StackOfTasks(LeafSystem):
             (m,) of J q̇, ±inf allowed).
         stack: optional, abstract ``tuple[str, ...]``, the active task names, highest
             priority first (the name "stack" is therefore not a valid task name).
-            Validated at every tick: an unknown task name or a task listed twice
+            Validated when it changes: an unknown task name or a task listed twice
             raises a RuntimeError naming them and listing the known tasks.
     Output ports:
         qdot: joint velocity (nv,) computed at the last tick [rad/s, m/s] (v layout of the model).
@@ -196,6 +196,9 @@ class StackOfTasks(LeafSystem):
             for task_name in dims
         }
         self._stack_input = self.DeclareAbstractInputPort(STACK_PORT, AbstractValue.Make(()))
+        # The last tuple the stack input held and its stack, checked: a pure function of the
+        # tuple, so one entry serves every context; the check runs once per stack change.
+        self._driven: tuple[tuple[str, ...] | None, Stack] = (None, empty)
         self._stack = self.DeclareAbstractState(AbstractValue.Make(initial))
         self._qdot = self.DeclareDiscreteState(nv)
         self._errors = self.DeclareDiscreteState(np.full(start, np.nan))
@@ -236,10 +239,16 @@ class StackOfTasks(LeafSystem):
         """The stack in force for this system's own context (the input's, validated, when driven)."""
         if not self._stack_input.HasValue(context):
             return context.get_abstract_state(self._stack).get_value()
+        names = self._stack_input.Eval(context)
+        if type(names) is tuple and names == self._driven[0]:
+            return self._driven[1]  # checked when it changed (a tuple cannot change in place)
         try:
-            return self._empty.with_active(self._stack_input.Eval(context))
+            stack = self._empty.with_active(names)
         except StackError as error:
             raise RuntimeError(f"{self.get_name()!r}: input port {STACK_PORT!r}: {error}") from None
+        if type(names) is tuple:
+            self._driven = (names, stack)
+        return stack
 
     def is_driven(self, context: Context) -> bool:
         """True when the ``stack`` input port is connected (own or root context)."""

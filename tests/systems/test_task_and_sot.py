@@ -309,6 +309,31 @@ def test_stack_input_drives_the_stack_and_is_validated():
         _tick(sot, context)
 
 
+def test_stack_input_checked_once_per_change_serves_each_context_its_own_stack():
+    # The stack input is checked when its tuple changes, not every tick: two contexts driven
+    # with different stacks, ticked alternately, each get the solution of their own stack.
+    rng = np.random.default_rng(6)
+    dims = {"a": 1, "b": 2, "c": 1}
+    sot, first, signals = _sot_with_fixed_tasks(rng, dims)
+    second = sot.CreateDefaultContext()
+    for name, signal in signals.items():
+        sot.GetInputPort(name).FixValue(second, signal)
+    sot.GetInputPort("stack").FixValue(first, ("a", "b"))
+    sot.GetInputPort("stack").FixValue(second, ("c",))
+    for _ in range(2):
+        for context, names in ((first, ("a", "b")), (second, ("c",))):
+            qdot, _ = _tick(sot, context)
+            expected = solve_strict([(signals[n].jacobian, signals[n].edot_des) for n in names]).qdot
+            np.testing.assert_allclose(qdot, expected, atol=1e-12)
+            assert sot.list(context) == names
+    # A list (mutable) is checked every time; a bad one after a good one is still refused.
+    sot.GetInputPort("stack").FixValue(first, ["b", "a"])
+    assert sot.list(first) == ("b", "a")
+    sot.GetInputPort("stack").FixValue(first, ("a", "a"))
+    with pytest.raises(RuntimeError, match="task 'a' listed twice"):
+        _tick(sot, first)
+
+
 def test_stack_is_not_a_task_name():
     with pytest.raises(ValueError, match="'stack' cannot be a task name"):
         StackOfTasks(NV, {"a": 1, "stack": 1})
