@@ -788,8 +788,11 @@ class _ActiveSet:
             J, lower, upper, equality = J[keep], lower[keep], upper[keep], equality[keep]
             if not J.shape[0]:
                 return
-        if equality.all() and self._equality_step(J, upper):
-            return
+        first = None
+        if equality.all():
+            first = self._equality_step(J, upper)
+            if first is None:
+                return
         if not equality.any():
             value = J @ self.x
             if ((value <= upper + self.tol) & (value >= lower - self.tol)).all():
@@ -804,7 +807,7 @@ class _ActiveSet:
             Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])
             value = Js @ self.x
             side[soft] = np.where(value > us + self.tol, 1, np.where(value < ls - self.tol, -1, 0))
-        last, iterations = self._minimise(J, lower, upper, side, soft, name)
+        last, iterations = self._minimise(J, lower, upper, side, soft, name, first)
         # The level's optimum: its equality rows and violated rows keep their values below.
         if soft.size:
             held = side[soft]
@@ -832,11 +835,12 @@ class _ActiveSet:
         if hard.size:
             self._add_hard(J[hard], lower[hard], upper[hard])
 
-    def _equality_step(self, J: np.ndarray, target: np.ndarray) -> bool:
+    def _equality_step(self, J: np.ndarray, target: np.ndarray) -> tuple[SvdSplit, np.ndarray] | None:
         """A level of equalities whose minimum-norm step of :func:`solve_strict` keeps every hard
         row within its bounds (the common case): take that step and fix the level's rows, as
-        :meth:`_minimise` would in its first iteration, without its active-set bookkeeping.
-        Returns False, changing nothing, when a hard row blocks the step."""
+        :meth:`_minimise` would in its first iteration, without its active-set bookkeeping;
+        return None. When a hard row blocks the step, change nothing and return the SVD and
+        the step, :meth:`_minimise`'s first iteration."""
         Z, x = self.Z, self.x
         split = SvdSplit.of(J if Z is None else J @ Z, self.rank_threshold)
         y = split.solve(target - J @ x)
@@ -846,12 +850,12 @@ class _ActiveSet:
             if self.C.shape[0]:
                 _, step, _ = _first_block(self.C, self.lo, self.hi, x, d, 1e-10 * d_norm * self.c_norms)
                 if step < 1.0:
-                    return False
+                    return split, d
             self.x = x + d
         self.iterations += 1
         N = split.null_basis()
         self.Z = N if Z is None else Z @ N
-        return True
+        return None
 
     def _add_hard(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
         """Rows that hold at this level's optimum: the levels below must keep them holding."""
@@ -879,6 +883,7 @@ class _ActiveSet:
         side: np.ndarray,
         soft: np.ndarray,
         name: str,
+        first: tuple[SvdSplit, np.ndarray] | None = None,
     ) -> tuple[tuple[int, SvdSplit] | None, int]:
         """Primal active set on one level; updates ``self.x`` and ``side`` in place.
 
@@ -886,7 +891,8 @@ class _ActiveSet:
         upper/lower bound (in the least squares), 0 for a free one; ``soft`` lists the
         inequality rows. Returns the row count and the SVD of the last least squares when
         it ran with no hard row held (its null space is what the level leaves; None
-        otherwise), and the number of iterations.
+        otherwise), and the number of iterations. ``first``: the SVD and the step of the first
+        iteration when the caller has them (:meth:`_equality_step`, blocked), not recomputed.
         """
         Z, C, tol, rt = self.Z, self.C, self.tol, self.rank_threshold
         hard = np.zeros(C.shape[0], dtype=np.int8)  # 0 free, ±1 held at upper/lower
@@ -910,9 +916,12 @@ class _ActiveSet:
                 rows, AW, target = None, A, upper
             last = None
             if AW.shape[0] and (ZN is None or ZN.shape[1]):
-                split = SvdSplit.of(AW if ZN is None else AW @ ZN, rt)
-                y = split.solve(target - AW @ x)
-                d = y if ZN is None else ZN @ y
+                if first is None:
+                    split = SvdSplit.of(AW if ZN is None else AW @ ZN, rt)
+                    y = split.solve(target - AW @ x)
+                    d = y if ZN is None else ZN @ y
+                else:  # the first iteration, already computed (the same least squares)
+                    (split, d), first = first, None
                 if not held.size:
                     last = (AW.shape[0], split)
                 d_norm = math.sqrt(float(d @ d))
