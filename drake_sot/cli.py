@@ -11,6 +11,7 @@ signal that comes while they are written waits until they all are.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import threading
@@ -26,6 +27,9 @@ from drake_sot.diagrams.run import Interrupted, RunResult
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.models.humanoid import FRAMES
+from drake_sot.remote.network import NetworkThread
+from drake_sot.remote.serving import serve_scenario
+from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.script import ScriptError, Statement
 from drake_sot.validation import finite, nonnegative, positive, positive_int
 
@@ -182,7 +186,47 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
     _simulation_options(
         script, "simulated seconds (default: what the script's 'run SECONDS' lines add up to)"
     )
+    _remote_parsers(sub, names=sorted(SCENARIOS))
     return parser, run, script
+
+
+def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
+    """``serve SCENARIO`` and ``shell``: the command server and its interactive client."""
+    serve = sub.add_parser(
+        "serve",
+        help="run a scenario paced at R x real time while serving the remote command protocol",
+        epilog=f"the first line on stdout is 'serving on HOST:PORT'; a token may also come from ${TOKEN_ENV}",
+    )
+    serve.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
+    serve.add_argument(
+        "--duration",
+        type=_checked(positive, "duration", unit="s"),
+        default=None,
+        metavar="S",
+        help="simulated seconds (default: the scenario's)",
+    )
+    serve.add_argument(
+        "--realtime",
+        type=_checked(positive, "realtime"),
+        default=1.0,
+        metavar="R",
+        help="pace: R x real time (default 1.0)",
+    )
+    _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
+    shell = sub.add_parser("shell", help="the interactive coshell of a 'drake-sot serve' server")
+    _address_options(shell, "server address (default 127.0.0.1)")
+
+
+def _address_options(parser: argparse.ArgumentParser, host_help: str) -> None:
+    parser.add_argument("--host", default="127.0.0.1", help=host_help)
+    parser.add_argument(
+        "--port",
+        type=_checked(positive_int, "port", minimum=0),
+        default=DEFAULT_PORT,
+        metavar="P",
+        help=f"TCP port (default {DEFAULT_PORT}; 0 for a free one when serving)",
+    )
+    parser.add_argument("--token", default=None, metavar="T", help=f"shared secret (default: ${TOKEN_ENV})")
 
 
 def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> None:
@@ -213,6 +257,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "script":
         return _script(args, script)
+    if args.command in ("serve", "shell"):
+        args.token = args.token if args.token is not None else os.environ.get(TOKEN_ENV) or None
+        return (
+            _serve(args, parser) if args.command == "serve" else shell_main(args.host, args.port, args.token)
+        )
     if args.command == "list":
         for name in sorted(SCENARIOS):
             print(f"{name:20s} {SCENARIOS[name].description}")
@@ -266,6 +315,35 @@ def _script(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         return _run_scenario(scenario, args, {})
     except SessionError as exc:  # raised while the script built its diagram: nothing simulated
         parser.error(str(exc))
+
+
+def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
+    if args.port > 65535:
+        parser.error(f"port = {args.port}: at most 65535")
+    try:
+        network = NetworkThread(args.host, args.port, token=args.token)
+    except (ValueError, OSError) as exc:
+        parser.error(f"serve: {exc}")
+    setup = SCENARIOS[args.scenario].build(None)
+
+    def ready(address: tuple[str, int]) -> None:
+        print(f"serving on {address[0]}:{address[1]}", flush=True)
+
+    try:
+        with _sigterm_as_interrupt():
+            serving = serve_scenario(
+                setup, network, duration=args.duration, realtime=args.realtime, on_ready=ready
+            )
+    except KeyboardInterrupt as exc:
+        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+        print(f"interrupted by {signum.name}", file=sys.stderr)
+        return 128 + signum
+    print(
+        f"served up to t = {serving.context.get_time():.3f} s; {len(serving.events)} commands applied",
+        flush=True,
+    )
+    return 0
 
 
 def _echo(statement: Statement, time: float, output: str) -> None:
