@@ -5,6 +5,7 @@ and ``drake-sot shell``."""
 import json
 import math
 import os
+import queue
 import random
 import re
 import subprocess
@@ -16,6 +17,7 @@ import numpy as np
 import pytest
 
 from drake_sot.remote import Client, RemoteError
+from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import MAX_LINE, ProtocolError, decode_vector, encode, parse_request
 
 REPO = Path(__file__).resolve().parents[1]
@@ -65,6 +67,52 @@ def test_non_finite_numbers_travel_as_null_and_come_back_as_nan():
     assert message["value"] == [1.0, None, None]
     back = decode_vector(message["value"])
     assert back[0] == 1.0 and math.isnan(back[1]) and math.isnan(back[2])
+
+
+# --- the network thread alone: what it queues for the serving loop ------------------------
+
+
+@pytest.fixture
+def network():
+    thread = NetworkThread("127.0.0.1", 0, rate=50.0, burst=5)
+    thread.start()
+    yield thread
+    thread.close()
+
+
+def _queued(thread, wait=0.5):
+    deadline, items = time.monotonic() + wait, []
+    while time.monotonic() < deadline:
+        try:
+            items.append(thread.requests.get(timeout=0.05))
+        except queue.Empty:
+            pass
+    return items
+
+
+def test_a_client_that_disconnects_mid_line_queues_nothing(network):
+    with Client(*network.address) as client:
+        client.send_raw(b'{"id": 1, "op": "run", "cmd": "sot.clear"')
+    items = _queued(network)
+    assert [request for _, request in items] == [None]  # only the disconnection
+
+
+def test_requests_beyond_the_rate_are_refused_and_not_queued(network):
+    with Client(*network.address) as client:
+        client.send_raw(b'{"id": 1, "op": "list"}\n' * 20)  # at once: the burst of 5 passes
+        refused = [client.receive() for _ in range(15)]
+        assert all("rate limit" in r["error"] for r in refused)
+        assert len([r for _, r in _queued(network) if r is not None]) == 5
+        time.sleep(0.2)  # 50 per second: 10 more allowed
+        client.send_raw(b'{"id": 2, "op": "list"}\n')
+        assert [r.id for _, r in _queued(network)] == [2]
+
+
+def test_a_non_loopback_address_needs_a_token():
+    with pytest.raises(ValueError, match="0.0.0.0"):
+        NetworkThread("0.0.0.0", 0)
+    with pytest.raises(ValueError, match="empty"):
+        NetworkThread("127.0.0.1", 0, token="")
 
 
 # --- a served scenario, from another process ----------------------------------------------
@@ -236,7 +284,7 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     _, host, port = server
     proc = subprocess.run(
         [*DRAKE_SOT, "shell", "--port", str(port)],
-        input="sot.list\nread dyn.com\nwrite dyn.com 1 2 3\nget nothing.here\nquit\n",
+        input="sot.list\nread dyn.com\nwrite dyn.com 1 2 3\nget nothing.here\nhelp\nquit\n",
         capture_output=True,
         text=True,
         cwd=REPO,
@@ -249,6 +297,7 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     assert len(com) == 3 and 0.5 < com[2] < 1.0  # the CoM of a standing humanoid, about 0.8 m up
     assert lines[2].startswith("error:") and "not writable" in lines[2]
     assert lines[3].startswith("error:") and "nothing.here" in lines[3]
+    assert "SOT.push" in proc.stdout.split("server:")[1] and "(SOT: sot)" in proc.stdout  # help: both
 
 
 # --- the token --------------------------------------------------------------------------

@@ -8,7 +8,8 @@ It never touches a context (DESIGN.md): it only puts ``(connection, Request)`` i
 Limits per connection: a line is at most :data:`~drake_sot.remote.protocol.MAX_LINE`
 bytes (a longer one gets one error reply and is skipped up to its newline); at most
 ``rate`` requests per second (a token bucket of ``burst``; the others get an error
-reply); a partial line left when the client disconnects is dropped, so it changes nothing.
+reply); a client that leaves more than :data:`MAX_OUTBOX` bytes of replies unread is
+disconnected; a partial line left when the client disconnects is dropped, so it changes nothing.
 With a token, nothing but ``{"op": "auth"}`` is accepted until it matches (compared with
 ``hmac.compare_digest``, in constant time).
 """
@@ -29,6 +30,8 @@ from drake_sot.remote.protocol import MAX_LINE, ProtocolError, Request, encode, 
 
 #: Bytes read from a socket at once.
 _CHUNK = 65536
+#: Bytes waiting for a client beyond which it is disconnected (it reads nothing).
+MAX_OUTBOX = 16 * 1024 * 1024
 
 
 @dataclass
@@ -171,6 +174,8 @@ class NetworkThread:
                 if conn.skipping:
                     conn.inbox.clear()
                 return
+            if cid not in self._connections:
+                return  # dropped while replying: the rest of its input is ignored
             line = bytes(conn.inbox[:end])
             del conn.inbox[: end + 1]
             if conn.skipping:
@@ -224,6 +229,9 @@ class NetworkThread:
             self._drop(cid)
             return
         del conn.outbox[:sent]
+        if len(conn.outbox) > MAX_OUTBOX:
+            self._drop(cid)  # a client that does not read its replies and streams
+            return
         events = selectors.EVENT_READ | (selectors.EVENT_WRITE if conn.outbox else 0)
         self._selector.modify(conn.sock, events, cid)
 

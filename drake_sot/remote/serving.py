@@ -40,7 +40,7 @@ from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import ScenarioSetup
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
-from drake_sot.script import Call, Get, Name, ScriptError, parse_line
+from drake_sot.script import Call, Get, Name, parse_line
 from drake_sot.systems.features import FeaturePoint6d
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.validation import positive
@@ -134,8 +134,8 @@ class Serving:
                 continue
             try:
                 answers.append((cid, request.id, self._apply(cid, request, context), None))
-            except (ValueError, KeyError, RuntimeError, ScriptError) as exc:
-                answers.append((cid, request.id, None, str(exc)))
+            except Exception as exc:  # noqa: BLE001 - a remote request must not end the served run
+                answers.append((cid, request.id, None, f"{type(exc).__name__}: {exc}"))
         self._simulator.AdvanceTo(target)
         now = context.get_time()
         for cid, request_id, result, message in answers:
@@ -202,6 +202,8 @@ class Serving:
         return signal
 
     def _run(self, cmd: str, context: Context) -> str:
+        if cmd.strip() == "help":
+            return self._help()
         command = parse_line(cmd, source="<remote>")
         if command is None:
             return ""
@@ -222,7 +224,7 @@ class Serving:
             if command.command == "list":
                 return " ".join(result)
             return result if isinstance(result, str) else ""
-        if isinstance(command, Call) and command.command == "help" or cmd.strip() == "help":
+        if isinstance(command, Call) and command.command == "help":
             return self._help()
         raise ValueError(f"{cmd!r}: not a run-time command here; {self._help()}")
 
