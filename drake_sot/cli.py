@@ -26,6 +26,7 @@ from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.run import Interrupted, RunResult
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
+from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.serving import serve_scenario
@@ -325,10 +326,12 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         network = NetworkThread(args.host, args.port, token=args.token)
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
-    setup = SCENARIOS[args.scenario].build(None)
+    meshcat = loopback_meshcat()
+    setup = SCENARIOS[args.scenario].build(meshcat)
 
     def ready(address: tuple[str, int]) -> None:
         print(f"serving on {address[0]}:{address[1]}", flush=True)
+        print(f"live view (stack and task errors in the controls): {meshcat.web_url()}", flush=True)
 
     try:
         with _sigterm_as_interrupt():

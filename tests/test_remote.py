@@ -23,6 +23,7 @@ from drake_sot.remote.protocol import MAX_LINE, ProtocolError, decode_vector, en
 REPO = Path(__file__).resolve().parents[1]
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 TOKEN = "s3cret-token"
+STACK_OF_REACH = ("taskJL", "taskLF", "taskRF", "taskCom", "taskRH", "taskPosture")  # its docstring
 
 
 # --- the protocol, pure --------------------------------------------------------------------
@@ -132,6 +133,7 @@ def _start(*args, env=None):
     if match is None:
         proc.kill()
         pytest.fail(f"first line {first!r}; stderr: {proc.stderr.read()}")
+    proc.view = proc.stdout.readline()  # the live view's address, second
     return proc, match.group(1), int(match.group(2))
 
 
@@ -152,8 +154,11 @@ def server():
 
 
 def test_serve_prints_its_loopback_address_first(server):
-    _, host, port = server
+    proc, host, port = server
     assert host == "127.0.0.1" and 0 < port < 65536
+    assert re.fullmatch(
+        r"live view \(stack and task errors in the controls\): http://localhost:\d+\n", proc.view
+    )
 
 
 def test_a_pushed_task_gets_its_error_at_a_later_tick(server):
@@ -334,3 +339,36 @@ def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
             assert "taskPosture" in friend.run("sot.list").split()  # nothing was cleared
     finally:
         _stop(proc)
+
+
+# --- the live view's controls -------------------------------------------------------------
+
+
+def test_the_meshcat_controls_show_the_task_errors_and_the_stack():
+    from drake_sot.diagrams.reach import build
+    from drake_sot.diagrams.world import loopback_meshcat
+    from drake_sot.remote.status import MeshcatStatus
+
+    meshcat = loopback_meshcat()
+    built = build(meshcat).built
+    simulator = built.create_simulator()
+    status = MeshcatStatus(meshcat, built.sot, period=0.1)
+    context = simulator.get_mutable_context()
+    built.sot.push(context, "taskLH")
+    simulator.AdvanceTo(0.05)
+    status.update(context)
+    for task in ("taskRH", "taskLH"):  # the feature's own output: e of the last tick, to a tick's motion
+        feature = built.features[task]
+        error = feature.GetOutputPort("error").Eval(feature.GetMyContextFromRoot(context))
+        assert meshcat.GetSliderValue(f"|e| {task}") == pytest.approx(
+            min(np.linalg.norm(error), 1.0), abs=2e-3
+        )
+    stack = [*STACK_OF_REACH, "taskLH"]
+    for i, name in enumerate(stack):
+        assert meshcat.GetButtonClicks(f"stack {i + 1}: {name}") == 0  # raises if there is no such button
+    built.sot.rm(context, "taskLH")
+    simulator.AdvanceTo(0.2)
+    status.update(context)
+    assert meshcat.GetSliderValue("|e| taskLH") == 0.0  # out of the stack: its error is NaN
+    with pytest.raises(RuntimeError):
+        meshcat.GetButtonClicks(f"stack {len(stack)}: taskLH")

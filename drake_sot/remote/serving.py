@@ -40,6 +40,7 @@ from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import ScenarioSetup
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
+from drake_sot.remote.status import MeshcatStatus
 from drake_sot.script import Call, Get, Name, parse_line
 from drake_sot.systems.features import FeaturePoint6d
 from drake_sot.systems.sot import StackOfTasks
@@ -76,6 +77,8 @@ class Serving:
         period: the control period [s]: one tick of the serving loop.
         writable: the allowlist of signals clients may write.
         commands: timed commands of the scenario, applied at their times.
+        on_tick: called with the root context after each tick (e.g. a
+            :class:`~drake_sot.remote.status.MeshcatStatus` update).
     """
 
     def __init__(
@@ -86,8 +89,10 @@ class Serving:
         period: float,
         writable: Sequence[Writable] = (),
         commands: Sequence[Command] = (),
+        on_tick: Callable[[Context], None] | None = None,
     ) -> None:
         self._simulator = simulator
+        self._on_tick = on_tick
         self._network = network
         self._period = positive("period", period, unit="s")
         self._writable = {w.signal: w for w in writable}
@@ -138,6 +143,8 @@ class Serving:
                 answers.append((cid, request.id, None, f"{type(exc).__name__}: {exc}"))
         self._simulator.AdvanceTo(target)
         now = context.get_time()
+        if self._on_tick is not None:
+            self._on_tick(context)
         for cid, request_id, result, message in answers:
             reply = (
                 error(request_id, message) if message is not None else ok(request_id, _resolve(result), now)
@@ -297,15 +304,18 @@ def serve_scenario(
     on_ready: Callable[[tuple[str, int]], None] | None = None,
 ) -> Serving:
     """Serve a built scenario: start ``network``, call ``on_ready(address)``, tick up to
-    ``duration`` [s] (the scenario's own when None) at ``realtime`` × real time, stop the network."""
+    ``duration`` [s] (the scenario's own when None) at ``realtime`` × real time, stop the network.
+    When the scenario was built with a Meshcat, its controls show the stack and the task errors."""
     built = setup.built
     simulator = built.create_simulator()
+    status = MeshcatStatus(built.meshcat, built.sot) if built.meshcat is not None else None
     serving = Serving(
         simulator,
         network,
-        period=built.sot.period if getattr(built, "sot", None) is not None else 0.005,
+        period=built.sot.period,
         writable=desired_position_writables(built.features),
         commands=setup.commands,
+        on_tick=status.update if status is not None else None,
     )
     network.start()
     try:
