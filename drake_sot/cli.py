@@ -21,7 +21,7 @@ from types import FrameType
 from typing import NoReturn, TextIO
 
 from drake_sot.diagrams import SCENARIOS, STUDIES
-from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.artifacts import log_arrays, output_directory, write_npz
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.run import Interrupted, RunResult
 from drake_sot.diagrams.scenario import Scenario, run_scenario
@@ -213,6 +213,9 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         metavar="R",
         help="pace: R x real time (default 1.0)",
     )
+    serve.add_argument(
+        "--out", default=None, metavar="DIR", help="write the run's logs as SCENARIO.npz in DIR"
+    )
     _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
     shell = sub.add_parser("shell", help="the interactive coshell of a 'drake-sot serve' server")
     _address_options(shell, "server address (default 127.0.0.1)")
@@ -322,6 +325,11 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
     if args.port > 65535:
         parser.error(f"port = {args.port}: at most 65535")
+    if args.out is not None:
+        try:
+            output_directory(args.out)
+        except OSError as exc:
+            parser.error(f"--out: {exc}")
     try:
         network = NetworkThread(args.host, args.port, token=args.token)
     except (ValueError, OSError) as exc:
@@ -342,10 +350,14 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
         print(f"interrupted by {signum.name}", file=sys.stderr)
         return 128 + signum
-    print(
-        f"served up to t = {serving.context.get_time():.3f} s; {len(serving.events)} commands applied",
-        flush=True,
-    )
+    end = serving.context.get_time()
+    print(f"served up to t = {end:.3f} s; {len(serving.events)} commands applied", flush=True)
+    if args.out is not None:
+        path = output_directory(args.out) / f"{args.scenario}.npz"
+        write_npz(
+            log_arrays(setup.built, serving.context, RunResult(end_time=end, events=serving.events)), path
+        )
+        print(f"wrote {path}", flush=True)
     return 0
 
 

@@ -372,3 +372,26 @@ def test_the_meshcat_controls_show_the_task_errors_and_the_stack():
     assert meshcat.GetSliderValue("|e| taskLH") == 0.0  # out of the stack: its error is NaN
     with pytest.raises(RuntimeError):
         meshcat.GetButtonClicks(f"stack {len(stack)}: taskLH")
+
+
+def _served_logs(out, malformed):
+    proc, host, port = _start("--port", "0", "--duration", "1.5", "--out", str(out))
+    if malformed:
+        rng = random.Random(5)
+        with Client(host, port) as client:
+            for i in range(1000):
+                client.send_raw(_malformed(rng, i))
+            assert all(not client.receive()["ok"] for _ in range(1000))
+            assert len(client.read("dyn.com")) == 3
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stderr
+    with np.load(out / "reach.npz") as npz:
+        return {key: npz[key] for key in npz.files}
+
+
+def test_malformed_lines_leave_the_recorded_run_identical(tmp_path):
+    clean = _served_logs(tmp_path / "clean", malformed=False)
+    attacked = _served_logs(tmp_path / "attacked", malformed=True)
+    assert clean.keys() == attacked.keys() and len(clean["time"]) > 100
+    for key in clean:
+        assert np.array_equal(clean[key], attacked[key], equal_nan=clean[key].dtype.kind == "f"), key
