@@ -23,13 +23,13 @@ from typing import NoReturn, TextIO
 from drake_sot.diagrams import SCENARIOS, STUDIES
 from drake_sot.diagrams.artifacts import log_arrays, output_directory, write_npz
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
-from drake_sot.diagrams.run import Interrupted, RunResult
+from drake_sot.diagrams.run import Interrupted, RunResult, SignalGuard
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
-from drake_sot.remote.serving import serve_scenario
+from drake_sot.remote.serving import serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.script import ScriptError, Statement
 from drake_sot.validation import finite, nonnegative, positive, positive_int
@@ -341,24 +341,25 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"serving on {address[0]}:{address[1]}", flush=True)
         print(f"live view (stack and task errors in the controls): {meshcat.web_url()}", flush=True)
 
-    try:
-        with _sigterm_as_interrupt():
-            serving = serve_scenario(
-                setup, network, duration=args.duration, realtime=args.realtime, on_ready=ready
+    def serve() -> int:
+        simulator = setup.built.create_simulator()
+        duration = setup.duration if args.duration is None else args.duration
+        with SignalGuard() as guard:
+            result = serve_run(
+                setup, simulator, network, duration, realtime=args.realtime, guard=guard, on_ready=ready
             )
-    except KeyboardInterrupt as exc:
-        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
-        print(f"interrupted by {signum.name}", file=sys.stderr)
-        return 128 + signum
-    end = serving.context.get_time()
-    print(f"served up to t = {end:.3f} s; {len(serving.events)} commands applied", flush=True)
-    if args.out is not None:
-        path = output_directory(args.out) / f"{args.scenario}.npz"
-        write_npz(
-            log_arrays(setup.built, serving.context, RunResult(end_time=end, events=serving.events)), path
-        )
-        print(f"wrote {path}", flush=True)
-    return 0
+            print(
+                f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True
+            )
+            if args.out is not None:
+                path = output_directory(args.out) / f"{args.scenario}.npz"
+                write_npz(log_arrays(setup.built, simulator.get_context(), result), path)
+                print(f"wrote {path}", flush=True)
+        if result.failure is not None:
+            print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
+        return exit_status(result)
+
+    return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
 
 def _echo(statement: Statement, time: float, output: str) -> None:

@@ -36,7 +36,7 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
-from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.scenario import ScenarioSetup
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
@@ -70,13 +70,22 @@ class _Subscription:
 
 
 class Serving:
-    """Serves ``diagram`` through ``network`` while ``simulator`` advances.
+    """Serves the diagram of ``simulator`` through ``network``: :meth:`after_tick` is the
+    ``progress`` hook of :func:`~drake_sot.diagrams.run.simulate` run with ``chunk`` = the
+    control period, so that the timed commands, the signals, a failure and a fall are handled
+    as in any run.
+
+    After each tick :meth:`after_tick` replies to the requests applied before that tick (with
+    the simulated time reached), calls ``on_tick``, sends the subscriptions that are due, then
+    applies the requests queued since, in arrival order (they act in the next tick), and
+    sleeps to hold ``realtime`` × real time (not when the diagram is slower).
 
     Args:
-        simulator: an initialized simulator of ``diagram``.
-        period: the control period [s]: one tick of the serving loop.
+        simulator: an initialized simulator.
+        network: the socket thread whose requests are served.
+        period: the control period [s]: one tick.
         writable: the allowlist of signals clients may write.
-        commands: timed commands of the scenario, applied at their times.
+        realtime: the pace, > 0 (inf: as fast as possible).
         on_tick: called with the root context after each tick (e.g. a
             :class:`~drake_sot.remote.status.MeshcatStatus` update).
     """
@@ -88,47 +97,43 @@ class Serving:
         *,
         period: float,
         writable: Sequence[Writable] = (),
-        commands: Sequence[Command] = (),
+        realtime: float = 1.0,
         on_tick: Callable[[Context], None] | None = None,
     ) -> None:
         self._simulator = simulator
         self._on_tick = on_tick
         self._network = network
-        self._period = positive("period", period, unit="s")
+        self.period = positive("period", period, unit="s")
+        self._realtime = positive("realtime", realtime)
         self._writable = {w.signal: w for w in writable}
-        self._pending = sorted(commands, key=lambda c: c.time)
         diagram = simulator.get_system()
         self._readable = _readable_ports(diagram)
         self._sots = {s.get_name(): s for s in _systems(diagram) if isinstance(s, StackOfTasks)}
         self._subscriptions: dict[int, dict[str, _Subscription]] = {}
-        self.events: list[tuple[float, str]] = []
+        self._answers: list[tuple[int, Any, Any, str | None]] = []
+        self.events: list[tuple[float, str]] = []  # the requests that changed the context
 
     @property
     def context(self) -> Context:
         return self._simulator.get_mutable_context()
 
-    def serve(self, duration: float, realtime: float = 1.0) -> None:
-        """Tick until ``duration`` [s] simulated, at ``realtime`` × real time (as fast as possible
-        when the diagram is slower)."""
-        duration = positive("duration", duration, unit="s")
-        realtime = positive("realtime", realtime)
-        start_wall, start_t = wallclock.perf_counter(), self.context.get_time()
-        while self.context.get_time() < duration - 1e-9:
-            self.tick(min(duration, self.context.get_time() + self._period))
-            ahead = start_wall + (self.context.get_time() - start_t) / realtime - wallclock.perf_counter()
-            if ahead > 0:
-                wallclock.sleep(ahead)
-
-    def tick(self, target: float) -> None:
-        """Apply the due timed commands and the queued requests, advance to ``target`` [s],
-        then reply and stream."""
+    def after_tick(self, t: float, duration: float, wall: float) -> None:
+        """The ``progress`` hook of ``simulate`` (simulated time, duration, wall time since the start)."""
         context = self.context
-        t = context.get_time()
-        while self._pending and self._pending[0].time <= t + 1e-12:
-            command = self._pending.pop(0)
-            command.apply(context)
-            self.events.append((t, command.label))
-        answers: list[tuple[int, Any, Any, str | None]] = []
+        now = context.get_time()
+        for cid, request_id, result, message in self._answers:
+            reply = (
+                error(request_id, message) if message is not None else ok(request_id, _resolve(result), now)
+            )
+            self._network.send(cid, reply)
+        self._answers = []
+        if self._on_tick is not None:
+            self._on_tick(context)
+        for cid, subscriptions in self._subscriptions.items():
+            for signal, sub in subscriptions.items():
+                if now >= sub.due - 1e-9:
+                    sub.due += sub.period * max(1, math.floor((now - sub.due) / sub.period + 1e-9) + 1)
+                    self._network.send(cid, {"signal": signal, "t": now, "value": self._read(signal)})
         while True:
             try:
                 cid, request = self._network.requests.get_nowait()
@@ -138,23 +143,18 @@ class Serving:
                 self._subscriptions.pop(cid, None)
                 continue
             try:
-                answers.append((cid, request.id, self._apply(cid, request, context), None))
+                self._answers.append((cid, request.id, self._apply(cid, request, context), None))
             except Exception as exc:  # noqa: BLE001 - a remote request must not end the served run
-                answers.append((cid, request.id, None, f"{type(exc).__name__}: {exc}"))
-        self._simulator.AdvanceTo(target)
-        now = context.get_time()
-        if self._on_tick is not None:
-            self._on_tick(context)
-        for cid, request_id, result, message in answers:
-            reply = (
-                error(request_id, message) if message is not None else ok(request_id, _resolve(result), now)
-            )
-            self._network.send(cid, reply)
-        for cid, subscriptions in self._subscriptions.items():
-            for signal, sub in subscriptions.items():
-                if now >= sub.due - 1e-9:
-                    sub.due += sub.period * max(1, math.floor((now - sub.due) / sub.period + 1e-9) + 1)
-                    self._network.send(cid, {"signal": signal, "t": now, "value": self._read(signal)})
+                self._answers.append((cid, request.id, None, f"{type(exc).__name__}: {exc}"))
+        ahead = now / self._realtime - wall
+        if ahead > 0:
+            wallclock.sleep(ahead)
+
+    def finish(self) -> None:
+        """Answer the requests the run ended before applying in a tick: an error saying so."""
+        for cid, request_id, _, _ in self._answers:
+            self._network.send(cid, error(request_id, "the run ended before the next tick"))
+        self._answers = []
 
     def _apply(self, cid: int, request: Request, context: Context) -> Any:
         """The result of ``request`` (a callable: evaluated after the tick), or ValueError."""
@@ -169,9 +169,9 @@ class Serving:
             return self._list()
         if request.op == "subscribe":
             self._port(request.signal)
-            if not (request.period >= self._period) or math.isinf(request.period):
+            if not (request.period >= self.period) or math.isinf(request.period):
                 raise ValueError(
-                    f"period = {request.period!r}: finite and >= the control period {self._period:g} s"
+                    f"period = {request.period!r}: finite and >= the control period {self.period:g} s"
                 )
             subscriptions = self._subscriptions.setdefault(cid, {})
             if request.signal not in subscriptions and len(subscriptions) >= MAX_SUBSCRIPTIONS:
@@ -252,7 +252,7 @@ class Serving:
                 name: {task: [rows.start, rows.stop] for task, rows in sot.error_slices().items()}
                 for name, sot in self._sots.items()
             },
-            "period": self._period,
+            "period": self.period,
         }
 
 
@@ -295,33 +295,55 @@ def desired_position_writables(features: dict[str, System]) -> list[Writable]:
     ]
 
 
-def serve_scenario(
+def writables(setup: ScenarioSetup) -> list[Writable]:
+    """The allowlist of a scenario: its 6D tasks' ``position_des`` and what it lists in
+    ``extras["writable"]`` (name → (size, units, apply(root context, value)))."""
+    declared = setup.extras.get("writable", {})
+    return desired_position_writables(setup.built.features) + [
+        Writable(name, size, units, apply) for name, (size, units, apply) in declared.items()
+    ]
+
+
+def serve_run(
     setup: ScenarioSetup,
+    simulator: Simulator,
     network: NetworkThread,
+    duration: float,
     *,
-    duration: float | None = None,
     realtime: float = 1.0,
+    progress: Progress | None = None,
+    guard: SignalGuard | None = None,
     on_ready: Callable[[tuple[str, int]], None] | None = None,
-) -> Serving:
-    """Serve a built scenario: start ``network``, call ``on_ready(address)``, tick up to
-    ``duration`` [s] (the scenario's own when None) at ``realtime`` × real time, stop the network.
-    When the scenario was built with a Meshcat, its controls show the stack and the task errors."""
+) -> RunResult:
+    """Simulate ``setup`` to ``duration`` [s] while serving through ``network`` (started here,
+    closed at the end); ``on_ready(address)`` is called once it listens. When the scenario was
+    built with a Meshcat, its controls show the stack and the task errors. The requests that
+    changed the context are in the result's ``events`` with the timed commands."""
     built = setup.built
-    simulator = built.create_simulator()
     status = MeshcatStatus(built.meshcat, built.sot) if built.meshcat is not None else None
     serving = Serving(
         simulator,
         network,
         period=built.sot.period,
-        writable=desired_position_writables(built.features),
-        commands=setup.commands,
+        writable=writables(setup),
+        realtime=realtime,
         on_tick=status.update if status is not None else None,
     )
+
+    def hook(t: float, end: float, wall: float) -> None:
+        serving.after_tick(t, end, wall)
+        if progress is not None:
+            progress(t, end, wall)
+
     network.start()
     try:
         if on_ready is not None:
             on_ready(network.address)
-        serving.serve(setup.duration if duration is None else duration, realtime)
+        result = simulate(
+            simulator, duration, setup.commands, progress=hook, chunk=serving.period, guard=guard
+        )
+        serving.finish()
     finally:
         network.close()
-    return serving
+    result.events = sorted(result.events + serving.events, key=lambda event: event[0])
+    return result
