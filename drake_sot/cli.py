@@ -29,7 +29,7 @@ from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
-from drake_sot.remote.serving import serve_run
+from drake_sot.remote.serving import decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.script import ScriptError, Statement
 from drake_sot.validation import finite, nonnegative, positive, positive_int
@@ -170,6 +170,13 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)",
     )
     run.add_argument(
+        "--decision",
+        choices=("sequencer", "remote"),
+        default=None,
+        help="walk_then_interact's decision layer: the sequencer in the diagram (default), or a separate "
+        "client process driving the stack through the command server (paced at real time)",
+    )
+    run.add_argument(
         "--push",
         type=_push,
         action="append",
@@ -279,6 +286,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     given = {
         "--workers": args.workers is not None,
         "--transition": args.transition is not None,
+        "--decision": args.decision is not None,
         "--no-record": args.no_record,
         "--push": bool(args.push),
     }
@@ -297,6 +305,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         progress = ProgressBar(unit="runs")
         return _interruptible(lambda: _run_study(args, progress), progress, args.out, study=True)
     parameters = {"transition": args.transition} if args.transition is not None else {}
+    parameters |= {"decision": args.decision} if args.decision is not None else {}
     return _run_scenario(SCENARIOS[args.scenario], args, parameters)
 
 
@@ -429,6 +438,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
         progress=progress,
         parameters=parameters,
         pushes=getattr(args, "push", None) or (),  # `script` takes no --push
+        runner=decision_runner() if parameters.get("decision") == "remote" else None,
     )
     result = output.result
     for path in output.files.values():

@@ -74,7 +74,8 @@ def build(
     or ``"remote"`` (as the paper ran it: a separate program polls ``pg.in_process`` and sends
     :data:`SWITCH_LINES` and ``force_active.value`` = 1 through the command server; the stack is
     then the solver's own and ``force_active`` a constant source that the server may write,
-    listed in ``extras["writable"]``: name → (size, units, apply(root context, value)))."""
+    listed in ``extras["writable"]``: name → (size, units, apply(root context, value)); what the
+    decision client polls and sends is ``extras["decision"]``)."""
     if decision not in DECISIONS:
         raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
     if decision == "remote":
@@ -131,7 +132,13 @@ def _build_remote(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]) -> Sc
         active.get_mutable_source_value(active.GetMyContextFromRoot(root_context)).set_value(value)
 
     writable = {"force_active.value": (1, "1 on, 0 off", set_active)}
-    return _finish(b, pg, left, right, admittances, None, {"writable": writable})
+    decision = {
+        "signal": "pg.in_process",
+        "period": 1.0,
+        "run": SWITCH_LINES,
+        "write": ("force_active.value=1",),
+    }
+    return _finish(b, pg, left, right, admittances, None, {"writable": writable, "decision": decision})
 
 
 def _finish(

@@ -81,6 +81,29 @@ class Client:
                 self.t = message["t"]
             return message["result"]
 
+    def batch(self, requests: Sequence[dict[str, Any]]) -> list[Any]:
+        """Send several requests at once (each ``{"op": ..., fields}``), so that those that reach
+        the server before a tick are applied at that tick, in order; their results, in order.
+
+        Raises:
+            RemoteError: the first refused request (the others were applied).
+        """
+        ids = list(range(self._next_id + 1, self._next_id + 1 + len(requests)))
+        self._next_id += len(requests)
+        self._sock.sendall(b"".join(encode({"id": i, **r}) for i, r in zip(ids, requests, strict=True)))
+        replies: dict[Any, dict[str, Any]] = {}
+        while len(replies) < len(ids):
+            message = self.receive()
+            if "signal" in message and "ok" not in message:
+                self._streams.append(message)
+            elif message.get("id") in ids:
+                replies[message["id"]] = message
+        refused = [replies[i]["error"] for i in ids if not replies[i]["ok"]]
+        if refused:
+            raise RemoteError(refused[0])
+        self.t = replies[ids[-1]]["t"]
+        return [replies[i]["result"] for i in ids]
+
     def run(self, cmd: str) -> str:
         """Run one script line (``sot.push taskLH``, ``get dyn.com``); its output text."""
         return self.request("run", cmd=cmd)

@@ -82,6 +82,8 @@ class NetworkThread:
         self._connections: dict[int, _Connection] = {}
         self._next_id = 0
         self._stop = threading.Event()
+        self.connected = threading.Event()  # set at the first connection
+        self._batch = threading.Lock()  # held while the lines of one read are queued
         self._thread = threading.Thread(target=self._loop, name="drake-sot-remote", daemon=True)
 
     def start(self) -> None:
@@ -144,6 +146,7 @@ class NetworkThread:
         cid, self._next_id = self._next_id, self._next_id + 1
         self._connections[cid] = _Connection(sock, authed=self._token is None, allowance=self._burst)
         self._selector.register(sock, selectors.EVENT_READ, cid)
+        self.connected.set()
 
     def _drop(self, cid: int) -> None:
         conn = self._connections.pop(cid, None)
@@ -165,6 +168,21 @@ class NetworkThread:
             self._drop(cid)  # a partial line in the inbox is dropped with it
             return
         conn.inbox += data
+        with self._batch:  # the requests of one read reach the serving loop together
+            self._lines(cid, conn)
+
+    def drain(self) -> list[tuple[int, Request | None]]:
+        """Every queued ``(connection, request)`` (None: it disconnected), in arrival order; the
+        requests that arrived in one read of a socket are all in one drain."""
+        items = []
+        with self._batch:
+            while True:
+                try:
+                    items.append(self.requests.get_nowait())
+                except queue.Empty:
+                    return items
+
+    def _lines(self, cid: int, conn: _Connection) -> None:
         while True:
             end = conn.inbox.find(b"\n")
             if end < 0:

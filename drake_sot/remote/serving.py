@@ -25,7 +25,8 @@ set parameters of the diagram's systems (a feature's desired pose) instead.
 from __future__ import annotations
 
 import math
-import queue
+import subprocess
+import sys
 import time as wallclock
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -37,7 +38,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
-from drake_sot.diagrams.scenario import ScenarioSetup
+from drake_sot.diagrams.scenario import Runner, ScenarioSetup
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
 from drake_sot.remote.status import MeshcatStatus
@@ -134,11 +135,7 @@ class Serving:
                 if now >= sub.due - 1e-9:
                     sub.due += sub.period * max(1, math.floor((now - sub.due) / sub.period + 1e-9) + 1)
                     self._network.send(cid, {"signal": signal, "t": now, "value": self._read(signal)})
-        while True:
-            try:
-                cid, request = self._network.requests.get_nowait()
-            except queue.Empty:
-                break
+        for cid, request in self._network.drain():
             if request is None:
                 self._subscriptions.pop(cid, None)
                 continue
@@ -347,3 +344,50 @@ def serve_run(
         network.close()
     result.events = sorted(result.events + serving.events, key=lambda event: event[0])
     return result
+
+
+def decision_runner(*, realtime: float = 1.0, connect_timeout: float = 60.0) -> Runner:
+    """A :data:`~drake_sot.diagrams.scenario.Runner` for a scenario built with a remote decision
+    layer: serves on a free loopback port, starts ``python -m drake_sot.remote.decision`` with
+    the scenario's ``extras["decision"]`` (``signal``, ``period``, ``run`` lines, ``write`` items),
+    waits until it connects, then simulates at ``realtime`` × real time while serving."""
+
+    def run(
+        setup: ScenarioSetup,
+        simulator: Simulator,
+        duration: float,
+        *,
+        progress: Progress | None = None,
+        guard: SignalGuard | None = None,
+    ) -> RunResult:
+        decision = setup.extras["decision"]
+        network = NetworkThread("127.0.0.1", 0)
+        processes: list[subprocess.Popen] = []
+
+        def start_client(address: tuple[str, int]) -> None:
+            command = [sys.executable, "-m", "drake_sot.remote.decision", "--port", str(address[1])]
+            command += ["--signal", decision["signal"], "--period", str(decision["period"])]
+            command += [f"--run={line}" for line in decision["run"]]
+            command += [f"--write={item}" for item in decision["write"]]
+            processes.append(subprocess.Popen(command))
+            if not network.connected.wait(connect_timeout):
+                raise RuntimeError(f"the decision client did not connect within {connect_timeout:g} s")
+
+        try:
+            return serve_run(
+                setup,
+                simulator,
+                network,
+                duration,
+                realtime=realtime,
+                progress=progress,
+                guard=guard,
+                on_ready=start_client,
+            )
+        finally:
+            for process in processes:
+                if process.poll() is None:
+                    process.terminate()
+                process.wait()
+
+    return run
