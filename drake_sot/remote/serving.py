@@ -2,14 +2,16 @@
 
 Design (and why). DESIGN.md: the network never touches a context. A Drake LeafSystem's
 event can only change its own context, and the commands of the coshell (``sot.push
-taskLH``, a new desired pose) change other systems' contexts. So the thread that owns the
-simulator applies them, between control ticks, as :func:`~drake_sot.diagrams.run.simulate`
-applies timed commands: :meth:`Serving.tick` takes the requests the
-:class:`~drake_sot.remote.network.NetworkThread` queued, applies them in arrival order at
-the current tick, advances the simulator one control period (paced at ``realtime`` × real
-time by :meth:`Serving.serve`), then replies with the simulated time reached and sends the
-subscriptions that are due. Reads evaluate output ports on the root context in that same
-thread, after the tick: the value at the last tick.
+taskLH``, a new desired pose, a source's value) change other systems' contexts. So the
+thread that owns the simulator applies them between control ticks, the way
+:func:`~drake_sot.diagrams.run.simulate` applies timed commands; in fact :class:`Serving` is
+``simulate``'s ``progress`` hook, run one control period per step (:func:`serve_run`), so a
+served run handles timed commands, signals, a failure and a fall as any run does. After each
+tick the hook replies to the requests applied before that tick (with the simulated time
+reached), sends the subscriptions that are due, then applies the requests the
+:class:`~drake_sot.remote.network.NetworkThread` queued since, in arrival order (those of one
+socket read together), and sleeps to hold ``realtime`` × real time. Reads evaluate output
+ports on the root context in that thread, after the tick: the value at the last tick.
 
 Signals are ``<system>.<port>``: every vector-valued output port of every system of the
 diagram can be read (``sot.errors``, ``dyn.com``, ``device.q``…). Only the allowlist given
@@ -18,8 +20,10 @@ finite and of the declared size. ``run`` takes one script line of the run phase:
 ``SOT.push|rm|up|down NAME``, ``SOT.pop``, ``SOT.clear``, ``SOT.list``, ``get SIGNAL``,
 ``help``. The scenario's own timed commands still apply at their times.
 
-Not done here (yet): a RemoteCommandServer LeafSystem with writable output ports; writes
-set parameters of the diagram's systems (a feature's desired pose) instead.
+There is no RemoteCommandServer LeafSystem: a writable signal is a parameter or a source
+value of the diagram's own systems (a 6D task's desired position, ``force_active`` of
+``walk_then_interact --decision remote``), set by the loop that owns the context. The
+allowlist is fixed when the scenario is built (:func:`writables`).
 """
 
 from __future__ import annotations
