@@ -8,9 +8,9 @@ thread that owns the simulator applies them between control ticks, the way
 ``simulate``'s ``progress`` hook, run one control period per step (:func:`serve_run`), so a
 served run handles timed commands, signals, a failure and a fall as any run does. After each
 tick the hook replies to the requests applied before that tick (with the simulated time
-reached), sends the subscriptions that are due, then applies the requests the
-:class:`~drake_sot.remote.network.NetworkThread` queued since, in arrival order (those of one
-socket read together), and sleeps to hold ``realtime`` × real time. Reads evaluate output
+reached), sends the subscriptions that are due, sleeps to hold ``realtime`` × real time, then
+applies the requests the :class:`~drake_sot.remote.network.NetworkThread` queued since, in
+arrival order (those of one socket read together). Reads evaluate output
 ports on the root context in that thread, after the tick: the value at the last tick.
 
 Signals are ``<system>.<port>``: every vector-valued output port of every system of the
@@ -81,9 +81,9 @@ class Serving:
     as in any run.
 
     After each tick :meth:`after_tick` replies to the requests applied before that tick (with
-    the simulated time reached), calls ``on_tick``, sends the subscriptions that are due, then
-    applies the requests queued since, in arrival order (they act in the next tick), and
-    sleeps to hold ``realtime`` × real time (not when the diagram is slower).
+    the simulated time reached), calls ``on_tick``, sends the subscriptions that are due, sleeps
+    to hold ``realtime`` × real time (not when the diagram is slower), then applies the
+    requests queued since, in arrival order (they act in the next tick).
 
     Args:
         simulator: an initialized simulator.
@@ -139,6 +139,9 @@ class Serving:
                 if now >= sub.due - 1e-9:
                     sub.due += sub.period * max(1, math.floor((now - sub.due) / sub.period + 1e-9) + 1)
                     self._network.send(cid, {"signal": signal, "t": now, "value": self._read(signal)})
+        ahead = now / self._realtime - wall
+        if ahead > 0:  # paced: wait first, so that what arrives meanwhile acts at the next tick
+            wallclock.sleep(ahead)
         for cid, request in self._network.drain():
             if request is None:
                 self._subscriptions.pop(cid, None)
@@ -147,9 +150,6 @@ class Serving:
                 self._answers.append((cid, request.id, self._apply(cid, request, context), None))
             except Exception as exc:  # noqa: BLE001 - a remote request must not end the served run
                 self._answers.append((cid, request.id, None, f"{type(exc).__name__}: {exc}"))
-        ahead = now / self._realtime - wall
-        if ahead > 0:
-            wallclock.sleep(ahead)
 
     def finish(self) -> None:
         """Answer the requests the run ended before applying in a tick: an error saying so."""
