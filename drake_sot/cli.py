@@ -11,6 +11,7 @@ signal that comes while they are written waits until they all are.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import threading
@@ -20,12 +21,16 @@ from types import FrameType
 from typing import NoReturn, TextIO
 
 from drake_sot.diagrams import SCENARIOS, STUDIES
-from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.artifacts import log_arrays, output_directory, write_npz
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
-from drake_sot.diagrams.run import Interrupted, RunResult
+from drake_sot.diagrams.run import Interrupted, RunResult, SignalGuard
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
+from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
+from drake_sot.remote.network import NetworkThread
+from drake_sot.remote.serving import decision_runner, serve_run
+from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.script import ScriptError, Statement
 from drake_sot.validation import finite, nonnegative, positive, positive_int
 
@@ -165,6 +170,13 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)",
     )
     run.add_argument(
+        "--decision",
+        choices=("sequencer", "remote"),
+        default=None,
+        help="walk_then_interact's decision layer: the sequencer in the diagram (default), or a separate "
+        "client process driving the stack through the command server (paced at real time)",
+    )
+    run.add_argument(
         "--push",
         type=_push,
         action="append",
@@ -182,7 +194,50 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
     _simulation_options(
         script, "simulated seconds (default: what the script's 'run SECONDS' lines add up to)"
     )
+    _remote_parsers(sub, names=sorted(SCENARIOS))
     return parser, run, script
+
+
+def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
+    """``serve SCENARIO`` and ``shell``: the command server and its interactive client."""
+    serve = sub.add_parser(
+        "serve",
+        help="run a scenario paced at R x real time while serving the remote command protocol",
+        epilog=f"the first line on stdout is 'serving on HOST:PORT'; a token may also come from ${TOKEN_ENV}",
+    )
+    serve.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
+    serve.add_argument(
+        "--duration",
+        type=_checked(positive, "duration", unit="s"),
+        default=None,
+        metavar="S",
+        help="simulated seconds (default: the scenario's)",
+    )
+    serve.add_argument(
+        "--realtime",
+        type=_checked(positive, "realtime"),
+        default=1.0,
+        metavar="R",
+        help="pace: R x real time (default 1.0)",
+    )
+    serve.add_argument(
+        "--out", default=None, metavar="DIR", help="write the run's logs as SCENARIO.npz in DIR"
+    )
+    _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
+    shell = sub.add_parser("shell", help="the interactive coshell of a 'drake-sot serve' server")
+    _address_options(shell, "server address (default 127.0.0.1)")
+
+
+def _address_options(parser: argparse.ArgumentParser, host_help: str) -> None:
+    parser.add_argument("--host", default="127.0.0.1", help=host_help)
+    parser.add_argument(
+        "--port",
+        type=_checked(positive_int, "port", minimum=0),
+        default=DEFAULT_PORT,
+        metavar="P",
+        help=f"TCP port (default {DEFAULT_PORT}; 0 for a free one when serving)",
+    )
+    parser.add_argument("--token", default=None, metavar="T", help=f"shared secret (default: ${TOKEN_ENV})")
 
 
 def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> None:
@@ -213,6 +268,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "script":
         return _script(args, script)
+    if args.command in ("serve", "shell"):
+        args.token = args.token if args.token is not None else os.environ.get(TOKEN_ENV) or None
+        return (
+            _serve(args, parser) if args.command == "serve" else shell_main(args.host, args.port, args.token)
+        )
     if args.command == "list":
         for name in sorted(SCENARIOS):
             print(f"{name:20s} {SCENARIOS[name].description}")
@@ -226,6 +286,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     given = {
         "--workers": args.workers is not None,
         "--transition": args.transition is not None,
+        "--decision": args.decision is not None,
         "--no-record": args.no_record,
         "--push": bool(args.push),
     }
@@ -244,6 +305,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         progress = ProgressBar(unit="runs")
         return _interruptible(lambda: _run_study(args, progress), progress, args.out, study=True)
     parameters = {"transition": args.transition} if args.transition is not None else {}
+    parameters |= {"decision": args.decision} if args.decision is not None else {}
     return _run_scenario(SCENARIOS[args.scenario], args, parameters)
 
 
@@ -266,6 +328,47 @@ def _script(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         return _run_scenario(scenario, args, {})
     except SessionError as exc:  # raised while the script built its diagram: nothing simulated
         parser.error(str(exc))
+
+
+def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
+    if args.port > 65535:
+        parser.error(f"port = {args.port}: at most 65535")
+    if args.out is not None:
+        try:
+            output_directory(args.out)
+        except OSError as exc:
+            parser.error(f"--out: {exc}")
+    try:
+        network = NetworkThread(args.host, args.port, token=args.token)
+    except (ValueError, OSError) as exc:
+        parser.error(f"serve: {exc}")
+    meshcat = loopback_meshcat()
+    setup = SCENARIOS[args.scenario].build(meshcat)
+
+    def ready(address: tuple[str, int]) -> None:
+        print(f"serving on {address[0]}:{address[1]}", flush=True)
+        print(f"live view (stack and task errors in the controls): {meshcat.web_url()}", flush=True)
+
+    def serve() -> int:
+        simulator = setup.built.create_simulator()
+        duration = setup.duration if args.duration is None else args.duration
+        with SignalGuard() as guard:
+            result = serve_run(
+                setup, simulator, network, duration, realtime=args.realtime, guard=guard, on_ready=ready
+            )
+            print(
+                f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True
+            )
+            if args.out is not None:
+                path = output_directory(args.out) / f"{args.scenario}.npz"
+                write_npz(log_arrays(setup.built, simulator.get_context(), result), path)
+                print(f"wrote {path}", flush=True)
+        if result.failure is not None:
+            print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
+        return exit_status(result)
+
+    return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
 
 def _echo(statement: Statement, time: float, output: str) -> None:
@@ -335,6 +438,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
         progress=progress,
         parameters=parameters,
         pushes=getattr(args, "push", None) or (),  # `script` takes no --push
+        runner=decision_runner() if parameters.get("decision") == "remote" else None,
     )
     result = output.result
     for path in output.files.values():

@@ -64,6 +64,10 @@ class Scenario:
     parameters: tuple[str, ...] = ()  # keyword arguments ``build`` accepts besides the Meshcat
 
 
+Runner = Callable[..., RunResult]
+"""Runs a built scenario: ``runner(setup, simulator, duration, progress=, guard=)`` -> RunResult."""
+
+
 @dataclass
 class ScenarioOutput:
     """What :func:`run_scenario` produced: how the run ended, the logs, the files, and
@@ -85,6 +89,7 @@ def run_scenario(
     progress: Progress | None = None,
     parameters: dict[str, Any] | None = None,
     pushes: Sequence[ExternalPush] = (),
+    runner: Runner | None = None,
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
     ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
@@ -104,6 +109,8 @@ def run_scenario(
         progress: called as the simulation advances (see :func:`simulate`).
         parameters: keyword arguments of the scenario's ``build`` (only those it declares).
         pushes: disturbances applied to the robot (passed to ``build`` when there are some).
+        runner: runs the simulation instead of :func:`simulate` (e.g. while serving remote
+            commands), called as ``runner(setup, simulator, duration, progress=, guard=)``.
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built).
@@ -126,13 +133,11 @@ def run_scenario(
     if built.visualizer is not None:
         built.visualizer.StartRecording(set_transforms_while_recording=False)
     with SignalGuard() as guard:
-        result = simulate(
-            simulator,
-            setup.duration if duration is None else duration,
-            setup.commands,
-            progress=progress,
-            guard=guard,
-        )
+        duration = setup.duration if duration is None else duration
+        if runner is None:
+            result = simulate(simulator, duration, setup.commands, progress=progress, guard=guard)
+        else:
+            result = runner(setup, simulator, duration, progress=progress, guard=guard)
         context = simulator.get_context()
         arrays = log_arrays(built, context, result)
         files["npz"] = out / f"{scenario.name}.npz"

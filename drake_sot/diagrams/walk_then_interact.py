@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat
+from pydrake.systems.framework import Context, OutputPort
+from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
@@ -25,8 +27,10 @@ from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk import add_walking, forward_steps
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
+from drake_sot.footsteps import Footstep
 from drake_sot.sequencing import Above, Below, Push, Rm, SetValue, State, Transition, Up
 from drake_sot.systems.partner import Hold, Partner
+from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.sequencer import TaskSequencer
 
 WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
@@ -47,26 +51,39 @@ RELEASE_AT = GRIP_AT + 7.0
 ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (60.0, 60.0, 60.0, 4.0, 4.0, 4.0)}
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on the robot."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
-    pg, left, right = add_walking(b)
-    admittances = {
-        "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
-        "taskForceLH": b.add_admittance_task("taskForceLH", "left", **ADMITTANCE),
-    }
-    b.add_posture_task("taskPosture", gain=1.0)
+#: The DecisionServer's switch of the stack once the walk is over (then the hands' admittance is
+#: switched on), and the same as the script lines a remote decision layer sends.
+SWITCH = (
+    Rm("taskRHwaist"),
+    Rm("taskLHwaist"),
+    Push("taskForce"),
+    Up("taskForce"),
+    Push("taskForceLH"),
+    Up("taskForceLH"),
+)
+SWITCH_LINES = tuple(f"sot.{type(action).__name__.lower()} {action.task}" for action in SWITCH)
+DECISIONS = ("sequencer", "remote")
+
+
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), decision: str = "sequencer"
+) -> ScenarioSetup:
+    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on the robot.
+
+    ``decision``: ``"sequencer"`` (the DecisionServer is a ``TaskSequencer`` in the diagram)
+    or ``"remote"`` (as the paper ran it: a separate program polls ``pg.in_process`` and sends
+    :data:`SWITCH_LINES` and ``force_active.value`` = 1 through the command server; the stack is
+    then the solver's own and ``force_active`` a constant source that the server may write,
+    listed in ``extras["writable"]``: name → (size, units, apply(root context, value)); what the
+    decision client polls and sends is ``extras["decision"]``)."""
+    if decision not in DECISIONS:
+        raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
+    if decision == "remote":
+        return _build_remote(meshcat, pushes)
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes)
 
     # The DecisionServer: every 1 s, is the pattern generator still walking?
-    switch = (
-        Rm("taskRHwaist"),
-        Rm("taskLHwaist"),
-        Push("taskForce"),
-        Up("taskForce"),
-        Push("taskForceLH"),
-        Up("taskForceLH"),
-        SetValue("force_active", np.ones(1)),
-    )
+    switch = (*SWITCH, SetValue("force_active", np.ones(1)))
     sequencer = b.builder.AddSystem(
         TaskSequencer(
             [
@@ -86,6 +103,54 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
     for admittance in admittances.values():
         b.builder.Connect(sequencer.GetOutputPort("force_active"), admittance.GetInputPort("active"))
 
+    b.log("transitions", sequencer.GetOutputPort("transitions"))
+    return _finish(
+        b, pg, left, right, admittances, sequencer.GetOutputPort("stack"), {"sequencer": sequencer}
+    )
+
+
+def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]):
+    """The builder with the walking tasks, both admittance-controlled hand tasks and the posture."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
+    pg, left, right = add_walking(b)
+    admittances = {
+        "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
+        "taskForceLH": b.add_admittance_task("taskForceLH", "left", **ADMITTANCE),
+    }
+    b.add_posture_task("taskPosture", gain=1.0)
+    return b, pg, left, right, admittances
+
+
+def _build_remote(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]) -> ScenarioSetup:
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes)
+    active = b.builder.AddSystem(ConstantVectorSource(np.zeros(1)))
+    active.set_name("force_active")
+    for admittance in admittances.values():
+        b.builder.Connect(active.get_output_port(), admittance.GetInputPort("active"))
+
+    def set_active(root_context: Context, value: np.ndarray) -> None:
+        active.get_mutable_source_value(active.GetMyContextFromRoot(root_context)).set_value(value)
+
+    writable = {"force_active.value": (1, "1 on, 0 off", set_active)}
+    decision = {
+        "signal": "pg.in_process",
+        "period": 1.0,
+        "run": SWITCH_LINES,
+        "write": ("force_active.value=1",),
+    }
+    return _finish(b, pg, left, right, admittances, None, {"writable": writable, "decision": decision})
+
+
+def _finish(
+    b: HumanoidSoTBuilder,
+    pg: PatternGenerator,
+    left: Footstep,
+    right: Footstep,
+    admittances: dict,
+    stack_source: OutputPort | None,
+    extras: dict,
+) -> ScenarioSetup:
+    """The partner, the logs and the build, common to both decision layers."""
     # The partner holds the bodies below the wrist sensors (the hands).
     hands = [
         b.plant.GetJointByName(b.info.force_sensors[f"{side}_wrist"]).child_body().name()
@@ -106,12 +171,11 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
         b.log(f"wrench/{task_name}", admittance.GetOutputPort("wrench_external"))
         b.log(f"fault/{task_name}", admittance.GetOutputPort("fault"))
     b.log("in_process", pg.GetOutputPort("in_process"))
-    b.log("transitions", sequencer.GetOutputPort("transitions"))
     built = b.build(
         stack=STACK,
         load=pg.GetOutputPort("load"),
         dynamic_feedforward=True,
-        stack_source=sequencer.GetOutputPort("stack"),
+        stack_source=stack_source,
         solver="hqp",
     )
     steps = forward_steps(left, right, n=4, stride=0.15)
@@ -121,10 +185,10 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
         duration=RELEASE_AT + 1.0,
         extras={
             "pattern_generator": pg,
-            "sequencer": sequencer,
             "admittances": admittances,
             "steps": steps,
             "hands": hands,
+            **extras,
         },
     )
 
@@ -171,4 +235,5 @@ SCENARIO = Scenario(
     description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
     build=build,
     extra_plots=write_plots,
+    parameters=("decision",),
 )

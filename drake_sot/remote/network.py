@@ -1,0 +1,258 @@
+"""The network side of the command server: a thread of its own that reads request lines,
+answers malformed ones and authenticates, and queues the others for the serving loop.
+
+It never touches a context (DESIGN.md): it only puts ``(connection, Request)`` in
+:attr:`NetworkThread.requests` and sends the messages the serving loop hands to
+:meth:`NetworkThread.send`. Standard library only (``selectors``, ``socket``).
+
+Limits per connection: a line is at most :data:`~drake_sot.remote.protocol.MAX_LINE`
+bytes (a longer one gets one error reply and is skipped up to its newline); at most
+``rate`` requests per second (a token bucket of ``burst``; the others get an error
+reply); a client that leaves more than :data:`MAX_OUTBOX` bytes of replies unread is
+disconnected; a partial line left when the client disconnects is dropped, so it changes nothing.
+With a token, nothing but ``{"op": "auth"}`` is accepted until it matches (compared with
+``hmac.compare_digest``, in constant time).
+"""
+
+from __future__ import annotations
+
+import hmac
+import queue
+import selectors
+import socket
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+from drake_sot.remote.protocol import MAX_LINE, ProtocolError, Request, encode, error, ok, parse_request
+
+#: Bytes read from a socket at once.
+_CHUNK = 65536
+#: Bytes waiting for a client beyond which it is disconnected (it reads nothing).
+MAX_OUTBOX = 16 * 1024 * 1024
+
+
+@dataclass
+class _Connection:
+    sock: socket.socket
+    authed: bool
+    inbox: bytearray = field(default_factory=bytearray)
+    outbox: bytearray = field(default_factory=bytearray)
+    skipping: bool = False  # inside a line over the limit: drop up to its newline
+    allowance: float = 0.0
+    last: float = field(default_factory=time.monotonic)
+
+
+class NetworkThread:
+    """Accepts connections on ``host:port`` (``port`` 0: a free one, see :attr:`address`).
+
+    Args:
+        host: the address to bind; anything but loopback requires ``token``.
+        port: the TCP port, 0 for a free one.
+        token: the shared secret clients send with ``auth``; None: no authentication.
+        rate: requests per second accepted from a connection (sustained), > 0.
+        burst: requests accepted at once from a connection, >= 1.
+
+    Raises:
+        ValueError: a non-loopback ``host`` without a token, or an empty token.
+        OSError: the address cannot be bound.
+    """
+
+    def __init__(
+        self, host: str, port: int, *, token: str | None = None, rate: float = 1000.0, burst: int = 2000
+    ) -> None:
+        if token is not None and not token:
+            raise ValueError("token: empty (give a secret, or none for loopback only)")
+        if token is None and not _is_loopback(host):
+            raise ValueError(
+                f"host = {host!r}: not loopback, so a token is required (--token or DRAKE_SOT_TOKEN)"
+            )
+        self._token = token.encode() if token is not None else None
+        self._rate, self._burst = float(rate), float(burst)
+        self._listener = socket.create_server((host, port))
+        self._listener.setblocking(False)
+        self.address: tuple[str, int] = self._listener.getsockname()[:2]
+        self.requests: queue.Queue[tuple[int, Request | None]] = queue.Queue()
+        self._selector = selectors.DefaultSelector()
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._pending: deque[tuple[int, bytes]] = deque()
+        self._connections: dict[int, _Connection] = {}
+        self._next_id = 0
+        self._stop = threading.Event()
+        self.connected = threading.Event()  # set at the first connection
+        self._batch = threading.Lock()  # held while the lines of one read are queued
+        self._thread = threading.Thread(target=self._loop, name="drake-sot-remote", daemon=True)
+
+    def start(self) -> None:
+        self._selector.register(self._listener, selectors.EVENT_READ, "listen")
+        self._selector.register(self._wake_r, selectors.EVENT_READ, "wake")
+        self._thread.start()
+
+    def close(self) -> None:
+        """Stop the thread, close every connection and the listening socket."""
+        self._stop.set()
+        self._wake()
+        if self._thread.is_alive():
+            self._thread.join(timeout=5.0)
+        for conn in list(self._connections.values()):
+            conn.sock.close()
+        self._listener.close()
+        self._wake_r.close()
+        self._wake_w.close()
+
+    def send(self, connection: int, message: dict[str, Any]) -> None:
+        """Queue ``message`` for ``connection`` (from any thread); dropped if it is gone."""
+        self._pending.append((connection, encode(message)))
+        self._wake()
+
+    def _wake(self) -> None:
+        try:
+            self._wake_w.send(b"\0")
+        except (BlockingIOError, OSError):
+            pass  # already awake, or closing
+
+    def _loop(self) -> None:
+        while not self._stop.is_set():
+            for key, events in self._selector.select(timeout=0.5):
+                if key.data == "listen":
+                    self._accept()
+                elif key.data == "wake":
+                    try:
+                        self._wake_r.recv(4096)
+                    except BlockingIOError:
+                        pass
+                else:
+                    if events & selectors.EVENT_READ:
+                        self._read(key.data)
+                    if events & selectors.EVENT_WRITE and key.data in self._connections:
+                        self._flush(key.data)
+            while self._pending:
+                cid, data = self._pending.popleft()
+                conn = self._connections.get(cid)
+                if conn is not None:
+                    conn.outbox += data
+                    self._flush(cid)
+
+    def _accept(self) -> None:
+        try:
+            sock, _ = self._listener.accept()
+        except BlockingIOError:
+            return
+        sock.setblocking(False)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        cid, self._next_id = self._next_id, self._next_id + 1
+        self._connections[cid] = _Connection(sock, authed=self._token is None, allowance=self._burst)
+        self._selector.register(sock, selectors.EVENT_READ, cid)
+        self.connected.set()
+
+    def _drop(self, cid: int) -> None:
+        conn = self._connections.pop(cid, None)
+        if conn is None:
+            return
+        self._selector.unregister(conn.sock)
+        conn.sock.close()
+        self.requests.put((cid, None))  # the serving loop forgets its subscriptions
+
+    def _read(self, cid: int) -> None:
+        conn = self._connections[cid]
+        try:
+            data = conn.sock.recv(_CHUNK)
+        except BlockingIOError:
+            return
+        except OSError:
+            data = b""
+        if not data:
+            self._drop(cid)  # a partial line in the inbox is dropped with it
+            return
+        conn.inbox += data
+        with self._batch:  # the requests of one read reach the serving loop together
+            self._lines(cid, conn)
+
+    def drain(self) -> list[tuple[int, Request | None]]:
+        """Every queued ``(connection, request)`` (None: it disconnected), in arrival order; the
+        requests that arrived in one read of a socket are all in one drain."""
+        items = []
+        with self._batch:
+            while True:
+                try:
+                    items.append(self.requests.get_nowait())
+                except queue.Empty:
+                    return items
+
+    def _lines(self, cid: int, conn: _Connection) -> None:
+        while True:
+            end = conn.inbox.find(b"\n")
+            if end < 0:
+                if len(conn.inbox) >= MAX_LINE and not conn.skipping:
+                    self._reply(cid, error(None, f"line over {MAX_LINE} bytes: skipped up to its newline"))
+                    conn.skipping = True
+                if conn.skipping:
+                    conn.inbox.clear()
+                return
+            if cid not in self._connections:
+                return  # dropped while replying: the rest of its input is ignored
+            line = bytes(conn.inbox[:end])
+            del conn.inbox[: end + 1]
+            if conn.skipping:
+                conn.skipping = False
+                continue
+            self._line(cid, conn, line.rstrip(b"\r"))
+
+    def _line(self, cid: int, conn: _Connection, line: bytes) -> None:
+        now = time.monotonic()
+        conn.allowance = min(self._burst, conn.allowance + (now - conn.last) * self._rate)
+        conn.last = now
+        if conn.allowance < 1.0:
+            self._reply(cid, error(None, f"rate limit: at most {self._rate:g} requests per second"))
+            return
+        conn.allowance -= 1.0
+        try:
+            request = parse_request(line)
+        except ProtocolError as exc:
+            message = (
+                str(exc) if conn.authed else 'not authenticated: send {"op": "auth", "token": ...} first'
+            )
+            self._reply(cid, error(exc.request_id if conn.authed else None, message))
+            return
+        if request.op == "auth":
+            if self._token is None:
+                self._reply(cid, ok(request.id, "no token required", float("nan")))
+            elif hmac.compare_digest(request.token.encode(), self._token):
+                conn.authed = True
+                self._reply(cid, ok(request.id, "authenticated", float("nan")))
+            else:
+                self._reply(cid, error(request.id, "auth: wrong token"))
+            return
+        if not conn.authed:
+            self._reply(cid, error(None, 'not authenticated: send {"op": "auth", "token": ...} first'))
+            return
+        self.requests.put((cid, request))
+
+    def _reply(self, cid: int, message: dict[str, Any]) -> None:
+        conn = self._connections.get(cid)
+        if conn is not None:
+            conn.outbox += encode(message)
+            self._flush(cid)
+
+    def _flush(self, cid: int) -> None:
+        conn = self._connections[cid]
+        try:
+            sent = conn.sock.send(conn.outbox) if conn.outbox else 0
+        except BlockingIOError:
+            sent = 0
+        except OSError:
+            self._drop(cid)
+            return
+        del conn.outbox[:sent]
+        if len(conn.outbox) > MAX_OUTBOX:
+            self._drop(cid)  # a client that does not read its replies and streams
+            return
+        events = selectors.EVENT_READ | (selectors.EVENT_WRITE if conn.outbox else 0)
+        self._selector.modify(conn.sock, events, cid)
+
+
+def _is_loopback(host: str) -> bool:
+    return host in ("localhost", "::1") or host.startswith("127.")

@@ -1,0 +1,154 @@
+"""The remote command protocol (pure: no Drake, no sockets): JSON lines over TCP.
+
+One JSON object per line, UTF-8, ended by ``\\n``, at most :data:`MAX_LINE` bytes (64 KiB)
+with its newline. Requests (the coshell of Mansard et al. 2009, III-C: ``run``/``runAndRead``,
+``readVector`` and the vector signals clients write)::
+
+    {"id": ID, "op": "run", "cmd": "<one script line>"}
+    {"id": ID, "op": "read", "signal": "<system>.<port>"}
+    {"id": ID, "op": "write", "signal": "<system>.<port>", "value": [numbers]}
+    {"id": ID, "op": "subscribe", "signal": "<system>.<port>", "period": S}
+    {"id": ID, "op": "unsubscribe", "signal": "<system>.<port>"}
+    {"id": ID, "op": "list"}
+    {"op": "auth", "token": "..."}
+
+``ID`` is any JSON string, number or null, echoed in the reply (null when absent).
+Replies::
+
+    {"id": ID, "ok": true, "result": ..., "t": <simulated time [s]>}
+    {"id": ID, "ok": false, "error": "<message naming the bad part>"}
+
+and stream messages of a subscription ``{"signal": ..., "t": ..., "value": [...]}``.
+Numbers that are not finite (the NaN of an inactive task's error) travel as ``null``:
+JSON has no NaN; :func:`decode_vector` turns them back into NaN.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+#: The longest line accepted, newline included [bytes].
+MAX_LINE = 64 * 1024
+
+#: Each operation and the fields it requires besides ``op`` (``id`` is optional everywhere).
+OPS: dict[str, tuple[str, ...]] = {
+    "run": ("cmd",),
+    "read": ("signal",),
+    "write": ("signal", "value"),
+    "subscribe": ("signal", "period"),
+    "unsubscribe": ("signal",),
+    "list": (),
+    "auth": ("token",),
+}
+
+
+class ProtocolError(ValueError):
+    """A line that is not a valid request; ``request_id`` is its id when one could be read."""
+
+    def __init__(self, message: str, request_id: Any = None) -> None:
+        super().__init__(message)
+        self.request_id = request_id
+
+
+@dataclass(frozen=True)
+class Request:
+    """A parsed request: ``op`` and its fields (those ``op`` does not take are None)."""
+
+    op: str
+    id: Any = None
+    cmd: str | None = None
+    signal: str | None = None
+    value: tuple[float, ...] | None = None
+    period: float | None = None
+    token: str | None = None
+
+
+def parse_request(line: bytes) -> Request:
+    """The request on one line (without its newline).
+
+    Raises:
+        ProtocolError: too long, not UTF-8, not a JSON object, unknown ``op``, a missing
+            field or a field of the wrong type (the message names it). Value checks that
+            need the diagram (sizes, finiteness, the allowlist) are the server's.
+    """
+    if len(line) >= MAX_LINE:
+        raise ProtocolError(f"line of {len(line)} bytes: at most {MAX_LINE - 1} before the newline")
+    try:
+        text = line.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ProtocolError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
+    try:
+        message = json.loads(text)
+    except (json.JSONDecodeError, RecursionError) as exc:
+        where = f" at column {exc.colno}" if isinstance(exc, json.JSONDecodeError) else ""
+        raise ProtocolError(f"invalid JSON{where}: {exc}") from None
+    if not isinstance(message, dict):
+        raise ProtocolError(f"a request is a JSON object, got {type(message).__name__}")
+    request_id = message.get("id")
+    if not (
+        request_id is None or isinstance(request_id, (str, int, float)) and not isinstance(request_id, bool)
+    ):
+        raise ProtocolError(f"id: a string, a number or null, got {type(request_id).__name__}")
+    op = message.get("op")
+    if op not in OPS:
+        raise ProtocolError(f"op = {op!r}: unknown; ops: {', '.join(OPS)}", request_id)
+    missing = [name for name in OPS[op] if name not in message]
+    if missing:
+        raise ProtocolError(f"op {op!r} needs field {missing[0]!r}", request_id)
+    fields: dict[str, Any] = {}
+    for name in ("cmd", "signal", "token"):
+        if name in OPS[op]:
+            if not isinstance(message[name], str):
+                raise ProtocolError(f"{name}: a string, got {type(message[name]).__name__}", request_id)
+            fields[name] = message[name]
+    if "value" in OPS[op]:
+        value = message["value"]
+        if not isinstance(value, list):
+            raise ProtocolError(f"value: a list of numbers, got {type(value).__name__}", request_id)
+        bad = [i for i, x in enumerate(value) if not _is_number(x)]
+        if bad:
+            raise ProtocolError(f"value[{bad[0]}] = {json.dumps(value[bad[0]])}: not a number", request_id)
+        fields["value"] = tuple(float(x) for x in value)
+    if "period" in OPS[op]:
+        if not _is_number(message["period"]):
+            raise ProtocolError(f"period: a number [s], got {message['period']!r}", request_id)
+        fields["period"] = float(message["period"])
+    return Request(op=op, id=request_id, **fields)
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _jsonable(value: Any) -> Any:
+    """``value`` with non-finite floats as None and tuples/arrays as lists."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if hasattr(value, "tolist"):  # a numpy array or scalar
+        return _jsonable(value.tolist())
+    return value
+
+
+def encode(message: dict[str, Any]) -> bytes:
+    """One message as a line: compact JSON, non-finite numbers as null, ``\\n`` at the end."""
+    return json.dumps(_jsonable(message), separators=(",", ":"), allow_nan=False).encode() + b"\n"
+
+
+def ok(request_id: Any, result: Any, t: float) -> dict[str, Any]:
+    return {"id": request_id, "ok": True, "result": result, "t": t}
+
+
+def error(request_id: Any, message: str) -> dict[str, Any]:
+    return {"id": request_id, "ok": False, "error": message}
+
+
+def decode_vector(values: list[float | None]) -> list[float]:
+    """A vector as sent (null for a non-finite number) with NaN in place of null."""
+    return [math.nan if x is None else float(x) for x in values]

@@ -1,0 +1,434 @@
+"""The remote command server: the JSON-lines protocol (pure), and ``drake-sot serve reach``
+driven by a client in another process (push, read, write, subscribe, malformed lines, token),
+and ``drake-sot shell``."""
+
+import json
+import math
+import os
+import queue
+import random
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drake_sot.remote import Client, RemoteError
+from drake_sot.remote.network import NetworkThread
+from drake_sot.remote.protocol import MAX_LINE, ProtocolError, decode_vector, encode, parse_request
+
+REPO = Path(__file__).resolve().parents[1]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+TOKEN = "s3cret-token"
+STACK_OF_REACH = ("taskJL", "taskLF", "taskRF", "taskCom", "taskRH", "taskPosture")  # its docstring
+
+
+# --- the protocol, pure --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "line, named",
+    [
+        (b"\xff\xfe{", "not UTF-8"),
+        (b'{"id": 1, "op": "read"', "invalid JSON"),
+        (b"[1, 2]", "JSON object"),
+        (b'{"id": 1, "op": "exec", "cmd": "x"}', "'exec'"),
+        (b'{"id": 1, "op": "read"}', "'signal'"),
+        (b'{"id": 1, "op": "write", "signal": "a.b", "value": [1, "x"]}', "value[1]"),
+        (b'{"id": 1, "op": "subscribe", "signal": "a.b", "period": "fast"}', "period"),
+        (b'{"id": [1], "op": "list"}', "id"),
+        (b"x" * MAX_LINE, "at most"),
+    ],
+)
+def test_a_malformed_line_is_a_protocol_error_naming_the_bad_part(line, named):
+    with pytest.raises(ProtocolError, match=re.escape(named)):
+        parse_request(line)
+
+
+def test_a_request_keeps_its_id_and_fields():
+    request = parse_request(
+        b'{"id": "a", "op": "write", "signal": "taskRH.position_des", "value": [1, 2.5, -3]}'
+    )
+    assert (request.id, request.op, request.signal, request.value) == (
+        "a",
+        "write",
+        "taskRH.position_des",
+        (1, 2.5, -3),
+    )
+    assert parse_request(b'{"op": "list"}').id is None
+
+
+def test_non_finite_numbers_travel_as_null_and_come_back_as_nan():
+    line = encode({"signal": "sot.errors", "t": 0.5, "value": np.array([1.0, np.nan, -np.inf])})
+    assert line.endswith(b"\n") and line.count(b"\n") == 1
+    message = json.loads(line)  # standard JSON: no NaN literal
+    assert message["value"] == [1.0, None, None]
+    back = decode_vector(message["value"])
+    assert back[0] == 1.0 and math.isnan(back[1]) and math.isnan(back[2])
+
+
+# --- the network thread alone: what it queues for the serving loop ------------------------
+
+
+@pytest.fixture
+def network():
+    thread = NetworkThread("127.0.0.1", 0, rate=50.0, burst=5)
+    thread.start()
+    yield thread
+    thread.close()
+
+
+def _queued(thread, wait=0.5):
+    deadline, items = time.monotonic() + wait, []
+    while time.monotonic() < deadline:
+        try:
+            items.append(thread.requests.get(timeout=0.05))
+        except queue.Empty:
+            pass
+    return items
+
+
+def test_a_client_that_disconnects_mid_line_queues_nothing(network):
+    with Client(*network.address) as client:
+        client.send_raw(b'{"id": 1, "op": "run", "cmd": "sot.clear"')
+    items = _queued(network)
+    assert [request for _, request in items] == [None]  # only the disconnection
+
+
+def test_requests_beyond_the_rate_are_refused_and_not_queued(network):
+    with Client(*network.address) as client:
+        client.send_raw(b'{"id": 1, "op": "list"}\n' * 20)  # at once: the burst of 5 passes
+        refused = [client.receive() for _ in range(15)]
+        assert all("rate limit" in r["error"] for r in refused)
+        assert len([r for _, r in _queued(network) if r is not None]) == 5
+        time.sleep(0.2)  # 50 per second: 10 more allowed
+        client.send_raw(b'{"id": 2, "op": "list"}\n')
+        assert [r.id for _, r in _queued(network)] == [2]
+
+
+def test_a_non_loopback_address_needs_a_token():
+    with pytest.raises(ValueError, match="0.0.0.0"):
+        NetworkThread("0.0.0.0", 0)
+    with pytest.raises(ValueError, match="empty"):
+        NetworkThread("127.0.0.1", 0, token="")
+
+
+# --- a served scenario, from another process ----------------------------------------------
+
+
+def _start(*args, env=None):
+    proc = subprocess.Popen(
+        [*DRAKE_SOT, "serve", "reach", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        env=env,
+    )
+    first = proc.stdout.readline()
+    match = re.fullmatch(r"serving on (\S+):(\d+)\n", first)
+    if match is None:
+        proc.kill()
+        pytest.fail(f"first line {first!r}; stderr: {proc.stderr.read()}")
+    proc.view = proc.stdout.readline()  # the live view's address, second
+    return proc, match.group(1), int(match.group(2))
+
+
+def _stop(proc):
+    proc.terminate()
+    try:
+        proc.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.fixture(scope="module")
+def server():
+    proc, host, port = _start("--port", "0", "--duration", "120")
+    yield proc, host, port
+    _stop(proc)
+
+
+def test_serve_prints_its_loopback_address_first(server):
+    proc, host, port = server
+    assert host == "127.0.0.1" and 0 < port < 65536
+    assert re.fullmatch(
+        r"live view \(stack and task errors in the controls\): http://localhost:\d+\n", proc.view
+    )
+
+
+def test_a_pushed_task_gets_its_error_at_a_later_tick(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        rows = slice(*client.list()["error_slices"]["sot"]["taskLH"])
+        stack = client.run("sot.list").split()
+        if "taskLH" in stack:  # the scenario's own script pushes it at 3 s
+            pytest.fail(f"the test came too late (t = {client.t} s): taskLH is already in {stack}")
+        before = np.array(client.read("sot.errors"))[rows]
+        assert np.isnan(before).all()
+        client.run("sot.push taskLH")
+        pushed_at = client.t
+        assert client.run("sot.list").split()[-1] == "taskLH"
+        for _ in range(200):
+            after = np.array(client.read("sot.errors"))[rows]
+            if not np.isnan(after).any():
+                break
+        assert not np.isnan(after).any() and client.t > pushed_at
+        # the task's error is the left hand's position error (Mansard et al. 2009: e = s - s*)
+        feature = np.array(client.read("feature_taskLH.error"))
+        assert np.allclose(feature[:3], after[:3], atol=0.02)
+        client.run("sot.rm taskLH")
+        assert "taskLH" not in client.run("sot.list").split()
+
+
+def test_a_written_target_changes_the_error_then_the_motion(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        # e = p - p* (position rows), so a written p* and the error read after it give the hand
+        # position p; p* = p then holds the hand still, and a step of p* is a step of the error
+        client.read("dyn.com")
+        while client.t < 1.05:  # after the scenario's own new right-hand target (t = 1 s)
+            time.sleep(0.05)
+            client.read("dyn.com")
+        target = np.array([0.3, -0.25, 0.9])
+        for _ in range(2):
+            client.write("taskRH.position_des", target.tolist())
+            p = np.array(client.read("feature_taskRH.error"))[:3] + target
+            target = p
+        assert 0.5 < p[2] < 1.5  # a hand of a standing humanoid
+        step = np.array([0.05, 0.0, -0.10])  # the new target: 5 cm ahead of the hand, 10 cm below
+        client.write("taskRH.position_des", (p + step).tolist())
+        e1 = np.array(client.read("feature_taskRH.error"))[:3]
+        assert np.allclose(e1, -step, atol=0.01), e1
+        written_at = client.t
+        while client.t < written_at + 1.5:  # 1.5 simulated seconds, 3.75 time constants at gain 2.5
+            time.sleep(0.1)
+            e2 = np.array(client.read("feature_taskRH.error"))[:3]
+        assert np.linalg.norm(e2) < 0.5 * np.linalg.norm(e1), (written_at, client.t, e2)
+
+
+@pytest.mark.parametrize(
+    "signal, value, named",
+    [
+        ("taskRH.position_des", [0.1, 0.2], "2 values, expected 3"),
+        ("taskRH.position_des", [0.1, float("nan"), 0.3], "value[1]"),
+        ("dyn.com", [0.0, 0.0, 0.8], "not writable"),
+        ("sot.nothing", [1.0], "not writable"),
+    ],
+)
+def test_a_bad_write_is_refused_and_names_why(server, signal, value, named):
+    _, host, port = server
+    with Client(host, port) as client:
+        with pytest.raises(RemoteError, match=re.escape(named)):
+            client.write(signal, value)
+        assert len(client.read("dyn.com")) == 3
+
+
+def test_a_nan_literal_is_refused_as_not_finite(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        client.send_raw(b'{"id": 7, "op": "write", "signal": "taskRH.position_des", "value": [0, NaN, 1]}\n')
+        reply = client.receive()
+        assert reply["id"] == 7 and not reply["ok"] and "not finite" in reply["error"]
+
+
+def _malformed(rng: random.Random, i: int) -> bytes:
+    kind = i % 5
+    if kind == 0:
+        return bytes(rng.randrange(256) for _ in range(rng.randrange(1, 200))).replace(b"\n", b"") + b"\n"
+    if kind == 1:
+        return b'{"id": %d, "op": "read", "signal": ' % i + b"\n"
+    if kind == 2:
+        return b'{"id": %d, "op": "read", "signal": "' % i + b"a" * (MAX_LINE + 10) + b'"}\n'
+    if kind == 3:
+        return (
+            json.dumps({"id": i, "op": rng.choice(["exec", "eval", "", "READ"]), "cmd": "x"}).encode() + b"\n"
+        )
+    return json.dumps({"id": i, "op": rng.choice(["run", "read", "write", "subscribe"])}).encode() + b"\n"
+
+
+def test_a_thousand_malformed_lines_each_get_an_error_and_the_server_serves_on(server):
+    _, host, port = server
+    rng = random.Random(11)
+    with Client(host, port) as client:
+        for i in range(1000):
+            client.send_raw(_malformed(rng, i))
+        replies = [client.receive() for _ in range(1000)]
+        assert all(not r["ok"] and r["error"] for r in replies)
+        assert len(client.read("dyn.com")) == 3
+    with Client(host, port) as other:
+        other.send_raw(b'{"id": 1, "op": "read", "signal": "dyn.co')  # then disconnects mid-line
+    with Client(host, port) as client:
+        assert len(client.read("dyn.com")) == 3
+
+
+def test_a_subscription_streams_at_its_period_with_increasing_time(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        times = []
+        stream = client.subscribe("dyn.com", period=0.05)
+        for t, value in stream:
+            times.append(t)
+            assert len(value) == 3
+            if t - times[0] >= 1.0:
+                break
+        stream.close()
+        span = times[-1] - times[0]
+        assert np.all(np.diff(times) > 0)
+        assert (len(times) - 1) / span >= 15
+        assert np.allclose(np.diff(times), 0.05, atol=0.006)
+        with pytest.raises(RemoteError, match="control period"):
+            client.request("subscribe", signal="dyn.com", period=0.0001)
+
+
+def test_the_shell_runs_script_lines_and_its_own_commands(server):
+    _, host, port = server
+    proc = subprocess.run(
+        [*DRAKE_SOT, "shell", "--port", str(port)],
+        input="sot.list\nread dyn.com\nwrite dyn.com 1 2 3\nget nothing.here\nhelp\nquit\n",
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0].split()[:4] == ["taskJL", "taskLF", "taskRF", "taskCom"]
+    com = [float(x) for x in lines[1].split()]
+    assert len(com) == 3 and 0.5 < com[2] < 1.0  # the CoM of a standing humanoid, about 0.8 m up
+    assert lines[2].startswith("error:") and "not writable" in lines[2]
+    assert lines[3].startswith("error:") and "nothing.here" in lines[3]
+    assert "SOT.push" in proc.stdout.split("server:")[1] and "(SOT: sot)" in proc.stdout  # help: both
+
+
+# --- the token --------------------------------------------------------------------------
+
+
+def test_another_address_without_a_token_refuses_to_start():
+    env = {k: v for k, v in os.environ.items() if k != "DRAKE_SOT_TOKEN"}
+    proc = subprocess.run(
+        [*DRAKE_SOT, "serve", "reach", "--host", "0.0.0.0", "--port", "0"],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        env=env,
+        timeout=120,
+    )
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert "token" in proc.stderr and "0.0.0.0" in proc.stderr
+
+
+def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
+    env = {**os.environ, "DRAKE_SOT_TOKEN": TOKEN}
+    proc, host, port = _start("--port", "0", "--duration", "60", env=env)
+    try:
+        with Client(host, port) as stranger:
+            with pytest.raises(RemoteError, match="not authenticated"):
+                stranger.read("dyn.com")
+            with pytest.raises(RemoteError, match="not authenticated"):
+                stranger.run("sot.clear")
+            with pytest.raises(RemoteError, match="wrong token"):
+                stranger.request("auth", token=TOKEN + "x")
+            with pytest.raises(RemoteError, match="not authenticated"):
+                stranger.list()
+        with Client(host, port, token=TOKEN) as friend:
+            assert "taskPosture" in friend.run("sot.list").split()  # nothing was cleared
+    finally:
+        _stop(proc)
+
+
+# --- the live view's controls -------------------------------------------------------------
+
+
+def test_the_meshcat_controls_show_the_task_errors_and_the_stack():
+    from drake_sot.diagrams.reach import build
+    from drake_sot.diagrams.world import loopback_meshcat
+    from drake_sot.remote.status import MeshcatStatus
+
+    meshcat = loopback_meshcat()
+    built = build(meshcat).built
+    simulator = built.create_simulator()
+    status = MeshcatStatus(meshcat, built.sot, period=0.1)
+    context = simulator.get_mutable_context()
+    built.sot.push(context, "taskLH")
+    simulator.AdvanceTo(0.05)
+    status.update(context)
+    for task in ("taskRH", "taskLH"):  # the feature's own output: e of the last tick, to a tick's motion
+        feature = built.features[task]
+        error = feature.GetOutputPort("error").Eval(feature.GetMyContextFromRoot(context))
+        assert meshcat.GetSliderValue(f"|e| {task}") == pytest.approx(
+            min(np.linalg.norm(error), 1.0), abs=2e-3
+        )
+    stack = [*STACK_OF_REACH, "taskLH"]
+    for i, name in enumerate(stack):
+        assert meshcat.GetButtonClicks(f"stack {i + 1}: {name}") == 0  # raises if there is no such button
+    built.sot.rm(context, "taskLH")
+    simulator.AdvanceTo(0.2)
+    status.update(context)
+    assert meshcat.GetSliderValue("|e| taskLH") == 0.0  # out of the stack: its error is NaN
+    with pytest.raises(RuntimeError):
+        meshcat.GetButtonClicks(f"stack {len(stack)}: taskLH")
+
+
+def _served_logs(out, malformed):
+    proc, host, port = _start("--port", "0", "--duration", "1.5", "--out", str(out))
+    if malformed:
+        rng = random.Random(5)
+        with Client(host, port) as client:
+            for i in range(1000):
+                client.send_raw(_malformed(rng, i))
+            assert all(not client.receive()["ok"] for _ in range(1000))
+            assert len(client.read("dyn.com")) == 3
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stderr
+    with np.load(out / "reach.npz") as npz:
+        return {key: npz[key] for key in npz.files}
+
+
+def test_malformed_lines_leave_the_recorded_run_identical(tmp_path):
+    clean = _served_logs(tmp_path / "clean", malformed=False)
+    attacked = _served_logs(tmp_path / "attacked", malformed=True)
+    assert clean.keys() == attacked.keys() and len(clean["time"]) > 100
+    for key in clean:
+        assert np.array_equal(clean[key], attacked[key], equal_nan=clean[key].dtype.kind == "f"), key
+
+
+# --- the case study as the paper ran it: the decision layer as a separate client process ---------
+
+
+def _stack_history(out):
+    with np.load(out / "walk_then_interact.npz") as npz:
+        return list(npz["stack_time"]), list(npz["stack"])
+
+
+@pytest.mark.slow
+def test_a_remote_decision_layer_switches_the_stack_as_the_sequencer_does(tmp_path):
+    runs = {}
+    for decision in ("sequencer", "remote"):
+        out = tmp_path / decision
+        proc = subprocess.run(
+            [
+                *DRAKE_SOT,
+                "run",
+                "walk_then_interact",
+                "--decision",
+                decision,
+                "--out",
+                str(out),
+                "--no-record",
+            ],
+            capture_output=True,
+            text=True,
+            cwd=REPO,
+            timeout=600,
+        )
+        assert proc.returncode == 0, proc.stderr
+        runs[decision] = _stack_history(out)
+    (t_seq, stacks_seq), (t_remote, stacks_remote) = runs["sequencer"], runs["remote"]
+    assert stacks_remote == stacks_seq and len(stacks_seq) == 2  # walking, then the force tasks at one tick
+    assert "taskForce" in stacks_seq[1] and "taskRHwaist" not in stacks_seq[1]
+    assert abs(t_remote[1] - t_seq[1]) <= 1.0  # within one poll period (1 s)
