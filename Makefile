@@ -1,9 +1,11 @@
 # The README's two commands. Both create .venv (python3 -m venv) when it is missing.
 #   make demo   install the package, run the main scenario, write out/
 #   make test   install the test extras and the Debian packages the tests need, run ruff, then pytest
+# and the benchmarks: make bench (in .venv), make bench-peers (PlaCo, in its own .venv-peers).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
+PEERS := .venv-peers
 OUT ?= out
 SCENARIO ?= walk_then_interact
 
@@ -18,15 +20,20 @@ define apt_need
 	fi
 endef
 
-.PHONY: demo test venv bench clean
+.PHONY: demo test venv bench bench-peers clean
 
+# Create the virtual environment $(1) with an upgraded pip.
 # Debian's python3 lacks ensurepip until python3-venv is installed.
-$(BIN)/python:
-	$(PYTHON) -m venv $(VENV) || { \
+define make_venv
+	$(PYTHON) -m venv $(1) || { \
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq python3-venv && \
-	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
-	$(BIN)/python -m pip install --quiet --upgrade pip
+	  rm -rf $(1) && $(PYTHON) -m venv $(1); }
+	$(1)/bin/python -m pip install --quiet --upgrade pip
+endef
+
+$(BIN)/python:
+	$(call make_venv,$(VENV))
 
 # Editable install; re-run when pyproject.toml changes.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
@@ -56,5 +63,16 @@ bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_walk.py
 	$(BIN)/python benchmarks/bench_generalized.py
 
+# The peer benchmark against PlaCo, in its own environment: placo 0.10.2 pins pin 3.8 and numpy 2.3,
+# so it is no dependency of the package. drake_sot comes from PYTHONPATH (the benchmark uses only its
+# pure modules: no Drake wheel); example-robot-data gives both sides the same TALOS model.
+$(PEERS)/.installed:
+	$(call make_venv,$(PEERS))
+	$(PEERS)/bin/python -m pip install --quiet placo==0.10.2 example-robot-data==6.0.0 "scipy>=1.11"
+	touch $@
+
+bench-peers: $(PEERS)/.installed
+	PYTHONPATH=$(CURDIR) $(PEERS)/bin/python benchmarks/bench_peers.py
+
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis
+	rm -rf $(VENV) $(PEERS) $(OUT) .pytest_cache .hypothesis
