@@ -20,7 +20,7 @@ reach a limit; the grippers start at theirs), the left hand moves 0.15 m, the he
 Each side integrates its own q.
 
 - **drake_sot**: the Jacobians and task errors from Pinocchio (the same library and the same
-  URDF text PlaCo loads, so the two sides start from bit-identical task matrices, checked below;
+  URDF text PlaCo loads, so the two sides start from the same task matrices to rounding, checked;
   Drake would need the package map and mesh fixes of issue 14 to load this URDF, and the
   comparison would then also measure two kinematics libraries), each level ``J q̇ = e / dt``,
   under a top level of the 32 joint-limit rows ``velocity_bounds(q, q_min, q_max, 1/dt, ±v_max)``,
@@ -37,7 +37,7 @@ Beside them on the same levels at the same state: ``solve_hqp`` without the limi
 order alternating from step to step).
 
 Agreement printed: (1) the task matrices and errors of the two sides at the start; (2) with the
-five upper task levels "hard" in PlaCo and the posture "soft" (no limits), PlaCo's step equals
+six upper task levels "hard" in PlaCo and the posture "soft" (no limits), PlaCo's step equals
 ``solve_strict``'s q̇ dt (both are then the lexicographic solution) at states along the trajectory;
 (3) the task errors of the two closed-loop runs, and the joint limits, step by step.
 """
