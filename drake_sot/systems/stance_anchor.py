@@ -21,7 +21,7 @@ from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
 
 from drake_sot.anchoring import PlanarTransform, blend, drift
-from drake_sot.footsteps import PHASE_DOUBLE, PHASE_LEFT_SUPPORT, PHASE_RIGHT_SUPPORT, SIDES
+from drake_sot.footsteps import PHASE_DOUBLE, PHASE_LEFT_SUPPORT, PHASE_RIGHT_SUPPORT, SIDES, WALKING_BOUNDS
 from drake_sot.validation import positive
 
 _SWINGING = {PHASE_LEFT_SUPPORT: "right", PHASE_RIGHT_SUPPORT: "left"}
@@ -109,8 +109,9 @@ class StanceAnchor(LeafSystem):
             raise ValueError(f"soles must name the 'left' and 'right' sole frames, got {sorted(soles)}")
         self._period = positive("period", period, unit="s")
         self._blend_time = positive("blend_time", blend_time, unit="s")
-        if self._blend_time > 0.2:
-            raise ValueError(f"blend_time = {blend_time} s exceeds the shortest single support, 0.2 s")
+        shortest = WALKING_BOUNDS.single_support.low
+        if self._blend_time > shortest:
+            raise ValueError(f"blend_time = {blend_time} s exceeds the shortest single support, {shortest} s")
         self._soles = {}
         for side in SIDES:
             frame = plant.GetFrameByName(soles[side], model_instance)
