@@ -12,11 +12,14 @@ to the stance foot::
 
 ``ε`` the step's relative placement error (the joints' tracking error at touch-down). The
 foot tasks put ``W^r`` on the footprint ``F_k``, so the landing error obeys
-``e_k = e_(k-1) + ε_k``: a running sum. Measured on ``walk_long`` without re-anchoring: the
-reference soles on their footprints within 0.2 mm, no slip of the stance foot (≤ 0.01 mm
-per step), and ε = 1.0-3.5 mm short per 0.2 m forward step (a few mrad of PD lag in the
-hip and knee pitch at touch-down, growing with the walking speed), so the landing error
-grows by 2.4-3.6 mm per forward step and passes 2 cm after the eighth.
+``e_k = e_(k-1) + ε_k``: a running sum. Measured on ``walk_long`` without re-anchoring:
+the reference soles on their footprints within 0.2 mm (not the pattern generator, not the
+tasks), no slip of the stance foot (≤ 0.01 mm per step), the floating base of q_ref
+drifting from the robot's by the landing error itself, and ε = 1.0-3.5 mm short per 0.2 m
+forward step (the PD tracking error of the legs' pitch joints at touch-down, a few mrad,
+growing with the walking speed). The landing error grew by 1.2-3.6 mm per forward step,
+passed 2 cm at the ninth landing (21.2 mm) and stayed near 24 mm through the steps in
+place, since a step in place adds almost nothing.
 
 **The fix.**  Map the plan into the reference's world through the measured stance foot.
 At each lift-off, with the stance foot on the ground in both worlds, the drift::
@@ -30,6 +33,14 @@ with the feet in the reference's world), and a foot on the ground keeps the Δ i
 with (changing it would drag a stance foot the robot cannot move, and its task would pull
 the whole reference instead). The floating base of q_ref is left alone: the reference's
 world drifts from the robot's by Δ, which the mapping absorbs.
+
+Re-synchronising q_ref's floating base with the robot's at each landing instead does not
+stop the sum by itself: the reference stance sole then sits on the measured one,
+``F_(k-1) + e_(k-1)``, its task pulls it back onto ``F_(k-1)`` by moving the whole
+reference (the base, not the joints, which the robot would feel), and ``e_(k-1)`` is
+restored; it works only if the stance reference becomes the measured sole, which is this
+mapping seen from the other world. ``S^m`` is the simulator's pose of the sole; on a robot
+it would come from an estimate of the foot in the world (odometry, motion capture).
 """
 
 from __future__ import annotations
