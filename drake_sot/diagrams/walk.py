@@ -157,13 +157,11 @@ def build_walk(
     *,
     meshcat: Meshcat | None = None,
     pushes: Sequence[ExternalPush] = (),
-    extend: Callable[[HumanoidSoTBuilder, PatternGenerator], None] | None = None,
     anchored: bool = False,
 ) -> ScenarioSetup:
     """A walking diagram (the ``walk`` stack, the ZMP estimator, logs) and its script: at
     ``START`` the steps ``steps_of(left, right)`` (made from the initial footprints) are given
-    to the generator. ``extend(builder, generator)`` may add to the diagram before it is built;
-    ``anchored``: see :func:`add_walking`."""
+    to the generator. ``anchored``: see :func:`add_walking`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     pg, left, right = add_walking(b, anchored=anchored)
     b.add_posture_task("taskPosture", gain=1.0)
@@ -182,8 +180,6 @@ def build_walk(
         ("phase", pg.GetOutputPort("phase")),
     ):
         b.log(name, port)
-    if extend is not None:
-        extend(b, pg)
     built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, solver="hqp")
     steps = steps_of(left, right)
     commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]

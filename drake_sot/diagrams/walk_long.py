@@ -12,6 +12,10 @@ at the initial stance width ``w``; feet alternate, right first):
 - 4 backward, 0.15 m each;
 - 1 closing step: the left foot beside the right one; the robot stops in double support.
 
+The walking references pass through a ``StanceAnchor`` (``anchored=True``): at each lift-off
+they are re-anchored on the measured stance foot, so that the landing errors, one step's
+tracking error each, do not add up over the 30 steps (:mod:`drake_sot.anchoring`).
+
 Every step is within :class:`~drake_sot.footsteps.StepLimits`, and the timing is ``walk``'s
 (0.7 s single support, 0.1 s double support, 5 cm step height: inside
 :data:`~drake_sot.footsteps.WALKING_BOUNDS`).
@@ -27,13 +31,15 @@ from pydrake.geometry import Meshcat
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk import build_walk, write_plots
-from drake_sot.footsteps import Footstep, relative_steps, stance_width
+from drake_sot.footsteps import Footstep, other_side, relative_steps, stance_width
 
 SIDEWAYS = 0.1  # [m] each sideways step of the left foot
 BACKWARD = 0.15  # [m] each backward step
 STRIDE = 0.2  # [m] each forward step
 TURN = math.pi / 8  # [rad] each turning step
-SETTLE = 3.5  # [s] simulated after the last step's landing is due (preview delay, stop, rest)
+# [s] added to build_walk's duration, which does not count the generator's preview delay (1.6 s):
+# the last landing is due at 26.1 s, the run ends at 30 s.
+SETTLE = 3.5
 
 
 def long_walk_steps(left: Footstep, right: Footstep) -> list[Footstep]:
@@ -43,7 +49,9 @@ def long_walk_steps(left: Footstep, right: Footstep) -> list[Footstep]:
     def pairs(
         n: int, dx: float, yaw: float, first: str, out: float = 0.0
     ) -> list[tuple[str, float, float, float]]:
-        sides = [first if k % 2 == 0 else ("left" if first == "right" else "right") for k in range(n)]
+        """``n`` moves of alternating feet from ``first``: ``dx`` ahead, turned by ``yaw``, the
+        left foot ``out`` further than the stance width."""
+        sides = [first if k % 2 == 0 else other_side(first) for k in range(n)]
         return [(s, dx, (w + out) if s == "left" else -w, yaw) for s in sides]
 
     moves = (
