@@ -29,6 +29,7 @@ def test_list_names_the_scenarios():
         "reach",
         "table_pounding",
         "walk",
+        "walk_long",
         "walk_then_interact",
         "alpha_sweep",
     ]

@@ -7,6 +7,7 @@ from drake_sot.diagrams import (
     reach,
     table_pounding,
     walk,
+    walk_long,
     walk_then_interact,
 )
 from drake_sot.diagrams.scenario import Scenario
@@ -16,6 +17,7 @@ SCENARIOS: dict[str, Scenario] = {
     for s in (
         reach.SCENARIO,
         walk.SCENARIO,
+        walk_long.SCENARIO,
         walk_then_interact.SCENARIO,
         look_and_reach.SCENARIO,
         priority_switching.SCENARIO,

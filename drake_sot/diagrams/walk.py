@@ -12,7 +12,7 @@ stops in double support.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,10 +25,11 @@ from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
-from drake_sot.footsteps import Footstep, StepTiming, alternating_steps
+from drake_sot.footsteps import SIDES, Footstep, StepTiming, alternating_steps
 from drake_sot.models.humanoid import SOLE
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.systems.stance_anchor import StanceAnchor
 from drake_sot.systems.zmp import ZmpEstimator
 
 TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
@@ -85,32 +86,84 @@ def add_pattern_generator(
     return pg, left, right
 
 
-def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:
+def add_walking(
+    b: HumanoidSoTBuilder, *, anchored: bool = False
+) -> tuple[PatternGenerator, Footstep, Footstep]:
     """The pattern generator and the walking tasks: joint position and velocity limits
     (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
     and CoM xy (references and velocity feed-forward from the generator), waist
     orientation, both hands held relative to the waist. Returns the generator and the
-    initial footprints."""
+    initial footprints.
+
+    ``anchored``: the feet, CoM and waist references pass through a ``StanceAnchor``
+    (re-anchored on the measured stance foot at each lift-off, so that landing errors
+    do not add up; :mod:`drake_sot.anchoring`)."""
     pg, left, right = add_pattern_generator(b)
+    refs = add_stance_anchor(b, pg) if anchored else pg
     b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     for task_name, foot in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
         b.add_op_point_task(task_name, foot, gain=20.0)
-        b.builder.Connect(pg.GetOutputPort(foot), b.features[task_name].GetInputPort("position_des"))
-        b.builder.Connect(pg.GetOutputPort(foot + "_vel"), b.features[task_name].GetInputPort("velocity_des"))
+        b.builder.Connect(refs.GetOutputPort(foot), b.features[task_name].GetInputPort("position_des"))
+        b.builder.Connect(
+            refs.GetOutputPort(foot + "_vel"), b.features[task_name].GetInputPort("velocity_des")
+        )
     b.add_com_task("taskCom", selection="110", gain=20.0)
-    b.builder.Connect(pg.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
-    b.builder.Connect(pg.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
+    b.builder.Connect(refs.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
+    b.builder.Connect(refs.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
     b.add_op_point_task("taskWaist", "pelvis", selection="000111", gain=10.0)
-    b.builder.Connect(pg.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
+    b.builder.Connect(refs.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
     b.add_relative_task("taskRHwaist", "right_hand", "pelvis", gain=5.0)
     b.add_relative_task("taskLHwaist", "left_hand", "pelvis", gain=5.0)
     return pg, left, right
 
 
+def add_stance_anchor(b: HumanoidSoTBuilder, pg: PatternGenerator) -> StanceAnchor:
+    """A ``StanceAnchor`` fed by ``pg``, the reference soles (``dyn`` operational points) and the
+    simulated plant's body poses; its ``drift`` is logged."""
+    anchor = b.builder.AddSystem(
+        StanceAnchor(
+            b.plant,
+            b.info.model_instance,
+            {side: b.info.frames[f"{side}_foot"] for side in SIDES},
+            period=b.control_period,
+        )
+    )
+    for port in (
+        "left_foot",
+        "right_foot",
+        "left_foot_vel",
+        "right_foot_vel",
+        "com",
+        "com_vel",
+        "waist",
+        "phase",
+    ):
+        b.builder.Connect(pg.GetOutputPort(port), anchor.GetInputPort(port))
+    for side in SIDES:
+        op = b.op_point(f"{side}_foot")
+        b.builder.Connect(b.dyn.GetOutputPort(op), anchor.GetInputPort(f"{side}_foot_reference"))
+    b.builder.Connect(b.plant.get_body_poses_output_port(), anchor.GetInputPort("body_poses"))
+    b.log("drift", anchor.GetOutputPort("drift"))
+    return anchor
+
+
 def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
     """Build the ``walk`` diagram and its script, with ``pushes`` on the robot."""
+    return build_walk(walk_steps, meshcat=meshcat, pushes=pushes)
+
+
+def build_walk(
+    steps_of: Callable[[Footstep, Footstep], list[Footstep]],
+    *,
+    meshcat: Meshcat | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    anchored: bool = False,
+) -> ScenarioSetup:
+    """A walking diagram (the ``walk`` stack, the ZMP estimator, logs) and its script: at
+    ``START`` the steps ``steps_of(left, right)`` (made from the initial footprints) are given
+    to the generator. ``anchored``: see :func:`add_walking`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
-    pg, left, right = add_walking(b)
+    pg, left, right = add_walking(b, anchored=anchored)
     b.add_posture_task("taskPosture", gain=1.0)
 
     zmp = b.builder.AddSystem(
@@ -128,7 +181,7 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
     ):
         b.log(name, port)
     built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, solver="hqp")
-    steps = walk_steps(left, right)
+    steps = steps_of(left, right)
     commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
     duration = START + len(steps) * (TIMING.single_support + TIMING.double_support) + 2.0
     return ScenarioSetup(
