@@ -64,7 +64,10 @@ def smooth_step(t: float | np.ndarray, t1: float, t2: float) -> float | np.ndarr
         raise ValueError("smooth_step: t contains NaN or Inf")
     if t2 == t1:
         return (ts >= t1).astype(float)
-    u = np.clip((ts - t1) / (t2 - t1), 0.0, 1.0)
+    # A span of a few ulps can overflow the quotient to ±inf outside [t1, t2]; the clip maps
+    # that to the right end, so the overflow is expected, not an error.
+    with np.errstate(over="ignore"):
+        u = np.clip((ts - t1) / (t2 - t1), 0.0, 1.0)
     return 0.5 - 0.5 * np.cos(np.pi * u)
 
 
