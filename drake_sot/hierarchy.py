@@ -39,7 +39,7 @@ import numpy as np
 import scipy.linalg.lapack
 
 from drake_sot import validation
-from drake_sot.linalg import SvdSplit
+from drake_sot.linalg import SvdSplit, full_rank_lstsq
 from drake_sot.validation import nonnegative, positive_int
 
 __all__ = [
@@ -189,12 +189,19 @@ def solve_strict(
         if rows.size < J.shape[0]:  # zero rows constrain nothing: skip them in the SVD
             J, edot = J[rows], edot[rows]
         A = J if Z is None else J @ Z  # (m_i, k_{i-1})
-        split = SvdSplit.of(A, rank_threshold)
-        u = split.solve(edot - J @ qdot, damping)  # (k_{i-1},)
+        b = edot - J @ qdot
+        # A tall level that takes all the freedom left: its least squares by QR (same answer).
+        u = None if damping else full_rank_lstsq(A, b, rank_threshold)
+        if u is None:
+            split = SvdSplit.of(A, rank_threshold)
+            u = split.solve(b, damping)  # (k_{i-1},)
+            N = split.null_basis()  # (k_{i-1}, k_i)
+            rank = split.rank
+        else:
+            N, rank = np.zeros((A.shape[1], 0)), A.shape[1]
         qdot += u if Z is None else Z @ u
-        N = split.null_basis()  # (k_{i-1}, k_i)
         Z = N if Z is None else Z @ N
-        ranks.append(split.rank)
+        ranks.append(rank)
         free_dims.append(Z.shape[1])
 
     return HierarchyResult(qdot=qdot, rank=tuple(ranks), free_dims=tuple(free_dims), levels=checked)
@@ -769,6 +776,8 @@ class _ActiveSet:
         self.hi = np.zeros(0)
         self.c_norms = np.zeros(0)
         self.iterations = 0
+        #: True while q̇ is still the zero vector (no step taken): J q̇ = 0 without a product.
+        self.x_zero = True
         #: True while every level took one minimum-norm step: q̇ is then orthogonal to Z.
         self.min_norm = True
 
@@ -780,7 +789,29 @@ class _ActiveSet:
         """Solve one level, then fix its equality and violated rows and keep the others as hard rows."""
         if self.Z is not None and not self.Z.shape[1]:
             return  # nothing left to move: the level cannot act, nor its rows change
+        if lower is upper:
+            # An equality level given as (J, target, target) (StackOfTasks' form): no bound to compare.
+            # Its zero rows are kept: a zero row of J Z changes neither the SVD's kept part nor the step.
+            first = self._equality_step(J, upper)
+            if first is not None:
+                equality = np.ones(J.shape[0], dtype=bool)
+                side = np.full(J.shape[0], 2, dtype=np.int8)
+                self._finish(J, lower, upper, equality, side, _NO_ROWS, name, first)
+            return
         equality = lower == upper
+        if not equality.any():
+            x_zero = self.x_zero
+            value = None if x_zero else J @ self.x
+            if (
+                (lower <= self.tol).all() and (upper >= -self.tol).all()
+                if x_zero
+                else ((value <= upper + self.tol) & (value >= lower - self.tol)).all()
+            ):
+                # Inequalities that all hold: the level is met where it stands, its rows turn hard
+                # (a zero row or one without bounds among them holds whatever q̇ does).
+                self.iterations += 1
+                self._add_hard(J, lower, upper)
+                return
         keep = J.any(axis=1)
         if not equality.all():
             keep &= (lower > -_INF) | (upper < _INF)
@@ -793,13 +824,6 @@ class _ActiveSet:
             first = self._equality_step(J, upper)
             if first is None:
                 return
-        if not equality.any():
-            value = J @ self.x
-            if ((value <= upper + self.tol) & (value >= lower - self.tol)).all():
-                # Inequalities that all hold: the level is met where it stands, its rows turn hard.
-                self.iterations += 1
-                self._add_hard(J, lower, upper)
-                return
         soft = np.flatnonzero(~equality)
         side = np.full(J.shape[0], 2, dtype=np.int8)  # 2: equality; ±1: held at upper/lower; 0: free
         if soft.size:
@@ -807,9 +831,24 @@ class _ActiveSet:
             Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])
             value = Js @ self.x
             side[soft] = np.where(value > us + self.tol, 1, np.where(value < ls - self.tol, -1, 0))
+        self._finish(J, lower, upper, equality, side, soft, name, first)
+
+    def _finish(
+        self,
+        J: np.ndarray,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        equality: np.ndarray,
+        side: np.ndarray,
+        soft: np.ndarray,
+        name: str,
+        first: tuple[SvdSplit, np.ndarray] | None,
+    ) -> None:
+        """The active set of a level that needs one (:meth:`_minimise`), then its rows fixed or made hard."""
         last, iterations = self._minimise(J, lower, upper, side, soft, name, first)
         # The level's optimum: its equality rows and violated rows keep their values below.
         if soft.size:
+            Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])
             held = side[soft]
             residual = Js @ self.x - np.where(held == -1, ls, us)
             violated = (held != 0) & (np.abs(residual) > self.tol)
@@ -842,23 +881,36 @@ class _ActiveSet:
         return None. When a hard row blocks the step, change nothing and return the SVD and
         the step, :meth:`_minimise`'s first iteration."""
         Z, x = self.Z, self.x
-        split = SvdSplit.of(J if Z is None else J @ Z, self.rank_threshold)
-        y = split.solve(target - J @ x)
-        d = y if Z is None else Z @ y
+        A = J if Z is None else J @ Z
+        b = target if self.x_zero else target - J @ x
+        y = full_rank_lstsq(A, b, self.rank_threshold)  # a tall level that takes all the freedom left
+        if y is None:
+            split = SvdSplit.of(A, self.rank_threshold)
+            r = split.rank
+            # With V = Z Vᵀ_split: the step is V[:, :r] s⁻¹ Uᵀ b and the new basis V[:, r:] (one product).
+            V = split.Vt.T if Z is None else Z @ split.Vt.T
+            d = V[:, :r] @ ((split.U[:, :r].T @ b) / split.s[:r])
+            basis = V[:, r:]
+        else:
+            split, d = None, y if Z is None else Z @ y
+            basis = np.zeros((self.n, 0))
         d_norm = math.sqrt(float(d @ d))
         if d_norm > 1e-15 * (1.0 + math.sqrt(float(x @ x))):
             if self.C.shape[0]:
                 _, step, _ = _first_block(self.C, self.lo, self.hi, x, d, 1e-10 * d_norm * self.c_norms)
                 if step < 1.0:
-                    return split, d
+                    return split or SvdSplit.of(A, self.rank_threshold), d
             self.x = x + d
+            self.x_zero = False
         self.iterations += 1
-        N = split.null_basis()
-        self.Z = N if Z is None else Z @ N
+        self.Z = basis
         return None
 
     def _add_hard(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
         """Rows that hold at this level's optimum: the levels below must keep them holding."""
+        if not self.C.shape[0]:
+            self.C, self.lo, self.hi, self.c_norms = rows, lower, upper, _row_norms(rows)
+            return
         self.C = np.vstack((self.C, rows))
         self.lo = np.concatenate((self.lo, lower))
         self.hi = np.concatenate((self.hi, upper))
@@ -978,6 +1030,7 @@ class _ActiveSet:
                         leaving = (hard, int(held[k]))
             if leaving is None:
                 self.x = x
+                self.x_zero = False
                 return last, iteration
             status, row = leaving
             if status is hard:
