@@ -9,6 +9,12 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FrameIndex, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from drake_sot.signals import OperationalPoint
+
+#: Suffix of the output that carries an operational point's pose and Jacobian in one value.
+FRAME_SUFFIX = "_frame"
+_ORIGIN = np.zeros(3)
+
 
 class RobotKinematics(LeafSystem):
     """Forward kinematics of the controller's robot model, on demand.
@@ -28,6 +34,9 @@ class RobotKinematics(LeafSystem):
         <name>: pose of the operational point's frame in world, abstract ``RigidTransform``.
         J<name>: the frame's Jacobian, abstract ``ndarray`` (6, nv): rows ``[ω; v]``
             (angular velocity, then velocity of the frame origin, world frame), w.r.t. v.
+        <name>_frame: both at once, abstract :class:`~drake_sot.signals.OperationalPoint`
+            (rotation (3, 3), translation (3,) [m], Jacobian (6, nv) as ``J<name>``): one
+            evaluation for a feature that reads both (a pose feature's ``frame`` input).
 
     The plant is a finalized model owned by the controller (see
     ``drake_sot.models.make_control_model``), distinct from the simulated plant; this
@@ -65,14 +74,19 @@ class RobotKinematics(LeafSystem):
         return dict(self._operational_points)
 
     def add_operational_point(self, name: str, frame_name: str) -> None:
-        """Create output ports ``name`` (pose) and ``J<name>`` (Jacobian) for a frame.
+        """Create output ports ``name`` (pose), ``J<name>`` (Jacobian) and ``<name>_frame`` (both)
+        for a frame.
 
         The paper's ``dyn.createOpPoint rleg 6``, naming a frame instead of a joint rank.
-        Must be called before the diagram is built. Raises ValueError when the name is
-        taken or the frame does not exist (listing the model's frames).
+        Must be called before the diagram is built. Raises ValueError when one of the three
+        port names is taken or the frame does not exist (listing the model's frames).
         """
-        if name in self._operational_points or name in ("com", "Jcom", "q"):
-            raise ValueError(f"operational point {name!r} already exists on {self.get_name()!r}")
+        ports = (name, "J" + name, name + FRAME_SUFFIX)
+        if name in self._operational_points or any(self.HasOutputPort(port) for port in ports):
+            raise ValueError(
+                f"operational point {name!r} already exists on {self.get_name()!r}, or one of "
+                f"its outputs {', '.join(map(repr, ports))} is taken"
+            )
         if not self._plant.HasFrameNamed(frame_name):
             frames = sorted(
                 self._plant.get_frame(FrameIndex(i)).name() for i in range(self._plant.num_frames())
@@ -110,6 +124,21 @@ class RobotKinematics(LeafSystem):
             "J" + name,
             lambda: AbstractValue.Make(np.zeros((6, nv))),
             calc_jacobian,
+            prerequisites_of_calc=q_ticket,
+        )
+
+        def calc_frame(context, value) -> None:
+            self._update(context)
+            X = frame.CalcPoseInWorld(self._plant_context)
+            J = self._plant.CalcJacobianSpatialVelocity(
+                self._plant_context, JacobianWrtVariable.kV, frame, _ORIGIN, self._world, self._world
+            )
+            value.set_value(OperationalPoint(X.rotation().matrix(), X.translation(), J))
+
+        self.DeclareAbstractOutputPort(
+            name + FRAME_SUFFIX,
+            lambda: AbstractValue.Make(OperationalPoint(np.eye(3), np.zeros(3), np.zeros((6, nv)))),
+            calc_frame,
             prerequisites_of_calc=q_ticket,
         )
 

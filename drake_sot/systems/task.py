@@ -11,7 +11,7 @@ from pydrake.systems.framework import Context, InputPort, LeafSystem
 
 from drake_sot import features as fmath
 from drake_sot.features import SelectionLike
-from drake_sot.gains import Gain, evaluate_gain, validate_gain
+from drake_sot.gains import AdaptiveGain, Gain, validate_gain
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.features import _Feature
@@ -119,16 +119,20 @@ class Task(LeafSystem):
         return context.get_abstract_parameter(self._gain).get_value()
 
     def _calc_task(self, context: Context, value: AbstractValue) -> None:
-        if not self._features:
+        features = self._features
+        if len(features) == 1:  # the common case: one feature, no concatenation
+            port, _, rows = features[0]
+            e, J, ff = _rows(port.Eval(context), rows)
+        elif not features:
             raise RuntimeError(f"task {self.get_name()!r} has no feature: call add() before building")
-        signals = [_rows(port.Eval(context), rows) for port, _, rows in self._features]
-        if len(signals) == 1:
-            e, J, ff = signals[0]
         else:
+            signals = [_rows(port.Eval(context), rows) for port, _, rows in features]
             e = np.concatenate([s[0] for s in signals])
             J = np.vstack([s[1] for s in signals])
             ff = np.concatenate([s[2] for s in signals])
-        gain = evaluate_gain(self._current_gain(context), math.sqrt(float(e @ e)))
+        gain = self._current_gain(context)
+        if isinstance(gain, AdaptiveGain):  # ‖e‖ only for a gain that depends on it
+            gain = gain(math.sqrt(float(e @ e)))
         value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))
 
 

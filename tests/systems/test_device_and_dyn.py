@@ -53,6 +53,12 @@ def test_dyn_operational_points_match_the_plant(control_model):
         dyn.add_operational_point("x", "nope")
     with pytest.raises(ValueError, match="already exists"):
         dyn.add_operational_point("rleg", info.frames["left_foot"])
+    with pytest.raises(
+        ValueError, match="outputs 'com', 'Jcom', 'com_frame' is taken"
+    ):  # "J" + "com" is taken
+        dyn.add_operational_point("com", info.frames["left_foot"])
+    with pytest.raises(ValueError, match="outputs 'rleg_frame', 'Jrleg_frame'"):  # the second op's pose port
+        dyn.add_operational_point("rleg_frame", info.frames["left_foot"])
     context = dyn.CreateDefaultContext()
     q = random_configuration(plant, q0, np.random.default_rng(1))
     dyn.GetInputPort("q").FixValue(context, q)
@@ -65,6 +71,10 @@ def test_dyn_operational_points_match_the_plant(control_model):
         pc, JacobianWrtVariable.kV, frame, np.zeros(3), plant.world_frame(), plant.world_frame()
     )
     np.testing.assert_allclose(dyn.GetOutputPort("Jrleg").Eval(context), J, atol=1e-14)
+    both = dyn.GetOutputPort("rleg_frame").Eval(context)  # the same pose and Jacobian in one value
+    np.testing.assert_allclose(both.rotation, frame.CalcPoseInWorld(pc).rotation().matrix(), atol=1e-14)
+    np.testing.assert_allclose(both.translation, frame.CalcPoseInWorld(pc).translation(), atol=1e-14)
+    np.testing.assert_allclose(both.jacobian, J, atol=1e-14)
     np.testing.assert_allclose(
         dyn.GetOutputPort("com").Eval(context), plant.CalcCenterOfMassPositionInWorld(pc), atol=1e-14
     )
