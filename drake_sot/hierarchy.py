@@ -39,7 +39,7 @@ import numpy as np
 import scipy.linalg.lapack
 
 from drake_sot import validation
-from drake_sot.linalg import SvdSplit, full_rank_lstsq
+from drake_sot.linalg import SvdSplit, _upper_mask, full_rank_lstsq
 from drake_sot.validation import nonnegative, positive_int
 
 __all__ = [
@@ -546,6 +546,9 @@ def generalized_projectors(
 HqpLevel = tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, np.ndarray]
 
 _INF = math.inf
+_EPS = float(np.finfo(float).eps)
+_GEQRF = scipy.linalg.lapack.dgeqrf
+_TRTRI = scipy.linalg.lapack.dtrtri
 
 
 @dataclass(frozen=True)
@@ -717,8 +720,10 @@ def solve_hqp(
         tolerance: a row within it of a bound is at that bound; a residual or
             multiplier on the wrong side by less is zero (absolute, in the rows' units),
             finite > 0.
-        validate: check shapes, finiteness and bounds (below). A caller that has
-            checked them and passes ``(J, lower, upper)`` triples may skip it.
+        validate: check shapes, finiteness and bounds, and ``rank_threshold`` and
+            ``tolerance`` (below). A caller that has checked them (``StackOfTasks`` checks
+            the two numbers at construction and the signals at each tick, naming the
+            task) may skip it.
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
@@ -732,9 +737,9 @@ def solve_hqp(
         RuntimeError: the active set did not settle (cycling on a degenerate
             problem), naming the level.
     """
-    rank_threshold = nonnegative("rank_threshold", rank_threshold)
-    tolerance = validation.positive("tolerance", tolerance)
     if validate:
+        rank_threshold = nonnegative("rank_threshold", rank_threshold)
+        tolerance = validation.positive("tolerance", tolerance)
         checked, level_names = _validate_hqp(levels, names)
     else:
         checked = [(lv[0], lv[1], lv[1]) if len(lv) == 2 else tuple(lv) for lv in levels]
@@ -742,10 +747,20 @@ def solve_hqp(
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
     solver = _ActiveSet(checked[0][0].shape[1], rank_threshold, tolerance)
-    free_dims = []
-    for (J, lower, upper), name in zip(checked, level_names, strict=True):
-        solver.level(J, lower, upper, name)
+    free_dims: list[int] = []
+    i = 0
+    while i < len(checked):
+        run = i
+        while run < len(checked) and checked[run][1] is checked[run][2]:  # equality levels (J, t, t)
+            run += 1
+        if run - i >= 2:
+            i += solver.equality_run(checked[i:run], free_dims)
+            if i == run:
+                continue
+        J, lower, upper = checked[i]
+        solver.level(J, lower, upper, level_names[i])
         free_dims.append(solver.free_dims)
+        i += 1
     solver.regularise()
     return HqpResult(
         qdot=solver.x,
@@ -775,6 +790,13 @@ class _ActiveSet:
         self.lo = np.zeros(0)
         self.hi = np.zeros(0)
         self.c_norms = np.zeros(0)
+        #: A lower bound of every hard row's distance to its nearer bound at q̇, and the largest
+        #: 2-norm and 1-norm of a hard row: a step d with min(||d||₂ c_norm_max, ||d||∞ c_l1_max)
+        #: < room cannot take a row out (|C_i d| <= ||C_i||₂ ||d||₂ and <= ||C_i||₁ ||d||∞), so it
+        #: needs no ratio test.
+        self.room = math.inf
+        self.c_norm_max = 0.0
+        self.c_l1_max: float | None = 0.0  # None: not computed since rows were added
         self.iterations = 0
         #: True while q̇ is still the zero vector (no step taken): J q̇ = 0 without a product.
         self.x_zero = True
@@ -883,7 +905,9 @@ class _ActiveSet:
         Z, x = self.Z, self.x
         A = J if Z is None else J @ Z
         b = target if self.x_zero else target - J @ x
-        y = full_rank_lstsq(A, b, self.rank_threshold)  # a tall level that takes all the freedom left
+        m, k = A.shape
+        # A tall level that takes all the freedom left: its least squares by QR.
+        y = full_rank_lstsq(A, b, self.rank_threshold) if m >= k else None
         if y is None:
             split = SvdSplit.of(A, self.rank_threshold)
             r = split.rank
@@ -894,27 +918,125 @@ class _ActiveSet:
         else:
             split, d = None, y if Z is None else Z @ y
             basis = np.zeros((self.n, 0))
-        d_norm = math.sqrt(float(d @ d))
-        if d_norm > 1e-15 * (1.0 + math.sqrt(float(x @ x))):
-            if self.C.shape[0]:
-                _, step, _ = _first_block(self.C, self.lo, self.hi, x, d, 1e-10 * d_norm * self.c_norms)
-                if step < 1.0:
-                    return split or SvdSplit.of(A, self.rank_threshold), d
-            self.x = x + d
-            self.x_zero = False
+        if not self._step(d):
+            return split or SvdSplit.of(A, self.rank_threshold), d
         self.iterations += 1
         self.Z = basis
         return None
 
+    def _step(self, d: np.ndarray) -> bool:
+        """Take the step ``q̇ += d`` unless a hard row blocks it (then change nothing, return False).
+        A step below rounding (||d|| <= 1e-15 (1 + ||q̇||)) is not taken (True)."""
+        x = self.x
+        d_norm = math.sqrt(float(d @ d))
+        if not d_norm > 1e-15 * (1.0 + math.sqrt(float(x @ x))):
+            return True
+        reach = d_norm * self.c_norm_max
+        if reach >= self.room:
+            if self.c_l1_max is None:
+                self.c_l1_max = float(np.abs(self.C).sum(axis=1).max(initial=0.0))
+            reach = min(reach, float(np.abs(d).max()) * self.c_l1_max)
+        if reach < self.room:  # no hard row (or none within reach): no ratio test
+            self.room -= reach
+            self.x = x + d
+        else:
+            _, step, _ = _first_block(self.C, self.lo, self.hi, x, d, 1e-10 * d_norm * self.c_norms)
+            if step < 1.0:
+                return False
+            self.x = x + d
+            self.room = self._room(self.C, self.lo, self.hi)
+        self.x_zero = False
+        return True
+
+    def equality_run(
+        self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], free_dims: list[int]
+    ) -> int:
+        """Consecutive levels of equalities, solved together while each takes its full row rank
+        in what the levels above leave; returns how many of ``levels`` it solved (appending their
+        free dimensions to ``free_dims``), the caller going on level by level from there.
+
+        With the stacked ``A = (J_1; ...; J_p) Z`` (M <= k rows) and ``Aᵀ = Q R`` (Householder QR,
+        Q complete), ``A = L Qᵀ``, ``L = Rᵀ`` lower triangular in blocks: ``J_i Z Q_j = L_ij``,
+        zero for j > i. So ``J_i Z_{i-1}``, with the basis ``Z_{i-1} = Z Q[:, M_<i:]`` of what
+        the levels above i leave, is ``[L_ii 0]``: its singular values are those of ``L_ii`` and,
+        when they are all above the rank floor, :meth:`_equality_step`'s step is
+        ``Z Q_i L_ii⁻¹ c_i`` with ``c_i = t_i - J_i q̇_{i-1}`` (the same step: the pseudo-inverse
+        of ``[L_ii 0]`` is ``[L_ii⁻¹; 0]``). The rank floor is certified as in
+        :func:`~drake_sot.linalg.full_rank_lstsq` (``σ_min(L_ii) >= 1 / ||L_ii⁻¹||_F``,
+        ``σ_max <= ||L_ii||_F``). One QR for the run instead of one SVD per level. A level that
+        is not certified, or whose step a hard row blocks, is left to :meth:`level` with
+        ``Z = Z Q[:, M_<i:]``, a basis of what the levels before it leave.
+        """
+        Z, rt = self.Z, self.rank_threshold
+        k = self.n if Z is None else Z.shape[1]
+        count, total = 0, 0
+        for J, _, _ in levels:
+            if total + J.shape[0] > k:
+                break
+            total += J.shape[0]
+            count += 1
+        if count < 2:
+            return 0
+        J_all = np.vstack([level[0] for level in levels[:count]])
+        A = J_all if Z is None else J_all @ Z
+        qr, tau, _, info = _GEQRF(A.T)
+        if info:
+            return 0
+        padded = np.zeros((k, k), order="F")
+        padded[:, :total] = qr
+        Q, _, info = _ORGQR(padded, tau)
+        if info:
+            return 0
+        V = Q if Z is None else Z @ Q  # the levels' row spaces in order, then what they leave
+        target = np.concatenate([level[1] for level in levels[:count]])
+        c = target if self.x_zero else target - J_all @ self.x
+        start = 0
+        for i in range(count):
+            end = start + levels[i][0].shape[0]
+            R_inv, info = _TRTRI(qr[start:end, start:end])  # R_ii in the upper triangle; L_ii = R_iiᵀ
+            if info:
+                self.Z = V[:, start:]
+                return i
+            mask = _upper_mask(end - start)
+            R_inv *= mask
+            R = (qr[start:end, start:end] * mask).ravel()
+            floor = max(rt, max(end - start, k - start) * _EPS * math.sqrt(float(R @ R)))
+            r = R_inv.ravel()
+            y = R_inv.T @ c[start:end]
+            if math.sqrt(float(r @ r)) * floor >= 1.0 or not self._step(V[:, start:end] @ y):
+                self.Z = V[:, start:]
+                return i
+            if end < total:  # the later levels' targets seen from the new q̇: c_j -= L_ji y_i
+                c[end:] -= y @ qr[start:end, end:total]
+            self.iterations += 1
+            free_dims.append(k - end)
+            start = end
+        self.Z = V[:, total:]
+        return count
+
     def _add_hard(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
         """Rows that hold at this level's optimum: the levels below must keep them holding."""
+        norms = _row_norms(rows)
+        self.room = min(self.room, self._room(rows, lower, upper))
+        self.c_norm_max = max(self.c_norm_max, float(norms.max(initial=0.0)))
+        self.c_l1_max = None
         if not self.C.shape[0]:
-            self.C, self.lo, self.hi, self.c_norms = rows, lower, upper, _row_norms(rows)
+            self.C, self.lo, self.hi, self.c_norms = rows, lower, upper, norms
             return
         self.C = np.vstack((self.C, rows))
         self.lo = np.concatenate((self.lo, lower))
         self.hi = np.concatenate((self.hi, upper))
-        self.c_norms = np.concatenate((self.c_norms, _row_norms(rows)))
+        self.c_norms = np.concatenate((self.c_norms, norms))
+
+    def _room(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
+        """The smallest distance of ``rows q̇`` to the nearer of its bounds (negative outside; inf
+        when there are no rows or no finite bounds)."""
+        if not rows.shape[0]:
+            return math.inf
+        if self.x_zero:
+            return float(np.minimum(-lower, upper).min())
+        value = rows @ self.x
+        return float(np.minimum(value - lower, upper - value).min())
 
     def regularise(self) -> None:
         """The last level ``I q̇ = 0``: the minimum-norm q̇ among the solutions of all levels.
@@ -1031,6 +1153,7 @@ class _ActiveSet:
             if leaving is None:
                 self.x = x
                 self.x_zero = False
+                self.room = self._room(C, self.lo, self.hi)
                 return last, iteration
             status, row = leaving
             if status is hard:
