@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FrameIndex, JacobianWrtVariable
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
 
 from drake_sot.signals import OperationalPoint
 
@@ -50,11 +52,23 @@ class RobotKinematics(LeafSystem):
         self._plant = plant
         self._plant_context = plant.CreateDefaultContext()
         self._world = plant.world_frame()
-        self._last_q = b""  # bytes of the q loaded in the scratch context
         self._operational_points: dict[str, str] = {}
         nq, nv = plant.num_positions(), plant.num_velocities()
         self._q_port = self.DeclareVectorInputPort("q", nq)
         q_ticket = {self.input_port_ticket(self._q_port.get_index())}
+        # Each new q of a context gets a serial number, in a cache entry (Drake recomputes it when
+        # q changes); the scratch context holds the q of serial _loaded. An output then checks one
+        # integer instead of copying and comparing q, and reloads q after another context's.
+        self._serials = itertools.count(1)
+        self._loaded = 0
+        self._q_serial = self.DeclareCacheEntry(
+            "serial number of q",
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(0),
+                calc=lambda context, value: value.set_value(next(self._serials)),
+            ),
+            q_ticket,
+        )
         self.DeclareVectorOutputPort("com", 3, self._calc_com, prerequisites_of_calc=q_ticket)
         self.DeclareAbstractOutputPort(
             "Jcom",
@@ -143,12 +157,11 @@ class RobotKinematics(LeafSystem):
         )
 
     def _update(self, context) -> None:
-        """Load q into the scratch plant context, only when it changed."""
-        q = self._q_port.Eval(context)
-        key = q.tobytes()
-        if key != self._last_q:
-            self._plant.SetPositions(self._plant_context, q)
-            self._last_q = key
+        """Load the context's q into the scratch plant context, unless it is there already."""
+        serial = self._q_serial.Eval(context)
+        if serial != self._loaded:
+            self._plant.SetPositions(self._plant_context, self._q_port.Eval(context))
+            self._loaded = serial
 
     def _calc_com(self, context, output: BasicVector) -> None:
         self._update(context)
