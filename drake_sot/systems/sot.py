@@ -11,6 +11,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot import validation
+from drake_sot.blas import limit_blas_threads
 from drake_sot.hierarchy import solve_hqp, solve_strict
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Stack, StackError
@@ -78,6 +79,10 @@ class StackOfTasks(LeafSystem):
     of the blend, two for a single change. During a change the ``stack`` output is the
     stack reached, and ``errors`` holds the error of every task of the blend.
 
+    Making a ``StackOfTasks`` limits the process's OpenBLAS libraries to one thread
+    (:func:`drake_sot.blas.limit_blas_threads`: on the tick's small matrices more threads
+    gain nothing and, on a loaded machine, cost milliseconds).
+
     The stack can instead be *driven*: when the optional ``stack`` input port is
     connected (e.g. to a :class:`~drake_sot.systems.sequencer.TaskSequencer`), the
     stack used at each tick is that input's value and the stack held in the context
@@ -143,6 +148,7 @@ class StackOfTasks(LeafSystem):
         solver: str = "svd",
     ) -> None:
         super().__init__()
+        limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
         self.set_name(name)
         where = f"StackOfTasks {name!r}"
         self._nv = validation.positive_int(f"{where}: nv", nv)
