@@ -50,7 +50,7 @@ class Task(LeafSystem):
         super().__init__()
         self.set_name(name)
         # (input port, dimension, rows of the feature's output the task keeps or None for all)
-        self._features: list[tuple[InputPort, int, np.ndarray | None]] = []
+        self._features: list[tuple[InputPort, int, np.ndarray | slice | None]] = []
         # Value[object]: the parameter holds a float or an AdaptiveGain.
         self._gain = self.DeclareAbstractParameter(Value[object](validate_gain(gain, name=name)))
         self._gain_input = self.DeclareVectorInputPort(GAIN_PORT, 1)
@@ -93,7 +93,9 @@ class Task(LeafSystem):
                 selection, feature.dimension, name=f"selection of {name!r} in task {self.get_name()!r}"
             )
         )
-        self._features.append((port, feature.dimension if rows is None else int(rows.size), rows))
+        if rows is not None and rows.size and (np.diff(rows) == 1).all():
+            rows = slice(int(rows[0]), int(rows[-1]) + 1)  # consecutive components: views, not copies
+        self._features.append((port, feature.dimension if rows is None else _count(rows), rows))
         return port
 
     def set_gain(self, context: Context, gain: Gain) -> None:
@@ -136,7 +138,14 @@ class Task(LeafSystem):
         value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))
 
 
-def _rows(signal: FeatureSignal, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _count(rows: np.ndarray | slice) -> int:
+    """How many components ``rows`` (indices, or a slice of consecutive ones) keeps."""
+    return rows.stop - rows.start if isinstance(rows, slice) else int(rows.size)
+
+
+def _rows(
+    signal: FeatureSignal, rows: np.ndarray | slice | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(e, J, feedforward)`` of a feature signal, restricted to ``rows`` (None: all)."""
     if rows is None:
         return signal.error, signal.jacobian, signal.feedforward
