@@ -171,7 +171,8 @@ def bench_tick_against_baseline(blocks: int = 60, block: int = 10) -> dict[str, 
     root = pathlib.Path(__file__).resolve().parent.parent
 
     def start(tree: pathlib.Path) -> subprocess.Popen:
-        env = {**os.environ, "PYTHONPATH": str(tree)}
+        # One BLAS thread in both (this tree pins it itself, drake_sot.blas): the ratio is the code's.
+        env = {**os.environ, "PYTHONPATH": str(tree), "OPENBLAS_NUM_THREADS": "1"}
         server = subprocess.Popen(
             [sys.executable, __file__, SERVE_FLAG],
             cwd=tree,
