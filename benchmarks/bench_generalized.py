@@ -484,6 +484,9 @@ def controller_tick(duration: float = 4.0) -> None:
 
 
 def main() -> None:
+    from drake_sot.blas import limit_blas_threads  # not at the top: the baseline tree has none
+
+    limit_blas_threads(1)  # as the controllers do when they are made (drake_sot.blas)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ticks", type=int, default=500)
     run(ap.parse_args().ticks)

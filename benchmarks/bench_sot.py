@@ -264,6 +264,9 @@ def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, flo
 
 
 def main() -> None:
+    from drake_sot.blas import limit_blas_threads  # not at the top: the baseline tree has none
+
+    limit_blas_threads(1)  # as the controllers do when they are made (drake_sot.blas)
     solver = bench_solver()
     hqp = bench_hqp()
     tick = bench_tick()

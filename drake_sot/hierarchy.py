@@ -14,7 +14,10 @@ orthonormal basis ``Z_{i-1}`` (n, k_{i-1}) of that null space, so that
 Each level costs one SVD of the small matrix ``J_i Z_{i-1}`` (m_i, k_{i-1}),
 which gives at once the pseudo-inverse and the basis of what remains free:
 ``Z_i = Z_{i-1} V_i[:, r_i:]``.  The free space shrinks level by level and the
-solver stops doing work once it is empty.
+solver stops doing work once it is empty.  A tall level that keeps every singular
+value (it takes all the freedom left, e.g. a posture task at the bottom) is solved by
+a QR instead (:func:`drake_sot.linalg.full_rank_lstsq`: the same answer, certified by a
+bound on the singular values, a third of the SVD's cost).
 
 :func:`solve_hqp` extends the strict hierarchy to levels of inequalities
 ``l <= J q̇ <= u`` (Escande, Mansard, Wieber 2014): a primal active set in the same
@@ -691,11 +694,15 @@ def solve_hqp(
 
     Minimum norm: with equalities only no row is ever hard, every step is the
     minimum-norm least-squares step of :func:`solve_strict` in the same basis (same
-    ``rank_threshold``), so q̇ is its result (to rounding: one SVD per level, the same
-    one) and lies in the row space of the augmented Jacobian, which is already the
-    minimum norm. When hard rows exist, the steps of the active set may leave a
-    component in the final free space; the regularisation level ``I q̇ = 0``, solved
-    with the same active set, removes it (down to what the hard rows allow).
+    ``rank_threshold``), so q̇ is its result (to rounding: the same decomposition per
+    level) and lies in the row space of the augmented Jacobian, which is already the
+    minimum norm. Consecutive levels of equalities given as ``(J, t, t)`` (the same array
+    twice, as ``StackOfTasks`` passes them) take these same steps from one QR of their
+    stacked Jacobian, as long as each level keeps its full row rank
+    (:meth:`_ActiveSet.equality_run` says why the steps are the same). When hard rows
+    exist, the steps of the active set may leave a component in the final free space;
+    the regularisation level ``I q̇ = 0``, solved with the same active set, removes it
+    (down to what the hard rows allow).
 
     Why not DAQP's hierarchical mode (``daqp.solve(None, None, A, bu, bl, sense,
     break_points=...)``, ~40 µs on the reach stack against ~150-300 µs here): measured
