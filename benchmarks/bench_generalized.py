@@ -43,7 +43,12 @@ violates a row by more than that is reported as failed, whatever its own status 
 from __future__ import annotations
 
 import argparse
+import os
+import pathlib
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -395,10 +400,11 @@ def run(ticks: int) -> None:
         print(f"\nfirst non-optimal answer of {s}: {msg}")
 
 
-def controller_tick(duration: float = 4.0) -> None:
+def update_samples(duration: float = 4.0) -> tuple[list[float], object]:
     """The GeneralizedHierarchyController's whole update (measured state → kinematics,
     features, tasks, projectors, QP, torques) inside ``table_pounding`` (10 goal-directed
-    tasks + 8 contact points = 18 tasks, 73 task dimensions, 36 DoF), in physics."""
+    tasks + 8 contact points = 18 tasks, 73 task dimensions, 36 DoF), in physics: each
+    update's time [s], and the scenario's setup."""
     from drake_sot.diagrams import table_pounding
     from drake_sot.diagrams.run import simulate
     from drake_sot.systems.generalized_controller import GeneralizedHierarchyController
@@ -417,6 +423,47 @@ def controller_tick(duration: float = 4.0) -> None:
         simulate(setup.built.create_simulator(), duration, setup.commands)
     finally:
         GeneralizedHierarchyController._update = original
+    return samples, setup
+
+
+#: The tree the controller update is compared with (``git archive``): before the speed work of
+#: issue 13. It runs with ``OPENBLAS_NUM_THREADS=1``, as this tree pins itself (drake_sot.blas),
+#: so that the ratio is the code's alone.
+BASELINE_COMMIT = "9ecd1f9"
+UPDATE_FLAG = "--update-median"
+
+
+def update_against_baseline(pairs: int = 2) -> list[tuple[float, float]]:
+    """(baseline, this tree) medians [µs] of the update in ``table_pounding``, the two trees
+    simulated at the same time in two interpreters (they share the machine's load), ``pairs``
+    times."""
+    root = pathlib.Path(__file__).resolve().parent.parent
+    out = []
+    with tempfile.TemporaryDirectory() as baseline:
+        archive = subprocess.run(
+            ["git", "-C", str(root), "archive", BASELINE_COMMIT], check=True, capture_output=True
+        ).stdout
+        subprocess.run(["tar", "-x", "-C", baseline], input=archive, check=True)
+        for _ in range(pairs):
+            runs = [
+                subprocess.Popen(
+                    [sys.executable, __file__, UPDATE_FLAG],
+                    cwd=tree,
+                    env={**os.environ, "PYTHONPATH": str(tree), "OPENBLAS_NUM_THREADS": "1"},
+                    stdout=subprocess.PIPE,
+                    text=True,
+                )
+                for tree in (baseline, root)
+            ]
+            base, tree = (float(run.communicate()[0].split()[-1]) for run in runs)
+            out.append((base, tree))
+    return out
+
+
+def controller_tick(duration: float = 4.0) -> None:
+    """Print the table of the controller's update (:func:`update_samples`) and its medians
+    beside the baseline tree's, simulated at the same time (:func:`update_against_baseline`)."""
+    samples, setup = update_samples(duration)
     us = 1e6 * np.array(samples)
     dims = sum(t.dimension for t in setup.built.tasks.values()) + 3 * 8
     print(
@@ -429,9 +476,17 @@ def controller_tick(duration: float = 4.0) -> None:
         f"| GeneralizedHierarchyController update | {np.median(us):.0f} µs | {np.percentile(us, 99):.0f} µs "
         "| median ≤ 1000 µs, p99 ≤ 3000 µs |"
     )
+    print(f"\nthe same update, this tree and commit {BASELINE_COMMIT} simulated at the same time:\n")
+    print("| pair | this tree (median) | baseline (median) | ratio |")
+    print("|---|---|---|---|")
+    for k, (base, tree) in enumerate(update_against_baseline(), start=1):
+        print(f"| {k} | {tree:.0f} µs | {base:.0f} µs | {tree / base:.2f} |")
 
 
 def main() -> None:
+    from drake_sot.blas import limit_blas_threads  # not at the top: the baseline tree has none
+
+    limit_blas_threads(1)  # as the controllers do when they are made (drake_sot.blas)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ticks", type=int, default=500)
     run(ap.parse_args().ticks)
@@ -439,4 +494,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:] == [UPDATE_FLAG]:
+        print(f"{1e6 * statistics.median(update_samples()[0]):.1f}")
+    else:
+        main()

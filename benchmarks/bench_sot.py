@@ -9,7 +9,8 @@
    joint-limit level of the scenarios on top (a 30-row box, not binding).
 2. One full control tick of ``reach`` (kinematics, 7 features and tasks, the solve)
    against the 5 ms control period, and against the same tick of the tree of
-   ``BASELINE_COMMIT`` (before the speed work of issue 13), interleaved.
+   ``BASELINE_COMMIT`` (before the speed work of issue 13), the two trees in two
+   interpreters run in lock step (blocks of 10 ticks, alternating).
 3. The ``reach`` scenario's real-time factor against the plant alone, standing on
    constant PD set points (no controller), with the same physics settings.
 """
@@ -103,7 +104,10 @@ def bench_hqp(repeat: int = 2000) -> dict[str, float]:
     }
 
 
-def bench_tick(repeat: int = 300) -> dict[str, float]:
+def reach_tick():
+    """One full control tick of ``reach`` as a function: a new configuration (which invalidates
+    kinematics, features and tasks) then ``StackOfTasks``' periodic update, at t = 1 s with the
+    right-hand target just moved (every feature non-trivial)."""
     from drake_sot.diagrams import reach
 
     setup = reach.build(None)
@@ -118,13 +122,16 @@ def bench_tick(repeat: int = 300) -> dict[str, float]:
     q_ref = built.device.GetOutputPort("q").Eval(device_context).copy()
 
     def tick():
-        # A new q invalidates kinematics, features and tasks: the tick recomputes all of them.
         q = q_ref.copy()
         q[7:] += 1e-4 * rng.normal(size=q.size - 7)
         built.device.set_configuration(device_context, q)
         built.sot.EvalUniquePeriodicDiscreteUpdate(sot_context)
 
-    samples = _timeit(tick, repeat)
+    return tick
+
+
+def bench_tick(repeat: int = 300) -> dict[str, float]:
+    samples = _timeit(reach_tick(), repeat)
     return {
         "tick_median_us": 1e6 * statistics.median(samples),
         "tick_p99_us": 1e6 * float(np.percentile(samples, 99)),
@@ -134,32 +141,80 @@ def bench_tick(repeat: int = 300) -> dict[str, float]:
 #: The commit whose ``reach`` tick is the baseline of the tick row: the tree before the speed work
 #: of issue 13 (solve_hqp's active set on every level, numpy's SVD wrapper, one errstate per task).
 BASELINE_COMMIT = "9ecd1f9"
+#: Command-line flag that makes this file a tick server (see :func:`serve_ticks`).
+SERVE_FLAG = "--serve-ticks"
 
 
-def bench_tick_against_baseline(rounds: int = 3, repeat: int = 300) -> dict[str, float]:
-    """:func:`bench_tick` of this tree and of :data:`BASELINE_COMMIT`'s tree (``git archive`` into a
-    temporary directory), each round one fresh interpreter per tree, the two interleaved so that
-    both see the same machine load; the ratio is the median of the per-round ratios of medians."""
+def serve_ticks() -> None:
+    """A tick server for :func:`bench_tick_against_baseline`: builds :func:`reach_tick` with the
+    ``drake_sot`` that ``PYTHONPATH`` gives, says ``ready``, then for each line ``N`` of stdin
+    runs N ticks and prints their times [µs] as one JSON list."""
+    tick = reach_tick()
+    for _ in range(30):  # warm-up
+        tick()
+    print("ready", flush=True)
+    for line in sys.stdin:
+        times = []
+        for _ in range(int(line)):
+            t0 = time.perf_counter()
+            tick()
+            times.append(1e6 * (time.perf_counter() - t0))
+        print(json.dumps(times), flush=True)
+
+
+def bench_tick_against_baseline(blocks: int = 60, block: int = 10) -> dict[str, float]:
+    """The reach tick of this tree and of :data:`BASELINE_COMMIT`'s tree (``git archive`` into a
+    temporary directory), each in its own interpreter (:func:`serve_ticks`), run in lock step:
+    ``blocks`` alternations of ``block`` ticks each, the order swapped every block, so that both
+    see the same machine load within milliseconds. Returns the medians of all the ticks and the
+    median of the per-block ratios of medians."""
     root = pathlib.Path(__file__).resolve().parent.parent
-    code = f"import json, bench_sot; print(json.dumps(bench_sot.bench_tick({repeat})))"
 
-    def run(tree: pathlib.Path) -> dict[str, float]:
-        env = {**os.environ, "PYTHONPATH": str(tree)}
-        out = subprocess.run(
-            [sys.executable, "-c", code], cwd=tree / "benchmarks", env=env, check=True, capture_output=True
+    def start(tree: pathlib.Path) -> subprocess.Popen:
+        # One BLAS thread in both (this tree pins it itself, drake_sot.blas): the ratio is the code's.
+        env = {**os.environ, "PYTHONPATH": str(tree), "OPENBLAS_NUM_THREADS": "1"}
+        server = subprocess.Popen(
+            [sys.executable, __file__, SERVE_FLAG],
+            cwd=tree,
+            env=env,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
         )
-        return json.loads(out.stdout.decode().splitlines()[-1])
+        return server
+
+    def ticks(server: subprocess.Popen) -> list[float]:
+        server.stdin.write(f"{block}\n")
+        server.stdin.flush()
+        return json.loads(server.stdout.readline())
 
     with tempfile.TemporaryDirectory() as baseline:
         archive = subprocess.run(
             ["git", "-C", str(root), "archive", BASELINE_COMMIT], check=True, capture_output=True
         ).stdout
         subprocess.run(["tar", "-x", "-C", baseline], input=archive, check=True)
-        pairs = [(run(pathlib.Path(baseline)), run(root)) for _ in range(rounds)]
+        servers = {"baseline": start(pathlib.Path(baseline)), "tree": start(root)}
+        try:
+            for server in servers.values():
+                if server.stdout.readline().strip() != "ready":
+                    raise RuntimeError("a tick server did not start")
+            samples: dict[str, list[float]] = {"baseline": [], "tree": []}
+            ratios = []
+            for k in range(blocks):
+                order = ("baseline", "tree") if k % 2 == 0 else ("tree", "baseline")
+                got = {name: ticks(servers[name]) for name in order}
+                for name, times in got.items():
+                    samples[name] += times
+                ratios.append(statistics.median(got["tree"]) / statistics.median(got["baseline"]))
+        finally:
+            for server in servers.values():
+                server.stdin.close()
+                server.wait()
     return {
-        "baseline_us": statistics.median(b["tick_median_us"] for b, _ in pairs),
-        "tick_us": statistics.median(t["tick_median_us"] for _, t in pairs),
-        "ratio": statistics.median(t["tick_median_us"] / b["tick_median_us"] for b, t in pairs),
+        "baseline_us": statistics.median(samples["baseline"]),
+        "tick_us": statistics.median(samples["tree"]),
+        "ratio": statistics.median(ratios),
+        "ratio_of_medians": statistics.median(samples["tree"]) / statistics.median(samples["baseline"]),
     }
 
 
@@ -209,6 +264,9 @@ def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, flo
 
 
 def main() -> None:
+    from drake_sot.blas import limit_blas_threads  # not at the top: the baseline tree has none
+
+    limit_blas_threads(1)  # as the controllers do when they are made (drake_sot.blas)
     solver = bench_solver()
     hqp = bench_hqp()
     tick = bench_tick()
@@ -240,10 +298,11 @@ def main() -> None:
             f"{tick['tick_median_us'] / 5000:.1%} of the period",
         ),
         (
-            "reach tick, fresh interpreters, interleaved with the baseline tree (median of 3)",
+            "reach tick, two interpreters in lock step with the baseline tree (600 ticks each)",
             f"{against['tick_us']:.0f} µs",
             f"commit {BASELINE_COMMIT}: {against['baseline_us']:.0f} µs",
-            f"tick / baseline tick: {against['ratio']:.2f}",
+            f"tick / baseline tick: {against['ratio']:.2f} (median of 60 blocks; "
+            f"of all ticks: {against['ratio_of_medians']:.2f})",
         ),
         (
             "reach scenario real-time factor",
@@ -264,4 +323,7 @@ def print_table(rows) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:] == [SERVE_FLAG]:
+        serve_ticks()
+    else:
+        main()

@@ -56,8 +56,3 @@ def validate_gain(gain: Gain, *, name: str) -> Gain:
         return positive(f"task {name!r}: gain", gain, unit="1/s")
     except ValueError as error:
         raise ValueError(f"{error} (or an AdaptiveGain)") from None
-
-
-def evaluate_gain(gain: Gain, error_norm: float) -> float:
-    """λ for the current error norm."""
-    return gain(error_norm) if isinstance(gain, AdaptiveGain) else gain

@@ -14,7 +14,10 @@ orthonormal basis ``Z_{i-1}`` (n, k_{i-1}) of that null space, so that
 Each level costs one SVD of the small matrix ``J_i Z_{i-1}`` (m_i, k_{i-1}),
 which gives at once the pseudo-inverse and the basis of what remains free:
 ``Z_i = Z_{i-1} V_i[:, r_i:]``.  The free space shrinks level by level and the
-solver stops doing work once it is empty.
+solver stops doing work once it is empty.  A tall level that keeps every singular
+value (it takes all the freedom left, e.g. a posture task at the bottom) is solved by
+a QR instead (:func:`drake_sot.linalg.full_rank_lstsq`: the same answer, certified by a
+bound on the singular values, a third of the SVD's cost).
 
 :func:`solve_hqp` extends the strict hierarchy to levels of inequalities
 ``l <= J q̇ <= u`` (Escande, Mansard, Wieber 2014): a primal active set in the same
@@ -39,7 +42,7 @@ import numpy as np
 import scipy.linalg.lapack
 
 from drake_sot import validation
-from drake_sot.linalg import SvdSplit
+from drake_sot.linalg import SvdSplit, _upper_mask, full_rank_lstsq
 from drake_sot.validation import nonnegative, positive_int
 
 __all__ = [
@@ -189,12 +192,19 @@ def solve_strict(
         if rows.size < J.shape[0]:  # zero rows constrain nothing: skip them in the SVD
             J, edot = J[rows], edot[rows]
         A = J if Z is None else J @ Z  # (m_i, k_{i-1})
-        split = SvdSplit.of(A, rank_threshold)
-        u = split.solve(edot - J @ qdot, damping)  # (k_{i-1},)
+        b = edot - J @ qdot
+        # A tall level that takes all the freedom left: its least squares by QR (same answer).
+        u = None if damping else full_rank_lstsq(A, b, rank_threshold)
+        if u is None:
+            split = SvdSplit.of(A, rank_threshold)
+            u = split.solve(b, damping)  # (k_{i-1},)
+            N = split.null_basis()  # (k_{i-1}, k_i)
+            rank = split.rank
+        else:
+            N, rank = np.zeros((A.shape[1], 0)), A.shape[1]
         qdot += u if Z is None else Z @ u
-        N = split.null_basis()  # (k_{i-1}, k_i)
         Z = N if Z is None else Z @ N
-        ranks.append(split.rank)
+        ranks.append(rank)
         free_dims.append(Z.shape[1])
 
     return HierarchyResult(qdot=qdot, rank=tuple(ranks), free_dims=tuple(free_dims), levels=checked)
@@ -539,6 +549,9 @@ def generalized_projectors(
 HqpLevel = tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, np.ndarray]
 
 _INF = math.inf
+_EPS = float(np.finfo(float).eps)
+_GEQRF = scipy.linalg.lapack.dgeqrf
+_TRTRI = scipy.linalg.lapack.dtrtri
 
 
 @dataclass(frozen=True)
@@ -681,11 +694,15 @@ def solve_hqp(
 
     Minimum norm: with equalities only no row is ever hard, every step is the
     minimum-norm least-squares step of :func:`solve_strict` in the same basis (same
-    ``rank_threshold``), so q̇ is its result (to rounding: one SVD per level, the same
-    one) and lies in the row space of the augmented Jacobian, which is already the
-    minimum norm. When hard rows exist, the steps of the active set may leave a
-    component in the final free space; the regularisation level ``I q̇ = 0``, solved
-    with the same active set, removes it (down to what the hard rows allow).
+    ``rank_threshold``), so q̇ is its result (to rounding: the same decomposition per
+    level) and lies in the row space of the augmented Jacobian, which is already the
+    minimum norm. Consecutive levels of equalities given as ``(J, t, t)`` (the same array
+    twice, as ``StackOfTasks`` passes them) take these same steps from one QR of their
+    stacked Jacobian, as long as each level keeps its full row rank
+    (:meth:`_ActiveSet.equality_run` says why the steps are the same). When hard rows
+    exist, the steps of the active set may leave a component in the final free space;
+    the regularisation level ``I q̇ = 0``, solved with the same active set, removes it
+    (down to what the hard rows allow).
 
     Why not DAQP's hierarchical mode (``daqp.solve(None, None, A, bu, bl, sense,
     break_points=...)``, ~40 µs on the reach stack against ~150-300 µs here): measured
@@ -710,8 +727,10 @@ def solve_hqp(
         tolerance: a row within it of a bound is at that bound; a residual or
             multiplier on the wrong side by less is zero (absolute, in the rows' units),
             finite > 0.
-        validate: check shapes, finiteness and bounds (below). A caller that has
-            checked them and passes ``(J, lower, upper)`` triples may skip it.
+        validate: check shapes, finiteness and bounds, and ``rank_threshold`` and
+            ``tolerance`` (below). A caller that has checked them (``StackOfTasks`` checks
+            the two numbers at construction and the signals at each tick, naming the
+            task) may skip it.
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
@@ -725,9 +744,9 @@ def solve_hqp(
         RuntimeError: the active set did not settle (cycling on a degenerate
             problem), naming the level.
     """
-    rank_threshold = nonnegative("rank_threshold", rank_threshold)
-    tolerance = validation.positive("tolerance", tolerance)
     if validate:
+        rank_threshold = nonnegative("rank_threshold", rank_threshold)
+        tolerance = validation.positive("tolerance", tolerance)
         checked, level_names = _validate_hqp(levels, names)
     else:
         checked = [(lv[0], lv[1], lv[1]) if len(lv) == 2 else tuple(lv) for lv in levels]
@@ -735,10 +754,20 @@ def solve_hqp(
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
     solver = _ActiveSet(checked[0][0].shape[1], rank_threshold, tolerance)
-    free_dims = []
-    for (J, lower, upper), name in zip(checked, level_names, strict=True):
-        solver.level(J, lower, upper, name)
+    free_dims: list[int] = []
+    i = 0
+    while i < len(checked):
+        run = i
+        while run < len(checked) and checked[run][1] is checked[run][2]:  # equality levels (J, t, t)
+            run += 1
+        if run - i >= 2:
+            i += solver.equality_run(checked[i:run], free_dims)
+            if i == run:
+                continue
+        J, lower, upper = checked[i]
+        solver.level(J, lower, upper, level_names[i])
         free_dims.append(solver.free_dims)
+        i += 1
     solver.regularise()
     return HqpResult(
         qdot=solver.x,
@@ -768,7 +797,16 @@ class _ActiveSet:
         self.lo = np.zeros(0)
         self.hi = np.zeros(0)
         self.c_norms = np.zeros(0)
+        #: A lower bound of every hard row's distance to its nearer bound at q̇, and the largest
+        #: 2-norm and 1-norm of a hard row: a step d with min(||d||₂ c_norm_max, ||d||∞ c_l1_max)
+        #: < room cannot take a row out (|C_i d| <= ||C_i||₂ ||d||₂ and <= ||C_i||₁ ||d||∞), so it
+        #: needs no ratio test.
+        self.room = math.inf
+        self.c_norm_max = 0.0
+        self.c_l1_max: float | None = 0.0  # None: not computed since rows were added
         self.iterations = 0
+        #: True while q̇ is still the zero vector (no step taken): J q̇ = 0 without a product.
+        self.x_zero = True
         #: True while every level took one minimum-norm step: q̇ is then orthogonal to Z.
         self.min_norm = True
 
@@ -780,7 +818,29 @@ class _ActiveSet:
         """Solve one level, then fix its equality and violated rows and keep the others as hard rows."""
         if self.Z is not None and not self.Z.shape[1]:
             return  # nothing left to move: the level cannot act, nor its rows change
+        if lower is upper:
+            # An equality level given as (J, target, target) (StackOfTasks' form): no bound to compare.
+            # Its zero rows are kept: a zero row of J Z changes neither the SVD's kept part nor the step.
+            first = self._equality_step(J, upper)
+            if first is not None:
+                equality = np.ones(J.shape[0], dtype=bool)
+                side = np.full(J.shape[0], 2, dtype=np.int8)
+                self._finish(J, lower, upper, equality, side, _NO_ROWS, name, first)
+            return
         equality = lower == upper
+        if not equality.any():
+            x_zero = self.x_zero
+            value = None if x_zero else J @ self.x
+            if (
+                (lower <= self.tol).all() and (upper >= -self.tol).all()
+                if x_zero
+                else ((value <= upper + self.tol) & (value >= lower - self.tol)).all()
+            ):
+                # Inequalities that all hold: the level is met where it stands, its rows turn hard
+                # (a zero row or one without bounds among them holds whatever q̇ does).
+                self.iterations += 1
+                self._add_hard(J, lower, upper)
+                return
         keep = J.any(axis=1)
         if not equality.all():
             keep &= (lower > -_INF) | (upper < _INF)
@@ -793,13 +853,6 @@ class _ActiveSet:
             first = self._equality_step(J, upper)
             if first is None:
                 return
-        if not equality.any():
-            value = J @ self.x
-            if ((value <= upper + self.tol) & (value >= lower - self.tol)).all():
-                # Inequalities that all hold: the level is met where it stands, its rows turn hard.
-                self.iterations += 1
-                self._add_hard(J, lower, upper)
-                return
         soft = np.flatnonzero(~equality)
         side = np.full(J.shape[0], 2, dtype=np.int8)  # 2: equality; ±1: held at upper/lower; 0: free
         if soft.size:
@@ -807,9 +860,24 @@ class _ActiveSet:
             Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])
             value = Js @ self.x
             side[soft] = np.where(value > us + self.tol, 1, np.where(value < ls - self.tol, -1, 0))
+        self._finish(J, lower, upper, equality, side, soft, name, first)
+
+    def _finish(
+        self,
+        J: np.ndarray,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        equality: np.ndarray,
+        side: np.ndarray,
+        soft: np.ndarray,
+        name: str,
+        first: tuple[SvdSplit, np.ndarray] | None,
+    ) -> None:
+        """The active set of a level that needs one (:meth:`_minimise`), then its rows fixed or made hard."""
         last, iterations = self._minimise(J, lower, upper, side, soft, name, first)
         # The level's optimum: its equality rows and violated rows keep their values below.
         if soft.size:
+            Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])
             held = side[soft]
             residual = Js @ self.x - np.where(held == -1, ls, us)
             violated = (held != 0) & (np.abs(residual) > self.tol)
@@ -842,27 +910,140 @@ class _ActiveSet:
         return None. When a hard row blocks the step, change nothing and return the SVD and
         the step, :meth:`_minimise`'s first iteration."""
         Z, x = self.Z, self.x
-        split = SvdSplit.of(J if Z is None else J @ Z, self.rank_threshold)
-        y = split.solve(target - J @ x)
-        d = y if Z is None else Z @ y
-        d_norm = math.sqrt(float(d @ d))
-        if d_norm > 1e-15 * (1.0 + math.sqrt(float(x @ x))):
-            if self.C.shape[0]:
-                _, step, _ = _first_block(self.C, self.lo, self.hi, x, d, 1e-10 * d_norm * self.c_norms)
-                if step < 1.0:
-                    return split, d
-            self.x = x + d
+        A = J if Z is None else J @ Z
+        b = target if self.x_zero else target - J @ x
+        m, k = A.shape
+        # A tall level that takes all the freedom left: its least squares by QR.
+        y = full_rank_lstsq(A, b, self.rank_threshold) if m >= k else None
+        if y is None:
+            split = SvdSplit.of(A, self.rank_threshold)
+            r = split.rank
+            # With V = Z Vᵀ_split: the step is V[:, :r] s⁻¹ Uᵀ b and the new basis V[:, r:] (one product).
+            V = split.Vt.T if Z is None else Z @ split.Vt.T
+            d = V[:, :r] @ ((split.U[:, :r].T @ b) / split.s[:r])
+            basis = V[:, r:]
+        else:
+            split, d = None, y if Z is None else Z @ y
+            basis = np.zeros((self.n, 0))
+        if not self._step(d):
+            return split or SvdSplit.of(A, self.rank_threshold), d
         self.iterations += 1
-        N = split.null_basis()
-        self.Z = N if Z is None else Z @ N
+        self.Z = basis
         return None
+
+    def _step(self, d: np.ndarray) -> bool:
+        """Take the step ``q̇ += d`` unless a hard row blocks it (then change nothing, return False).
+        A step below rounding (||d|| <= 1e-15 (1 + ||q̇||)) is not taken (True)."""
+        x = self.x
+        d_norm = math.sqrt(float(d @ d))
+        if not d_norm > 1e-15 * (1.0 + math.sqrt(float(x @ x))):
+            return True
+        reach = d_norm * self.c_norm_max
+        if reach >= self.room:
+            if self.c_l1_max is None:
+                self.c_l1_max = float(np.abs(self.C).sum(axis=1).max(initial=0.0))
+            reach = min(reach, float(np.abs(d).max()) * self.c_l1_max)
+        if reach < self.room:  # no hard row (or none within reach): no ratio test
+            self.room -= reach
+            self.x = x + d
+        else:
+            _, step, _ = _first_block(self.C, self.lo, self.hi, x, d, 1e-10 * d_norm * self.c_norms)
+            if step < 1.0:
+                return False
+            self.x = x + d
+            self.room = self._room(self.C, self.lo, self.hi)
+        self.x_zero = False
+        return True
+
+    def equality_run(
+        self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], free_dims: list[int]
+    ) -> int:
+        """Consecutive levels of equalities, solved together while each takes its full row rank
+        in what the levels above leave; returns how many of ``levels`` it solved (appending their
+        free dimensions to ``free_dims``), the caller going on level by level from there.
+
+        With the stacked ``A = (J_1; ...; J_p) Z`` (M <= k rows) and ``Aᵀ = Q R`` (Householder QR,
+        Q complete), ``A = L Qᵀ``, ``L = Rᵀ`` lower triangular in blocks: ``J_i Z Q_j = L_ij``,
+        zero for j > i. So ``J_i Z_{i-1}``, with the basis ``Z_{i-1} = Z Q[:, M_<i:]`` of what
+        the levels above i leave, is ``[L_ii 0]``: its singular values are those of ``L_ii`` and,
+        when they are all above the rank floor, :meth:`_equality_step`'s step is
+        ``Z Q_i L_ii⁻¹ c_i`` with ``c_i = t_i - J_i q̇_{i-1}`` (the same step: the pseudo-inverse
+        of ``[L_ii 0]`` is ``[L_ii⁻¹; 0]``). The rank floor is certified as in
+        :func:`~drake_sot.linalg.full_rank_lstsq` (``σ_min(L_ii) >= 1 / ||L_ii⁻¹||_F``,
+        ``σ_max <= ||L_ii||_F``). One QR for the run instead of one SVD per level. A level that
+        is not certified, or whose step a hard row blocks, is left to :meth:`level` with
+        ``Z = Z Q[:, M_<i:]``, a basis of what the levels before it leave.
+        """
+        Z, rt = self.Z, self.rank_threshold
+        k = self.n if Z is None else Z.shape[1]
+        count, total = 0, 0
+        for J, _, _ in levels:
+            if total + J.shape[0] > k:
+                break
+            total += J.shape[0]
+            count += 1
+        if count < 2:
+            return 0
+        J_all = np.vstack([level[0] for level in levels[:count]])
+        A = J_all if Z is None else J_all @ Z
+        qr, tau, _, info = _GEQRF(A.T)
+        if info:
+            return 0
+        padded = np.zeros((k, k), order="F")
+        padded[:, :total] = qr
+        Q, _, info = _ORGQR(padded, tau)
+        if info:
+            return 0
+        V = Q if Z is None else Z @ Q  # the levels' row spaces in order, then what they leave
+        target = np.concatenate([level[1] for level in levels[:count]])
+        c = target if self.x_zero else target - J_all @ self.x
+        start = 0
+        for i in range(count):
+            end = start + levels[i][0].shape[0]
+            R_inv, info = _TRTRI(qr[start:end, start:end])  # R_ii in the upper triangle; L_ii = R_iiᵀ
+            if info:
+                self.Z = V[:, start:]
+                return i
+            mask = _upper_mask(end - start)
+            R_inv *= mask
+            R = (qr[start:end, start:end] * mask).ravel()
+            floor = max(rt, max(end - start, k - start) * _EPS * math.sqrt(float(R @ R)))
+            r = R_inv.ravel()
+            y = R_inv.T @ c[start:end]
+            if math.sqrt(float(r @ r)) * floor >= 1.0 or not self._step(V[:, start:end] @ y):
+                self.Z = V[:, start:]
+                return i
+            if end < total:  # the later levels' targets seen from the new q̇: c_j -= L_ji y_i
+                c[end:] -= y @ qr[start:end, end:total]
+            self.iterations += 1
+            free_dims.append(k - end)
+            start = end
+        self.Z = V[:, total:]
+        return count
 
     def _add_hard(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
         """Rows that hold at this level's optimum: the levels below must keep them holding."""
+        norms = _row_norms(rows)
+        self.room = min(self.room, self._room(rows, lower, upper))
+        self.c_norm_max = max(self.c_norm_max, float(norms.max(initial=0.0)))
+        self.c_l1_max = None
+        if not self.C.shape[0]:
+            self.C, self.lo, self.hi, self.c_norms = rows, lower, upper, norms
+            return
         self.C = np.vstack((self.C, rows))
         self.lo = np.concatenate((self.lo, lower))
         self.hi = np.concatenate((self.hi, upper))
-        self.c_norms = np.concatenate((self.c_norms, _row_norms(rows)))
+        self.c_norms = np.concatenate((self.c_norms, norms))
+
+    def _room(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
+        """The smallest distance of ``rows q̇`` to the nearer of its bounds (negative outside; inf
+        when there are no rows or no finite bounds)."""
+        if not rows.shape[0]:
+            return math.inf
+        if self.x_zero:
+            return float(np.minimum(-lower, upper).min())
+        value = rows @ self.x
+        return float(np.minimum(value - lower, upper - value).min())
 
     def regularise(self) -> None:
         """The last level ``I q̇ = 0``: the minimum-norm q̇ among the solutions of all levels.
@@ -978,6 +1159,8 @@ class _ActiveSet:
                         leaving = (hard, int(held[k]))
             if leaving is None:
                 self.x = x
+                self.x_zero = False
+                self.room = self._room(C, self.lo, self.hi)
                 return last, iteration
             status, row = leaving
             if status is hard:

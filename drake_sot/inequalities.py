@@ -57,13 +57,16 @@ def velocity_bounds(
     s = np.asarray(s, dtype=float)
     lower = gain * (s_min - s)
     upper = gain * (s_max - s)
-    return np.clip(lower, rate_min, rate_max), np.clip(upper, rate_min, rate_max)
+    # np.minimum(np.maximum(·)) is np.clip at half its cost (a control tick calls this).
+    return np.minimum(np.maximum(lower, rate_min), rate_max), np.minimum(
+        np.maximum(upper, rate_min), rate_max
+    )
 
 
 def outside(s: np.ndarray, s_min: np.ndarray | float, s_max: np.ndarray | float) -> np.ndarray:
     """How far ``s`` is outside ``[s_min, s_max]``: ``s - clip(s, s_min, s_max)`` (0 inside)."""
     s = np.asarray(s, dtype=float)
-    return s - np.clip(s, s_min, s_max)
+    return s - np.minimum(np.maximum(s, s_min), s_max)
 
 
 def point_in_frame(

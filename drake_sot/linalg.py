@@ -20,6 +20,8 @@ result: the second singular value of [[1, 1], [1, 1]] comes out as 0 or as
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +32,7 @@ from drake_sot.validation import matrix, nonnegative
 __all__ = [
     "SvdSplit",
     "damped_pinv",
+    "full_rank_lstsq",
     "null_space_basis",
     "pinv",
     "rank",
@@ -39,6 +42,8 @@ __all__ = [
 
 _EPS = float(np.finfo(float).eps)
 _GESDD = scipy.linalg.lapack.dgesdd
+_GELS = scipy.linalg.lapack.dgels
+_TRTRI = scipy.linalg.lapack.dtrtri
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,43 @@ class SvdSplit:
     def null_basis(self) -> np.ndarray:
         """Return an orthonormal basis of ker A, shape (k, k - rank)."""
         return self.Vt[self.rank :].T
+
+
+def full_rank_lstsq(A: np.ndarray, b: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray | None:
+    """``A^+ b`` (k,) for a tall ``A`` (m, k), m >= k, by Householder QR, when ``A`` certainly has
+    full column rank by :class:`SvdSplit`'s rule; None when that is not certain (use the SVD).
+
+    With ``A = Q R``, the singular values of ``A`` are those of ``R``, and
+    ``σ_min >= 1 / ||R⁻¹||_F`` while ``σ_max <= ||R||_F``. The QR answer is taken only when
+    ``1 / ||R⁻¹||_F > max(rank_threshold, max(m, k)·eps·||R||_F)``, which implies that every
+    singular value is above :class:`SvdSplit`'s floor: the SVD would keep all k of them, its
+    null space would be empty and its ``A^+ b`` is this least-squares solution (equal up to
+    rounding). One QR and one triangular inverse cost about a third of the SVD of a 30 x 16
+    matrix. ``A`` and ``b`` are assumed finite and of matching sizes.
+    """
+    m, k = A.shape
+    if m < k or not k:
+        return None
+    qr, x, info = _GELS(A, b)
+    if info:
+        return None  # R is exactly singular
+    # dtrtri reads and writes the upper triangle only (below it: the Householder vectors).
+    R_inv, info = _TRTRI(qr[:k])
+    if info:
+        return None
+    R_inv *= _upper_mask(k)
+    a = A.ravel()
+    floor = max(rank_threshold, max(m, k) * _EPS * math.sqrt(float(a @ a)))  # ||R||_F = ||A||_F
+    r = R_inv.ravel()
+    if math.sqrt(float(r @ r)) * floor >= 1.0:
+        return None  # the smallest singular value may be at or below the floor
+    return x[:k]
+
+
+@functools.cache
+def _upper_mask(k: int) -> np.ndarray:
+    """(k, k) ones on and above the diagonal, zeros below (Fortran order, as LAPACK's outputs)."""
+    return np.asfortranarray(np.triu(np.ones((k, k))))
 
 
 def pinv(J: np.ndarray, rank_threshold: float = 1e-6) -> np.ndarray:

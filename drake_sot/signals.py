@@ -63,3 +63,21 @@ class BoundedTaskSignal:
     jacobian: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
+
+
+@dataclass(frozen=True)
+class OperationalPoint:
+    """A frame's pose and Jacobian at one configuration, in one value: what a pose feature reads
+    from an operational point (``RobotKinematics``' ``<name>_frame`` output), one port
+    evaluation instead of two.
+
+    Attributes:
+        rotation: ``R_WF`` (3, 3), the frame's orientation in world.
+        translation: ``p_WF`` (3,) [m], the frame's origin in world.
+        jacobian: (6, nv), rows ``[ω; v]`` (angular velocity, then the velocity of the frame
+            origin, world frame), with respect to the generalized velocity v.
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    jacobian: np.ndarray

@@ -177,6 +177,35 @@ def test_equalities_only_give_solve_strict_minimum_norm_solution(stack):
     np.testing.assert_allclose(triples, strict, rtol=0.0, atol=1e-9 * scale(strict))
 
 
+@settings(max_examples=300, deadline=None)
+@given(problems())
+def test_equality_levels_solved_together_equal_the_cascade(problem):
+    """Consecutive levels of equalities given as ``(J, t, t)`` (as StackOfTasks gives them) are
+    solved with one QR when each has full row rank in what is left; a rank-deficient level
+    (a row repeated from above) or a step a hard row blocks falls back level by level. Either
+    way: the cascade's optimum."""
+    levels = [(J, hi, hi) if (lo == hi).all() else (J, lo, hi) for J, lo, hi in problem.levels]
+    reference = cascade(problem.levels, problem.n)
+    result = solve_hqp(levels)
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
+    assert result.free_dims == solve_hqp(problem.levels).free_dims
+
+
+def test_equality_levels_solved_together_below_a_box_that_blocks_the_second():
+    """Three equality levels below a box on q̇: the first step fits, the second is blocked by
+    the box (the run hands that level to the active set), the third has no freedom left."""
+    rng = np.random.default_rng(11)
+    n = 6
+    box = (np.eye(n), -np.full(n, 0.5), np.full(n, 0.5))
+    first = (rng.normal(size=(2, n)), 0.1 * rng.normal(size=2))
+    second = (rng.normal(size=(3, n)), 10.0 * rng.normal(size=3))  # far beyond the box
+    third = (rng.normal(size=(2, n)), rng.normal(size=2))
+    levels = [box] + [(J, t, t) for J, t in (first, second, third)]
+    reference = cascade([box] + [(J, t, t.copy()) for J, t in (first, second, third)], n)
+    np.testing.assert_allclose(solve_hqp(levels).qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+    assert np.abs(reference).max() == pytest.approx(0.5)  # the box binds: the test sees the blocked path
+
+
 # --- b) by hand ---------------------------------------------------------------------------
 
 

@@ -8,7 +8,15 @@ import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drake_sot.linalg import SvdSplit, damped_pinv, null_space_basis, pinv, rank, weighted_pinv
+from drake_sot.linalg import (
+    SvdSplit,
+    damped_pinv,
+    full_rank_lstsq,
+    null_space_basis,
+    pinv,
+    rank,
+    weighted_pinv,
+)
 
 SETTINGS = settings(max_examples=150, deadline=None)
 THRESHOLD = 1e-6
@@ -231,6 +239,36 @@ def test_svd_split_gives_one_consistent_decomposition(case, seed, damping):
         expected = np.linalg.pinv(J, 1e-8) @ b
     np.testing.assert_allclose(split.solve(b, damping), expected, atol=1e-9)
     np.testing.assert_allclose(split.pinv(damping) @ b, expected, atol=1e-9)
+
+
+@SETTINGS
+@given(matrices(), st.integers(0, 2**32 - 1))
+def test_full_rank_lstsq_is_the_pseudo_inverse_solution_or_declines(case, seed):
+    """The QR shortcut answers only for tall matrices of full column rank, and then with numpy's
+    pseudo-inverse solution; otherwise it declines (None) and the SVD decides."""
+    J, r, s = case
+    m, n = J.shape
+    b = np.random.default_rng(seed).standard_normal(m)
+    y = full_rank_lstsq(J, b, THRESHOLD)
+    if m < n or r < n:
+        assert y is None
+    else:
+        assert y is not None  # singular values >= 0.1 here: far above the floor
+        np.testing.assert_allclose(y, numpy_pinv(J, s) @ b, atol=1e-9)
+
+
+@pytest.mark.parametrize("smallest", [1e-3, 1e-5, 2e-6, 1e-6, 5e-7, 1e-9, 0.0])
+def test_full_rank_lstsq_never_answers_where_the_svd_drops_a_singular_value(smallest):
+    """Near the threshold the shortcut may decline a full-rank matrix, but it never answers for
+    one whose SVD keeps fewer than all of its singular values (they are set here exactly)."""
+    rng = np.random.default_rng(7)
+    s = np.array([3.0, 1.0, 0.5, smallest])
+    J = (orthonormal(rng, 9, 4) * s) @ orthonormal(rng, 4, 4).T
+    y = full_rank_lstsq(J, rng.standard_normal(9), THRESHOLD)
+    if SvdSplit.of(J, THRESHOLD).rank < 4:
+        assert y is None
+    if smallest >= 1e-5:  # sqrt(4) times the threshold and more: certain
+        assert y is not None
 
 
 def test_empty_matrices():

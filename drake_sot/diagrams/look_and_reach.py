@@ -4,8 +4,10 @@ while the right hand reaches for it.
 An object (a ball, drawn in the replay) moves on a slow Lissajous curve in front of the
 robot, within reach of the right hand. A gaze task (``FeatureVisualPoint``, the fourth
 feature family of Mansard et al. 2009) keeps its image at the centre of the head camera,
-above the hand; the object's velocity is fed forward. Stack (highest priority first):
-joint limits, left foot 6D, right foot 6D, CoM xy, gaze (2 rows), posture. Script:
+above the hand; the object's velocity is fed forward. Stack (highest priority first, solved
+by ``solve_hqp``): joint position and velocity limits (an inequality: velocity bounds over
+the control period that stop each joint 0.02 rad inside its limits, clipped to its velocity
+limits), left foot 6D, right foot 6D, CoM xy, gaze (2 rows), posture. Script:
 
 - t = 0 s: the object is below and to the right of the line of sight: the head (and the
   chest) turn to it;
@@ -86,7 +88,7 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
     target = b.builder.AddSystem(
         MovingPoint(OBJECT_PATH, orientation=b.initial_pose("right_hand").rotation(), name="object")
     )
-    b.add_joint_limits_task("taskJL")
+    b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     b.add_op_point_task("taskLF", "left_foot", gain=5.0)
     b.add_op_point_task("taskRF", "right_foot", gain=5.0)
     b.add_com_task("taskCom", selection="110", gain=3.0)
@@ -104,7 +106,7 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
     if meshcat is not None:  # the object in the replay
         marker = b.builder.AddSystem(MeshcatMarker(meshcat, "/drake_sot/object", radius=0.03))
         b.builder.Connect(target.GetOutputPort("position"), marker.GetInputPort("position"))
-    built = b.build(stack=STACK)
+    built = b.build(stack=STACK, solver="hqp")
     sot = built.sot
 
     def reach(context) -> None:

@@ -57,6 +57,7 @@ from drake_sot.systems.features import (
     FeaturePoint6dRelative,
     FeaturePosture,
 )
+from drake_sot.systems.kinematics import FRAME_SUFFIX
 from drake_sot.systems.sequencer import TaskSequencer
 from drake_sot.systems.task import Task
 
@@ -458,9 +459,13 @@ class DynamicEntity(Entity):
 
     def outputs(self) -> tuple[str, ...]:
         ops = self.session.builder.dyn.operational_points
-        return ("com", "Jcom", *(x for op in ops for x in (op, "J" + op)))
+        return ("com", "Jcom", *(x for op in ops for x in (op, "J" + op, op + FRAME_SUFFIX)))
 
-    @_command(Phase.BUILD, "createOpPoint NAME RANK|FRAME", "outputs NAME (pose) and JNAME (Jacobian)")
+    @_command(
+        Phase.BUILD,
+        "createOpPoint NAME RANK|FRAME",
+        "outputs NAME (pose), JNAME (Jacobian) and NAME_frame (both, for a feature's frame input)",
+    )
     def createOpPoint(self, args: tuple[Value, ...], context: Context | None) -> str:
         """The paper's ``dyn2.createOpPoint rleg 6``: RANK is the joint's rank in the robot's
         state vector as in the SoT's dynamic entity — the free flyer is rank 0, the one-DoF
@@ -471,8 +476,10 @@ class DynamicEntity(Entity):
         name = _text(args[0], "the operational point's name")
         b = self.session.builder
         taken = set(self.outputs()) | {"q"}
-        if name in taken or "J" + name in taken:
-            raise SessionError(f"dyn already has a signal {name!r} (or {'J' + name!r})")
+        if taken & {name, "J" + name, name + FRAME_SUFFIX}:
+            raise SessionError(
+                f"dyn already has a signal {name!r} (or {'J' + name!r}, or {name + FRAME_SUFFIX!r})"
+            )
         where = args[1]
         if isinstance(where, int) and not isinstance(where, bool):
             frame = self._rank_frame(where)
@@ -622,23 +629,26 @@ class PoseFeatureEntity(FeatureEntity):
     def check_desired(self, value: Value) -> None:
         _pose(value, f"{self.name}.{self.DESIRED}", RotationMatrix())
 
-    def op_pose(self, signal: str) -> RigidTransform | None:
-        """The pose at q0 of the ``dyn`` operational point plugged into ``signal``, if one is."""
-        feed = self.session.feed(self.name, signal)
-        if feed is None or not isinstance(feed.how, Plugged):
-            return None
-        source = self.session.entity(feed.how.source.entity)
+    def op_pose(self, suffix: str = "") -> RigidTransform | None:
+        """The pose at q0 of the ``dyn`` operational point plugged into ``position<suffix>`` (its
+        pose) or ``frame<suffix>`` (its pose and Jacobian), if one is."""
         ops = self.session.builder.dyn.operational_points
-        if not isinstance(source, DynamicEntity) or feed.how.source.name not in ops:
-            return None
-        return self.session.initial_frame_pose(ops[feed.how.source.name])
+        for signal, ending in (("position" + suffix, ""), ("frame" + suffix, FRAME_SUFFIX)):
+            feed = self.session.feed(self.name, signal)
+            if feed is None or not isinstance(feed.how, Plugged):
+                continue
+            source, name = self.session.entity(feed.how.source.entity), feed.how.source.name
+            op = name[: len(name) - len(ending)] if name.endswith(ending) else None
+            if isinstance(source, DynamicEntity) and op in ops:
+                return self.session.initial_frame_pose(ops[op])
+        return None
 
     def desired_default(self) -> object:
         desired = super().desired_default()
         if desired is None and self.session.feed(self.name, self.DESIRED) is None:
             raise SessionError(
-                f"{self.name}: {self.DESIRED} is neither set nor plugged, and {self.VALUE} does not come "
-                "from a dyn operational point whose pose at q0 it could hold"
+                f"{self.name}: {self.DESIRED} is neither set nor plugged, and neither {self.VALUE} nor frame "
+                "comes from a dyn operational point whose pose at q0 it could hold"
             )
         return desired
 
@@ -649,10 +659,10 @@ class Point6dEntity(PoseFeatureEntity):
     FEATURE = FeaturePoint6d
 
     def inputs(self) -> tuple[str, ...]:
-        return ("position", "Jq", "position_des", "velocity_des")
+        return ("position", "Jq", "frame", "position_des", "velocity_des")
 
     def initial_desired(self) -> RigidTransform | None:
-        return self.op_pose("position")
+        return self.op_pose()
 
 
 class Relative6dEntity(PoseFeatureEntity):
@@ -661,10 +671,10 @@ class Relative6dEntity(PoseFeatureEntity):
     FEATURE = FeaturePoint6dRelative
 
     def inputs(self) -> tuple[str, ...]:
-        return ("position", "Jq", "positionRef", "JqRef", "position_des")
+        return ("position", "Jq", "frame", "positionRef", "JqRef", "frameRef", "position_des")
 
     def initial_desired(self) -> RigidTransform | None:
-        X, X_ref = self.op_pose("position"), self.op_pose("positionRef")
+        X, X_ref = self.op_pose(), self.op_pose("Ref")
         return None if X is None or X_ref is None else X_ref.InvertAndCompose(X)
 
 

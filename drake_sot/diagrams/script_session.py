@@ -31,8 +31,10 @@ class                            signals (in → out), commands
 ================================ ========================================================
 ``FeatureGeneric``               errorIN, jacobianIN, sdes, sdes_dot → feature, error; selec
 ``FeatureCoM``                   com, Jcom (dyn's unless plugged), sdes, sdes_dot → feature, error; selec
-``FeaturePoint6d``               position, Jq, position_des, velocity_des → feature, error; selec
-``FeaturePoint6dRelative``       position, Jq, positionRef, JqRef, position_des → feature, error; selec
+``FeaturePoint6d``               position, Jq (or frame: both), position_des, velocity_des → feature, error;
+                                 selec
+``FeaturePoint6dRelative``       position, Jq (or frame), positionRef, JqRef (or frameRef), position_des →
+                                 feature, error; selec
 ``FeaturePosture``               q (the reference q unless plugged), sdes → feature, error; selec
 ``FeatureJointLimits``           q (idem) → feature, error; ``margin``
 ``Task``                         gain → task; ``add``, ``controlGain``, ``controlGainAdaptive``

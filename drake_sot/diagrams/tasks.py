@@ -48,7 +48,7 @@ from drake_sot.systems.inequalities import (
     JointVelocityLimits,
     PointAbovePlane,
 )
-from drake_sot.systems.kinematics import RobotKinematics
+from drake_sot.systems.kinematics import FRAME_SUFFIX, RobotKinematics
 from drake_sot.systems.partner import ConstantForce, Partner
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive
@@ -163,6 +163,13 @@ class HumanoidTaskBuilder:
             self.dyn.add_operational_point(frame_key, frame_name)
         return frame_key
 
+    def _connect_frame(self, op: str, feature: _Feature, suffix: str = "") -> None:
+        """Feed a pose feature's ``frame<suffix>`` input with the operational point's pose and
+        Jacobian in one value (one port evaluation a tick, not two)."""
+        self.builder.Connect(
+            self.dyn.GetOutputPort(op + FRAME_SUFFIX), feature.GetInputPort("frame" + suffix)
+        )
+
     def add_task(self, task: Task) -> Task:
         """Add a task made elsewhere (its features added and plugged by the caller, e.g. the
         script interpreter's ``new Task``): it joins the diagram and, at ``build``, the solver.
@@ -220,8 +227,7 @@ class HumanoidTaskBuilder:
             desired=self.initial_pose(frame_key) if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain, selection)
-        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
-        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        self._connect_frame(op, feature)
         self._pose_feature_frames[feature] = frame_key
         return task
 
@@ -265,10 +271,8 @@ class HumanoidTaskBuilder:
             desired = self.initial_pose(reference_key).InvertAndCompose(self.initial_pose(frame_key))
         feature = FeaturePoint6dRelative(selection=selection, name=f"feature_{task_name}", desired=desired)
         task = self._add_task(task_name, feature, gain)
-        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
-        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
-        self.builder.Connect(self.dyn.GetOutputPort(ref), feature.GetInputPort("positionRef"))
-        self.builder.Connect(self.dyn.GetOutputPort("J" + ref), feature.GetInputPort("JqRef"))
+        self._connect_frame(op, feature)
+        self._connect_frame(ref, feature, "Ref")
         return task
 
     def add_com_task(
@@ -320,8 +324,7 @@ class HumanoidTaskBuilder:
         op = self.op_point(camera)
         feature = FeatureVisualPoint(selection=selection, name=f"feature_{task_name}", desired=desired)
         task = self._add_task(task_name, feature, gain)
-        self.builder.Connect(self.dyn.GetOutputPort(op), feature.GetInputPort("position"))
-        self.builder.Connect(self.dyn.GetOutputPort("J" + op), feature.GetInputPort("Jq"))
+        self._connect_frame(op, feature)
         self.builder.Connect(point, feature.GetInputPort("point"))
         if point_velocity is not None:
             self.builder.Connect(point_velocity, feature.GetInputPort("point_velocity"))

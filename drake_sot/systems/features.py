@@ -15,6 +15,15 @@ from a parameter set with :meth:`set_desired` (the paper's ``set ... sdes``). Se
 the parameter while the port is connected is refused, not ignored. The constructor's
 ``desired`` argument is the parameter's default (what a new context holds).
 
+The desired value reaches the feature's computation through a cache entry of the feature's
+context, recomputed (converted, e.g. a pose to its rotation matrix and translation) only when
+the port's value or the parameter changes, not looked up at every tick.
+
+Pose features read a frame either as one value, input ``frame`` (an
+:class:`~drake_sot.signals.OperationalPoint`, ``RobotKinematics``' ``<op>_frame`` output: one
+evaluation per tick), or as the paper's two signals ``position`` and ``Jq`` (what a script
+plugs); connecting both ways at once is refused at the first evaluation.
+
 Selection: a mask over the feature's components (``"001000"`` keeps z alone for a 6D
 feature, as the tele-cooperation paper does for hand altitudes). The output size is
 the number of selected components.
@@ -29,10 +38,10 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JointIndex
-from pydrake.systems.framework import Context, InputPort, LeafSystem
+from pydrake.systems.framework import AbstractParameterIndex, Context, InputPort, LeafSystem, ValueProducer
 
 from drake_sot import features as fmath
-from drake_sot.signals import FeatureSignal
+from drake_sot.signals import FeatureSignal, OperationalPoint
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.validation import nonnegative
 
@@ -56,12 +65,58 @@ class _Feature(LeafSystem):
         return int(self._indices.size)
 
     def _declare_desired(self, port_name: str, default_value, vector_size: int | None) -> None:
-        """The ``s*`` input (vector of ``vector_size``, or abstract) and its parameter fallback."""
+        """The ``s*`` input (vector of ``vector_size``, or abstract), its parameter fallback, and the
+        cache entry of its prepared form (:meth:`_prepare_desired`), recomputed only when one of the
+        two changes."""
         if vector_size is None:
             self._desired_port = self.DeclareAbstractInputPort(port_name, AbstractValue.Make(default_value))
         else:
             self._desired_port = self.DeclareVectorInputPort(port_name, vector_size)
         self._desired_param = self.DeclareAbstractParameter(AbstractValue.Make(default_value))
+        prepared = self._prepare_desired(default_value)
+        self._desired_cache = self.DeclareCacheEntry(
+            f"prepared {port_name}",
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(prepared),
+                calc=lambda context, value: value.set_value(self._prepare_desired(self._desired(context))),
+            ),
+            {
+                self.input_port_ticket(self._desired_port.get_index()),
+                self.abstract_parameter_ticket(AbstractParameterIndex(self._desired_param)),
+            },
+        )
+
+    def _prepare_desired(self, value):
+        """The form of ``s*`` the per-tick computation uses (overridden per feature)."""
+        return value
+
+    def _declare_frame(self, suffix: str = "") -> tuple[InputPort, InputPort, InputPort]:
+        """Inputs ``position<suffix>`` (abstract ``RigidTransform``), ``Jq<suffix>`` (abstract
+        ``ndarray`` (6, nv)) and ``frame<suffix>`` (both at once, abstract ``OperationalPoint``)."""
+        return (
+            self.DeclareAbstractInputPort("position" + suffix, AbstractValue.Make(RigidTransform())),
+            self.DeclareAbstractInputPort("Jq" + suffix, AbstractValue.Make(np.zeros((6, 0)))),
+            self.DeclareAbstractInputPort(
+                "frame" + suffix,
+                AbstractValue.Make(OperationalPoint(np.eye(3), np.zeros(3), np.zeros((6, 0)))),
+            ),
+        )
+
+    def _read_frame(
+        self, context: Context, ports: tuple[InputPort, InputPort, InputPort]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(R, p, J)`` of a frame from its ``frame`` input, else from ``position`` and ``Jq``."""
+        pose, jacobian, both = ports
+        if both.HasValue(context):
+            if pose.HasValue(context) or jacobian.HasValue(context):
+                raise RuntimeError(
+                    f"{self.get_name()!r}: inputs {both.get_name()!r} and {pose.get_name()!r}/"
+                    f"{jacobian.get_name()!r} both have a value: connect one source of the frame"
+                )
+            value = both.Eval(context)
+            return value.rotation, value.translation, value.jacobian
+        X = pose.Eval(context)
+        return X.rotation().matrix(), X.translation(), jacobian.Eval(context)
 
     def _declare_outputs(self) -> None:
         m = self.dimension
@@ -154,13 +209,16 @@ class FeatureGeneric(_Feature):
             )
         return value
 
+    def _prepare_desired(self, value) -> np.ndarray:
+        return np.array(value, dtype=float)
+
     def _compute(self, context):
         J = self._J.Eval(context)
         if J.shape[0] != self._size:
             raise ValueError(
                 f"{self.get_name()!r}: {self._jacobian_port} has shape {J.shape}, expected ({self._size}, nv)"
             )
-        e = self._s.Eval(context) - np.asarray(self._desired(context))
+        e = self._s.Eval(context) - self._desired_cache.Eval(context)
         ff = self._sdes_dot.Eval(context) if self._sdes_dot.HasValue(context) else np.zeros(self._size)
         return e, J, ff
 
@@ -201,20 +259,23 @@ def _check_pose(owner: LeafSystem, value) -> RigidTransform:
 
 
 class _PoseFeature(_Feature):
-    """A 6D feature on an operational point: inputs ``position``, ``Jq``, ``position_des``."""
+    """A 6D feature on an operational point: inputs ``frame`` (or ``position`` and ``Jq``),
+    ``position_des``."""
 
     def __init__(
         self, selection: fmath.SelectionLike, name: str | None, desired: RigidTransform | None
     ) -> None:
         super().__init__(6, selection, name)
-        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
-        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
+        self._frame = self._declare_frame()
         self._declare_desired(
             "position_des", _check_pose(self, RigidTransform() if desired is None else desired), None
         )
 
     def _check_desired(self, value) -> RigidTransform:
         return _check_pose(self, value)
+
+    def _prepare_desired(self, value: RigidTransform) -> tuple[np.ndarray, np.ndarray]:
+        return value.rotation().matrix(), value.translation()
 
 
 class FeaturePoint6d(_PoseFeature):
@@ -224,6 +285,8 @@ class FeaturePoint6d(_PoseFeature):
     [rad] of the orientation error, world frame, with its exact Jacobian.
 
     Input ports:
+        frame: abstract :class:`~drake_sot.signals.OperationalPoint`, the frame's pose and
+            Jacobian in one value (``RobotKinematics.<op>_frame``); or, instead of it:
         position: abstract ``RigidTransform``, the frame's pose in world.
         Jq: abstract ``ndarray`` (6, nv), the frame Jacobian (rows ``[ω; v]``).
         position_des: abstract ``RigidTransform``, desired pose, optional (else the parameter).
@@ -244,17 +307,10 @@ class FeaturePoint6d(_PoseFeature):
         self._declare_outputs()
 
     def _compute(self, context):
-        X = self._pose.Eval(context)
-        X_des = self._desired(context)
+        R, p, J = self._read_frame(context, self._frame)
+        R_des, p_des = self._desired_cache.Eval(context)
         velocity_des = self._velocity_des.Eval(context) if self._velocity_des.HasValue(context) else None
-        return fmath.point6d(
-            X.rotation().matrix(),
-            X.translation(),
-            self._J.Eval(context),
-            X_des.rotation().matrix(),
-            X_des.translation(),
-            velocity_des,
-        )
+        return fmath.point6d(R, p, J, R_des, p_des, velocity_des)
 
 
 class FeaturePoint6dRelative(_PoseFeature):
@@ -266,8 +322,11 @@ class FeaturePoint6dRelative(_PoseFeature):
     Input ports:
         position: abstract ``RigidTransform``, pose of the moving frame a in world.
         Jq: abstract ``ndarray`` (6, nv), its Jacobian (rows ``[ω; v]``).
+        frame: abstract :class:`~drake_sot.signals.OperationalPoint`, both in one value,
+            instead of ``position`` and ``Jq``.
         positionRef: abstract ``RigidTransform``, pose of the reference frame b in world.
         JqRef: abstract ``ndarray`` (6, nv), its Jacobian.
+        frameRef: both in one value, instead of ``positionRef`` and ``JqRef``.
         position_des: abstract ``RigidTransform``, desired pose of a in b, optional.
     Output ports: ``feature``, ``error``.
     """
@@ -280,22 +339,14 @@ class FeaturePoint6dRelative(_PoseFeature):
         desired: RigidTransform | None = None,
     ) -> None:
         super().__init__(selection, name, desired)
-        self._pose_ref = self.DeclareAbstractInputPort("positionRef", AbstractValue.Make(RigidTransform()))
-        self._J_ref = self.DeclareAbstractInputPort("JqRef", AbstractValue.Make(np.zeros((6, 0))))
+        self._frame_ref = self._declare_frame("Ref")
         self._declare_outputs()
 
     def _compute(self, context):
-        X_a, X_b = self._pose.Eval(context), self._pose_ref.Eval(context)
-        X_des = self._desired(context)
         e, J = fmath.point6d_relative(
-            X_a.rotation().matrix(),
-            X_a.translation(),
-            self._J.Eval(context),
-            X_b.rotation().matrix(),
-            X_b.translation(),
-            self._J_ref.Eval(context),
-            X_des.rotation().matrix(),
-            X_des.translation(),
+            *self._read_frame(context, self._frame),
+            *self._read_frame(context, self._frame_ref),
+            *self._desired_cache.Eval(context),
         )
         return e, J, np.zeros(6)
 
@@ -316,6 +367,8 @@ class FeatureVisualPoint(_Feature):
         position: abstract ``RigidTransform``, the camera frame's pose in world (e.g. the
             operational point of the robot's ``head_camera`` frame).
         Jq: abstract ``ndarray`` (6, nv), the camera frame's Jacobian (rows ``[ω; v]``).
+        frame: abstract :class:`~drake_sot.signals.OperationalPoint`, both in one value,
+            instead of ``position`` and ``Jq``.
         point: the point's position in world (3,) [m].
         point_velocity: its velocity in world (3,) [m/s], optional (else a still point).
         sdes: desired image point s* (2,) [normalised image coordinates], optional (else
@@ -334,8 +387,7 @@ class FeatureVisualPoint(_Feature):
         desired: np.ndarray | None = None,
     ) -> None:
         super().__init__(2, selection, name)
-        self._pose = self.DeclareAbstractInputPort("position", AbstractValue.Make(RigidTransform()))
-        self._J = self.DeclareAbstractInputPort("Jq", AbstractValue.Make(np.zeros((6, 0))))
+        self._frame = self._declare_frame()
         self._point = self.DeclareVectorInputPort("point", 3)
         self._point_velocity = self.DeclareVectorInputPort("point_velocity", 3)
         self._declare_desired("sdes", self._check_desired(np.zeros(2) if desired is None else desired), 2)
@@ -347,17 +399,15 @@ class FeatureVisualPoint(_Feature):
             raise ValueError(f"{self.get_name()!r}: desired image point {value} must be 2 finite numbers")
         return value
 
+    def _prepare_desired(self, value) -> np.ndarray:
+        return np.array(value, dtype=float)
+
     def _compute(self, context):
-        X = self._pose.Eval(context)
+        R, p, J = self._read_frame(context, self._frame)
         velocity = self._point_velocity.Eval(context) if self._point_velocity.HasValue(context) else None
         try:
             return fmath.visual_point(
-                X.rotation().matrix(),
-                X.translation(),
-                self._J.Eval(context),
-                self._point.Eval(context),
-                np.asarray(self._desired(context)),
-                velocity,
+                R, p, J, self._point.Eval(context), self._desired_cache.Eval(context), velocity
             )
         except ValueError as error:
             raise ValueError(f"{self.get_name()!r} at t = {context.get_time():.4f} s: {error}") from None
@@ -415,10 +465,12 @@ class FeaturePosture(_Feature):
             raise ValueError(f"{self.get_name()!r}: desired configuration must be {self._nq} finite numbers")
         return value
 
+    def _prepare_desired(self, value) -> np.ndarray:
+        return np.asarray(value, dtype=float)[self._q_index]  # the selected joints' (a copy)
+
     def _compute(self, context):
-        q = self._q.Eval(context)
-        q_des = np.asarray(self._desired(context))
-        return q[self._q_index] - q_des[self._q_index], self._J_full, np.zeros(self._size)
+        e = self._q.Eval(context)[self._q_index] - self._desired_cache.Eval(context)
+        return e, self._J_full, np.zeros(self._size)
 
 
 def _one_dof_joint_names(plant: MultibodyPlant) -> list[str]:

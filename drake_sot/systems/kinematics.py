@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FrameIndex, JacobianWrtVariable
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
+
+from drake_sot.signals import OperationalPoint
+
+#: Suffix of the output that carries an operational point's pose and Jacobian in one value.
+FRAME_SUFFIX = "_frame"
+_ORIGIN = np.zeros(3)
 
 
 class RobotKinematics(LeafSystem):
@@ -28,6 +36,9 @@ class RobotKinematics(LeafSystem):
         <name>: pose of the operational point's frame in world, abstract ``RigidTransform``.
         J<name>: the frame's Jacobian, abstract ``ndarray`` (6, nv): rows ``[ω; v]``
             (angular velocity, then velocity of the frame origin, world frame), w.r.t. v.
+        <name>_frame: both at once, abstract :class:`~drake_sot.signals.OperationalPoint`
+            (rotation (3, 3), translation (3,) [m], Jacobian (6, nv) as ``J<name>``): one
+            evaluation for a feature that reads both (a pose feature's ``frame`` input).
 
     The plant is a finalized model owned by the controller (see
     ``drake_sot.models.make_control_model``), distinct from the simulated plant; this
@@ -41,11 +52,23 @@ class RobotKinematics(LeafSystem):
         self._plant = plant
         self._plant_context = plant.CreateDefaultContext()
         self._world = plant.world_frame()
-        self._last_q = b""  # bytes of the q loaded in the scratch context
         self._operational_points: dict[str, str] = {}
         nq, nv = plant.num_positions(), plant.num_velocities()
         self._q_port = self.DeclareVectorInputPort("q", nq)
         q_ticket = {self.input_port_ticket(self._q_port.get_index())}
+        # Each new q of a context gets a serial number, in a cache entry (Drake recomputes it when
+        # q changes); the scratch context holds the q of serial _loaded. An output then checks one
+        # integer instead of copying and comparing q, and reloads q after another context's.
+        self._serials = itertools.count(1)
+        self._loaded = 0
+        self._q_serial = self.DeclareCacheEntry(
+            "serial number of q",
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(0),
+                calc=lambda context, value: value.set_value(next(self._serials)),
+            ),
+            q_ticket,
+        )
         self.DeclareVectorOutputPort("com", 3, self._calc_com, prerequisites_of_calc=q_ticket)
         self.DeclareAbstractOutputPort(
             "Jcom",
@@ -65,14 +88,19 @@ class RobotKinematics(LeafSystem):
         return dict(self._operational_points)
 
     def add_operational_point(self, name: str, frame_name: str) -> None:
-        """Create output ports ``name`` (pose) and ``J<name>`` (Jacobian) for a frame.
+        """Create output ports ``name`` (pose), ``J<name>`` (Jacobian) and ``<name>_frame`` (both)
+        for a frame.
 
         The paper's ``dyn.createOpPoint rleg 6``, naming a frame instead of a joint rank.
-        Must be called before the diagram is built. Raises ValueError when the name is
-        taken or the frame does not exist (listing the model's frames).
+        Must be called before the diagram is built. Raises ValueError when one of the three
+        port names is taken or the frame does not exist (listing the model's frames).
         """
-        if name in self._operational_points or name in ("com", "Jcom", "q"):
-            raise ValueError(f"operational point {name!r} already exists on {self.get_name()!r}")
+        ports = (name, "J" + name, name + FRAME_SUFFIX)
+        if name in self._operational_points or any(self.HasOutputPort(port) for port in ports):
+            raise ValueError(
+                f"operational point {name!r} already exists on {self.get_name()!r}, or one of "
+                f"its outputs {', '.join(map(repr, ports))} is taken"
+            )
         if not self._plant.HasFrameNamed(frame_name):
             frames = sorted(
                 self._plant.get_frame(FrameIndex(i)).name() for i in range(self._plant.num_frames())
@@ -113,13 +141,27 @@ class RobotKinematics(LeafSystem):
             prerequisites_of_calc=q_ticket,
         )
 
+        def calc_frame(context, value) -> None:
+            self._update(context)
+            X = frame.CalcPoseInWorld(self._plant_context)
+            J = self._plant.CalcJacobianSpatialVelocity(
+                self._plant_context, JacobianWrtVariable.kV, frame, _ORIGIN, self._world, self._world
+            )
+            value.set_value(OperationalPoint(X.rotation().matrix(), X.translation(), J))
+
+        self.DeclareAbstractOutputPort(
+            name + FRAME_SUFFIX,
+            lambda: AbstractValue.Make(OperationalPoint(np.eye(3), np.zeros(3), np.zeros((6, nv)))),
+            calc_frame,
+            prerequisites_of_calc=q_ticket,
+        )
+
     def _update(self, context) -> None:
-        """Load q into the scratch plant context, only when it changed."""
-        q = self._q_port.Eval(context)
-        key = q.tobytes()
-        if key != self._last_q:
-            self._plant.SetPositions(self._plant_context, q)
-            self._last_q = key
+        """Load the context's q into the scratch plant context, unless it is there already."""
+        serial = self._q_serial.Eval(context)
+        if serial != self._loaded:
+            self._plant.SetPositions(self._plant_context, self._q_port.Eval(context))
+            self._loaded = serial
 
     def _calc_com(self, context, output: BasicVector) -> None:
         self._update(context)

@@ -11,6 +11,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot import validation
+from drake_sot.blas import limit_blas_threads
 from drake_sot.hierarchy import solve_hqp, solve_strict
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Stack, StackError
@@ -78,6 +79,10 @@ class StackOfTasks(LeafSystem):
     of the blend, two for a single change. During a change the ``stack`` output is the
     stack reached, and ``errors`` holds the error of every task of the blend.
 
+    Making a ``StackOfTasks`` limits the process's OpenBLAS libraries to one thread
+    (:func:`drake_sot.blas.limit_blas_threads`: on the tick's small matrices more threads
+    gain nothing and, on a loaded machine, cost milliseconds).
+
     The stack can instead be *driven*: when the optional ``stack`` input port is
     connected (e.g. to a :class:`~drake_sot.systems.sequencer.TaskSequencer`), the
     stack used at each tick is that input's value and the stack held in the context
@@ -143,6 +148,7 @@ class StackOfTasks(LeafSystem):
         solver: str = "svd",
     ) -> None:
         super().__init__()
+        limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
         self.set_name(name)
         where = f"StackOfTasks {name!r}"
         self._nv = validation.positive_int(f"{where}: nv", nv)
@@ -178,6 +184,8 @@ class StackOfTasks(LeafSystem):
         if self._damping and solver == "hqp":
             raise ValueError(f"{where}: damping = {damping!r}: solver='hqp' solves exactly (damping 0)")
         self._dims = dims
+        #: The shapes of (error, J, ė*) each equality task's signal must have.
+        self._shapes = {task_name: ((m,), (m, nv), (m,)) for task_name, m in dims.items()}
         self._empty = empty
         self._slices: dict[str, slice] = {}
         start = 0
@@ -202,6 +210,7 @@ class StackOfTasks(LeafSystem):
         self._stack = self.DeclareAbstractState(AbstractValue.Make(initial))
         self._qdot = self.DeclareDiscreteState(nv)
         self._errors = self.DeclareDiscreteState(np.full(start, np.nan))
+        self._errors_size = start
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         self.DeclareStateOutputPort("qdot", self._qdot)
         self.DeclareStateOutputPort("errors", self._errors)
@@ -303,18 +312,23 @@ class StackOfTasks(LeafSystem):
 
     # --- the control law -----------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
-        blend = self._current_stack(context).blend(context.get_time())
-        errors = np.full(discrete_state.get_vector(self._errors).size(), np.nan)
+        stack = self._current_stack(context)
+        # One stack, weight 1, unless a change is in progress.
+        blend = ((stack.active, 1.0),) if stack.transition is None else stack.blend(context.get_time())
+        errors = np.full(self._errors_size, np.nan)
         signals: dict[str, tuple[np.ndarray, ...]] = {}  # task name -> its level
+        ports = self._ports
         evaluated = {
-            task_name: self._ports[task_name].Eval(context)
-            for task_name in dict.fromkeys(name for active, _ in blend for name in active)
+            task_name: ports[task_name].Eval(context)
+            for task_name in (
+                blend[0][0] if len(blend) == 1 else dict.fromkeys(n for active, _ in blend for n in active)
+            )
         }
         with np.errstate(over="ignore"):  # one for all the finiteness sums of _level (it says why)
             for task_name, signal in evaluated.items():
                 signals[task_name] = self._level(task_name, signal, context, errors)
-        qdot = np.zeros(self._nv)
-        for active, weight in blend:  # one stack, weight 1, unless a change is in progress
+        qdot = None
+        for active, weight in blend:
             if not active:
                 continue
             levels = [signals[task_name] for task_name in active]
@@ -325,8 +339,10 @@ class StackOfTasks(LeafSystem):
                 result = solve_strict(
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
                 )
-            qdot += weight * result.qdot
-        discrete_state.get_mutable_vector(self._qdot).SetFromVector(qdot)
+            qdot = weight * result.qdot if qdot is None else qdot + weight * result.qdot
+        discrete_state.get_mutable_vector(self._qdot).SetFromVector(
+            np.zeros(self._nv) if qdot is None else qdot
+        )
         discrete_state.get_mutable_vector(self._errors).SetFromVector(errors)
 
     def _level(
@@ -335,7 +351,6 @@ class StackOfTasks(LeafSystem):
         """The solver's level of a task of the stack, its signal checked (RuntimeError naming the
         task otherwise); writes the task's error into ``errors``. Call under
         ``np.errstate(over="ignore")``: an overflowing finiteness sum is looked at entry by entry."""
-        m = self._dims[task_name]
         if signal.name != task_name:
             raise RuntimeError(
                 f"{self.get_name()!r}: input port {task_name!r} carries the signal of task "
@@ -343,28 +358,25 @@ class StackOfTasks(LeafSystem):
             )
         if isinstance(signal, BoundedTaskSignal):
             errors[self._slices[task_name]] = signal.error
-            return self._bounded_level(task_name, signal, m, context)
-        shapes = (signal.error.shape, signal.jacobian.shape, signal.edot_des.shape)
-        if shapes != ((m,), (m, self._nv), (m,)):
+            return self._bounded_level(task_name, signal, self._dims[task_name], context)
+        J, edot = signal.jacobian, signal.edot_des
+        shapes = (signal.error.shape, J.shape, edot.shape)
+        if shapes != self._shapes[task_name]:
+            m = self._dims[task_name]
             raise RuntimeError(
                 f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, "
                 f"ė* (edot_des) {shapes[2]}; expected ({m},), ({m}, {self._nv}), ({m},)"
             )
         # One sum is finite when every entry is (a cheap test per tick); only if it is not
         # (NaN, Inf, or an overflow of large finite values) look entry by entry.
-        total = signal.jacobian.sum() + signal.edot_des.sum()  # overflow: see the caller's errstate
-        if not math.isfinite(total) and not (
-            np.isfinite(signal.jacobian).all() and np.isfinite(signal.edot_des).all()
+        if not math.isfinite(J.sum() + edot.sum()) and not (  # overflow: see the caller's errstate
+            np.isfinite(J).all() and np.isfinite(edot).all()
         ):
             raise RuntimeError(
                 f"task {task_name!r}: NaN or Inf in its signal at t = {context.get_time():.4f} s"
             )
         errors[self._slices[task_name]] = signal.error
-        return (
-            (signal.jacobian, signal.edot_des, signal.edot_des)
-            if self._solver == "hqp"
-            else (signal.jacobian, signal.edot_des)
-        )
+        return (J, edot, edot) if self._solver == "hqp" else (J, edot)
 
     def _bounded_level(
         self, task_name: str, signal: BoundedTaskSignal, m: int, context: Context
@@ -387,8 +399,10 @@ class StackOfTasks(LeafSystem):
             raise RuntimeError(
                 f"task {task_name!r}: NaN or Inf in its Jacobian at t = {context.get_time():.4f} s"
             )
-        try:
-            validation.bounds(f"task {task_name!r} at t = {context.get_time():.4f} s", lower, upper, m)
-        except ValueError as error:
-            raise RuntimeError(str(error)) from None
+        # validation.bounds' test, its message (naming the row) built only when it fails.
+        if not ((lower <= upper) & (lower < math.inf) & (upper > -math.inf)).all():
+            try:
+                validation.bounds(f"task {task_name!r} at t = {context.get_time():.4f} s", lower, upper, m)
+            except ValueError as error:
+                raise RuntimeError(str(error)) from None
         return J, lower, upper

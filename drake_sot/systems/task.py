@@ -11,7 +11,7 @@ from pydrake.systems.framework import Context, InputPort, LeafSystem
 
 from drake_sot import features as fmath
 from drake_sot.features import SelectionLike
-from drake_sot.gains import Gain, evaluate_gain, validate_gain
+from drake_sot.gains import AdaptiveGain, Gain, validate_gain
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.features import _Feature
@@ -50,7 +50,7 @@ class Task(LeafSystem):
         super().__init__()
         self.set_name(name)
         # (input port, dimension, rows of the feature's output the task keeps or None for all)
-        self._features: list[tuple[InputPort, int, np.ndarray | None]] = []
+        self._features: list[tuple[InputPort, int, np.ndarray | slice | None]] = []
         # Value[object]: the parameter holds a float or an AdaptiveGain.
         self._gain = self.DeclareAbstractParameter(Value[object](validate_gain(gain, name=name)))
         self._gain_input = self.DeclareVectorInputPort(GAIN_PORT, 1)
@@ -93,7 +93,9 @@ class Task(LeafSystem):
                 selection, feature.dimension, name=f"selection of {name!r} in task {self.get_name()!r}"
             )
         )
-        self._features.append((port, feature.dimension if rows is None else int(rows.size), rows))
+        if rows is not None and rows.size and (np.diff(rows) == 1).all():
+            rows = slice(int(rows[0]), int(rows[-1]) + 1)  # consecutive components: views, not copies
+        self._features.append((port, feature.dimension if rows is None else _count(rows), rows))
         return port
 
     def set_gain(self, context: Context, gain: Gain) -> None:
@@ -119,20 +121,31 @@ class Task(LeafSystem):
         return context.get_abstract_parameter(self._gain).get_value()
 
     def _calc_task(self, context: Context, value: AbstractValue) -> None:
-        if not self._features:
+        features = self._features
+        if len(features) == 1:  # the common case: one feature, no concatenation
+            port, _, rows = features[0]
+            e, J, ff = _rows(port.Eval(context), rows)
+        elif not features:
             raise RuntimeError(f"task {self.get_name()!r} has no feature: call add() before building")
-        signals = [_rows(port.Eval(context), rows) for port, _, rows in self._features]
-        if len(signals) == 1:
-            e, J, ff = signals[0]
         else:
+            signals = [_rows(port.Eval(context), rows) for port, _, rows in features]
             e = np.concatenate([s[0] for s in signals])
             J = np.vstack([s[1] for s in signals])
             ff = np.concatenate([s[2] for s in signals])
-        gain = evaluate_gain(self._current_gain(context), math.sqrt(float(e @ e)))
+        gain = self._current_gain(context)
+        if isinstance(gain, AdaptiveGain):  # ‖e‖ only for a gain that depends on it
+            gain = gain(math.sqrt(float(e @ e)))
         value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))
 
 
-def _rows(signal: FeatureSignal, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _count(rows: np.ndarray | slice) -> int:
+    """How many components ``rows`` (indices, or a slice of consecutive ones) keeps."""
+    return rows.stop - rows.start if isinstance(rows, slice) else int(rows.size)
+
+
+def _rows(
+    signal: FeatureSignal, rows: np.ndarray | slice | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(e, J, feedforward)`` of a feature signal, restricted to ``rows`` (None: all)."""
     if rows is None:
         return signal.error, signal.jacobian, signal.feedforward

@@ -4,6 +4,7 @@ kinematics of the simulated model and the object's path), not on the controller'
 
 import numpy as np
 import pytest
+from joint_limits import limit_excess
 
 from drake_sot.diagrams import look_and_reach
 from drake_sot.diagrams.scenario import run_scenario
@@ -58,3 +59,13 @@ def test_the_robot_stands_and_the_plot_is_written(run):
     assert slide.max() < 0.002
     assert arrays["q"][:, 6].min() > 0.55  # pelvis height
     assert run.files["look_and_reach_image"].stat().st_size > 10_000
+
+
+def test_no_joint_passes_its_position_or_velocity_limit(run):
+    """Joint position and velocity limits on top of the stack (solver "hqp"), measured on the
+    plant; the reference stays the margin (0.02 rad) inside, though the gaze wants the head
+    pitch close to its limit."""
+    excess = limit_excess(run.setup.built, run.arrays)
+    assert excess.position < 1e-3, f"{excess.position_joint} {excess.position:.4f} rad past its limit"
+    assert excess.velocity < 1e-3, f"{excess.velocity_joint} {excess.velocity:.4f} rad/s past its limit"
+    assert excess.reference <= -0.02 + 1e-9, f"reference {excess.reference_joint} {excess.reference:.4f}"

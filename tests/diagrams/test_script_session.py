@@ -508,3 +508,23 @@ def test_selection_flags_with_a_leading_zero_must_be_quoted():
         quoted.execute("set f.selec 012")
     quoted.execute('set f.selec "000111"')
     assert quoted.build().tasks["t"].dimension == 3
+
+
+def test_a_script_can_plug_an_operational_point_as_one_value():
+    """``plug dyn.rh_frame fp.frame`` feeds the pose and the Jacobian in one signal; the feature
+    then holds the operational point's pose at q0, as with ``plug dyn.rh fp.position``."""
+    session = ScriptSession()
+    session.run_script(
+        "dyn.createOpPoint rh right_hand\nnew FeaturePoint6d fp\nplug dyn.rh_frame fp.frame\n"
+        "new FeaturePoint6d fq\nplug dyn.rh fq.position\nplug dyn.Jrh fq.Jq\nnew Task t\nt.add fp\nt.add fq"
+    )
+    session.build()
+    context = session.simulator.get_context()
+    one, two = session.system("fp"), session.system("fq")
+    a = one.GetOutputPort("feature").Eval(one.GetMyContextFromRoot(context))
+    b = two.GetOutputPort("feature").Eval(two.GetMyContextFromRoot(context))
+    np.testing.assert_allclose(a.error, 0.0, atol=1e-12)
+    np.testing.assert_array_equal(a.jacobian, b.jacobian)
+    np.testing.assert_array_equal(one.desired(context).GetAsMatrix4(), two.desired(context).GetAsMatrix4())
+    with pytest.raises(SessionError, match=r"dyn already has a signal 'rh_frame'"):
+        ScriptSession().run_script("dyn.createOpPoint rh right_hand\ndyn.createOpPoint rh_frame left_hand")

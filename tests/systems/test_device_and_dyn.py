@@ -53,6 +53,12 @@ def test_dyn_operational_points_match_the_plant(control_model):
         dyn.add_operational_point("x", "nope")
     with pytest.raises(ValueError, match="already exists"):
         dyn.add_operational_point("rleg", info.frames["left_foot"])
+    with pytest.raises(
+        ValueError, match="outputs 'com', 'Jcom', 'com_frame' is taken"
+    ):  # "J" + "com" is taken
+        dyn.add_operational_point("com", info.frames["left_foot"])
+    with pytest.raises(ValueError, match="outputs 'rleg_frame', 'Jrleg_frame'"):  # the second op's pose port
+        dyn.add_operational_point("rleg_frame", info.frames["left_foot"])
     context = dyn.CreateDefaultContext()
     q = random_configuration(plant, q0, np.random.default_rng(1))
     dyn.GetInputPort("q").FixValue(context, q)
@@ -65,6 +71,10 @@ def test_dyn_operational_points_match_the_plant(control_model):
         pc, JacobianWrtVariable.kV, frame, np.zeros(3), plant.world_frame(), plant.world_frame()
     )
     np.testing.assert_allclose(dyn.GetOutputPort("Jrleg").Eval(context), J, atol=1e-14)
+    both = dyn.GetOutputPort("rleg_frame").Eval(context)  # the same pose and Jacobian in one value
+    np.testing.assert_allclose(both.rotation, frame.CalcPoseInWorld(pc).rotation().matrix(), atol=1e-14)
+    np.testing.assert_allclose(both.translation, frame.CalcPoseInWorld(pc).translation(), atol=1e-14)
+    np.testing.assert_allclose(both.jacobian, J, atol=1e-14)
     np.testing.assert_allclose(
         dyn.GetOutputPort("com").Eval(context), plant.CalcCenterOfMassPositionInWorld(pc), atol=1e-14
     )
@@ -118,3 +128,26 @@ def test_gravity_feedforward_in_actuator_order(control_model):
     v = plant.GetJointByName("r_shoulder_pitch").velocity_start()
     assert tau[k] == pytest.approx(-tau_g[v], abs=1e-9)
     assert abs(tau[k]) > 0.1  # the arm hangs nearly straight: small but not zero
+
+
+def test_dyn_keeps_two_contexts_apart(control_model):
+    """One scratch plant context serves every Drake context: evaluating two contexts in turn,
+    and changing q in one of them, gives each its own configuration's pose (Drake's)."""
+    plant, info, q0 = control_model
+    dyn = RobotKinematics(plant)
+    dyn.add_operational_point("rh", info.frames["right_hand"])
+    frame = plant.GetFrameByName(info.frames["right_hand"])
+    rng = np.random.default_rng(4)
+    contexts = [dyn.CreateDefaultContext() for _ in range(2)]
+    for _ in range(3):
+        qs = [random_configuration(plant, q0, rng) for _ in contexts]
+        for context, q in zip(contexts, qs, strict=True):
+            dyn.GetInputPort("q").FixValue(context, q)
+        for context, q in [*zip(contexts, qs, strict=True), *zip(contexts[::-1], qs[::-1], strict=True)]:
+            pc = plant.CreateDefaultContext()
+            plant.SetPositions(pc, q)
+            X = frame.CalcPoseInWorld(pc)
+            np.testing.assert_allclose(dyn.GetOutputPort("rh").Eval(context).GetAsMatrix4(), X.GetAsMatrix4())
+            np.testing.assert_allclose(
+                dyn.GetOutputPort("rh_frame").Eval(context).translation, X.translation()
+            )

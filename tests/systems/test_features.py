@@ -274,3 +274,89 @@ def test_bad_inputs_are_refused_with_names(control_model):
     with pytest.raises(ValueError, match="comes from input port 'sdes'"):
         feature.set_desired(context, np.zeros(3))
     np.testing.assert_array_equal(feature.desired(context), [0.0, 0.0, 0.64])
+
+
+def test_pose_features_read_the_frame_input_as_the_two_paper_signals(control_model):
+    """A pose feature fed ``dyn.<op>_frame`` on its ``frame`` input (one value: pose and Jacobian)
+    gives the signal it gives fed ``dyn.<op>`` and ``dyn.J<op>`` on ``position`` and ``Jq``; its
+    Jacobian also matches finite differences on its own."""
+    plant, info, q0 = control_model
+    rng = np.random.default_rng(8)
+    desired = random_pose(rng)
+    pairs = {
+        "6d": (FeaturePoint6d(name="a", desired=desired), FeaturePoint6d(name="b", desired=desired)),
+        "relative": (
+            FeaturePoint6dRelative(name="c", desired=desired),
+            FeaturePoint6dRelative(name="d", desired=desired),
+        ),
+        "visual": (FeatureVisualPoint(name="e"), FeatureVisualPoint(name="f")),
+    }
+    bench = FeatureBench(
+        plant,
+        [f for pair in pairs.values() for f in pair],
+        op_points=[("rh", info.frames["right_hand"]), ("lh", info.frames["left_hand"])],
+    )
+    dyn = bench.dyn
+    for one_value, two_signals in pairs.values():
+        bench.connect(dyn.GetOutputPort("rh_frame"), one_value.GetInputPort("frame"))
+        bench.connect(dyn.GetOutputPort("rh"), two_signals.GetInputPort("position"))
+        bench.connect(dyn.GetOutputPort("Jrh"), two_signals.GetInputPort("Jq"))
+    relative_one, relative_two = pairs["relative"]
+    bench.connect(dyn.GetOutputPort("lh_frame"), relative_one.GetInputPort("frameRef"))
+    bench.connect(dyn.GetOutputPort("lh"), relative_two.GetInputPort("positionRef"))
+    bench.connect(dyn.GetOutputPort("Jlh"), relative_two.GetInputPort("JqRef"))
+    bench.build()
+    hand = plant.GetFrameByName(info.frames["right_hand"])
+    for _ in range(3):
+        q = random_configuration(plant, q0, rng)
+        for feature in pairs["visual"]:  # a point 1 m along the hand frame's z axis (its optical axis)
+            point = hand.CalcPoseInWorld(_positioned(plant, q)) @ np.array([0.1, -0.2, 1.0])
+            feature.GetInputPort("point").FixValue(feature.GetMyMutableContextFromRoot(bench.context), point)
+        for one_value, two_signals in pairs.values():
+            a, b = bench.signal(one_value, q), bench.signal(two_signals, q)
+            np.testing.assert_array_equal(a.error, b.error)
+            np.testing.assert_array_equal(a.jacobian, b.jacobian)
+            np.testing.assert_array_equal(a.feedforward, b.feedforward)
+        fd_check(bench, pairs["6d"][0], plant, q, rng, n_dirs=3)
+
+
+def test_a_pose_feature_fed_both_ways_is_refused_naming_it(control_model):
+    plant, info, q0 = control_model
+    feature = FeaturePoint6d(name="both")
+    bench = FeatureBench(plant, [feature], op_points=[("rh", info.frames["right_hand"])])
+    bench.connect(bench.dyn.GetOutputPort("rh_frame"), feature.GetInputPort("frame"))
+    bench.connect(bench.dyn.GetOutputPort("rh"), feature.GetInputPort("position"))
+    bench.build()
+    with pytest.raises(RuntimeError, match=r"'both': inputs 'frame' and 'position'/'Jq' both have a value"):
+        bench.signal(feature, q0)
+
+
+def test_a_new_desired_value_reaches_the_cached_form_at_once(control_model):
+    """The desired value is prepared in a cache entry: setting the parameter, or fixing the
+    input port, must change the very next evaluation (no stale cache)."""
+    plant, info, q0 = control_model
+    feature = FeaturePoint6d(name="rh")
+    bench = FeatureBench(plant, [feature], op_points=[("rh", info.frames["right_hand"])])
+    bench.connect(bench.dyn.GetOutputPort("rh_frame"), feature.GetInputPort("frame"))
+    bench.build()
+    X = plant.GetFrameByName(info.frames["right_hand"]).CalcPoseInWorld(_positioned(plant, q0))
+    feature.set_desired(bench.context, X)
+    np.testing.assert_allclose(bench.signal(feature, q0).error, 0.0, atol=1e-12)
+    shifted = RigidTransform(X.rotation(), X.translation() + [0.1, -0.2, 0.3])
+    feature.set_desired(bench.context, shifted)
+    np.testing.assert_allclose(bench.signal(feature, q0).error[:3], [-0.1, 0.2, -0.3], atol=1e-12)
+    moved = RigidTransform(X.rotation(), X.translation() + [0.0, 0.0, -0.5])
+    feature.GetInputPort("position_des").FixValue(feature.GetMyMutableContextFromRoot(bench.context), moved)
+    np.testing.assert_allclose(bench.signal(feature, q0).error[:3], [0.0, 0.0, 0.5], atol=1e-12)
+    posture = FeaturePosture(plant, name="posture")
+    bench = FeatureBench(plant, [posture], q_inputs=[posture]).build()
+    target = q0.copy()
+    target[7:] += 0.1
+    posture.set_desired(bench.context, target)
+    np.testing.assert_allclose(bench.signal(posture, q0).error, -0.1, atol=1e-12)
+
+
+def _positioned(plant, q):
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q)
+    return context
