@@ -20,6 +20,7 @@ import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform, RollPitchYaw
 
+from drake_sot.diagrams.balance import REFERENCES, add_stabilizer, add_zmp_estimator
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
@@ -29,7 +30,6 @@ from drake_sot.footsteps import Footstep, StepTiming, alternating_steps
 from drake_sot.models.humanoid import SOLE
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
-from drake_sot.systems.zmp import ZmpEstimator
 
 TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
 START = 0.5  # [s] when the steps are given
@@ -85,12 +85,14 @@ def add_pattern_generator(
     return pg, left, right
 
 
-def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Footstep]:
+def add_walking(
+    b: HumanoidSoTBuilder, *, stabilizer: bool = True
+) -> tuple[PatternGenerator, Footstep, Footstep]:
     """The pattern generator and the walking tasks: joint position and velocity limits
     (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
-    and CoM xy (references and velocity feed-forward from the generator), waist
-    orientation, both hands held relative to the waist. Returns the generator and the
-    initial footprints."""
+    and CoM xy (references and velocity feed-forward from the generator, through the
+    balance stabilizer unless ``stabilizer`` is False), waist orientation, both hands held
+    relative to the waist. Returns the generator and the initial footprints."""
     pg, left, right = add_pattern_generator(b)
     b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     for task_name, foot in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
@@ -98,8 +100,11 @@ def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Foot
         b.builder.Connect(pg.GetOutputPort(foot), b.features[task_name].GetInputPort("position_des"))
         b.builder.Connect(pg.GetOutputPort(foot + "_vel"), b.features[task_name].GetInputPort("velocity_des"))
     b.add_com_task("taskCom", selection="110", gain=20.0)
-    b.builder.Connect(pg.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
-    b.builder.Connect(pg.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
+    if stabilizer:  # issue 10: DCM feedback between the generator and the CoM task
+        add_stabilizer(b, "taskCom", {name: pg.GetOutputPort(name) for name in REFERENCES})
+    else:
+        b.builder.Connect(pg.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
+        b.builder.Connect(pg.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
     b.add_op_point_task("taskWaist", "pelvis", selection="000111", gain=10.0)
     b.builder.Connect(pg.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
     b.add_relative_task("taskRHwaist", "right_hand", "pelvis", gain=5.0)
@@ -107,18 +112,16 @@ def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Foot
     return pg, left, right
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """Build the ``walk`` diagram and its script, with ``pushes`` on the robot."""
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), stabilizer: bool = True
+) -> ScenarioSetup:
+    """Build the ``walk`` diagram and its script, with ``pushes`` on the robot, with or without
+    the balance stabilizer."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
-    pg, left, right = add_walking(b)
+    pg, left, right = add_walking(b, stabilizer=stabilizer)
     b.add_posture_task("taskPosture", gain=1.0)
 
-    zmp = b.builder.AddSystem(
-        ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]])
-    )
-    zmp.set_name("zmp_estimator")
-    b.builder.Connect(b.plant.get_reaction_forces_output_port(), zmp.GetInputPort("reaction_forces"))
-    b.builder.Connect(b.plant.get_body_poses_output_port(), zmp.GetInputPort("body_poses"))
+    zmp = add_zmp_estimator(b)
     for name, port in (
         ("zmp", zmp.GetOutputPort("zmp")),
         ("zmp_ref", pg.GetOutputPort("zmp_ref")),
@@ -205,4 +208,5 @@ SCENARIO = Scenario(
     description="8 steps of 0.2 m forward, 4 steps turning 90°, stop in double support (ZMP preview control)",
     build=build,
     extra_plots=write_plots,
+    parameters=("stabilizer",),
 )
