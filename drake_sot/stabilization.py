@@ -31,15 +31,14 @@ support polygon.
 
 Realising p_d through the CoM reference. The SoT resolves the motion at the velocity level
 on a position-controlled robot, so p_d is obtained by correcting the CoM reference sent to
-the CoM task by an offset Δc, driven by the ZMP error as a CoM admittance (the body
-position correction of Kajita et al. 2010, the CoM admittance of Caron et al. 2019):
+the CoM task by an offset Δc, driven by the ZMP error as a CoM admittance (as the CoM
+admittance control of Caron et al. 2019 does on HRP-4):
 
     Δc̈ = −k_z (p_d − p̄) − d Δċ,                                                (3)
 
 p̄ being the measured ZMP low-passed with the time constant τ; below the frequency d the
 offset moves at Δċ ≈ −(k_z / d) (p_d − p̄), the ZMP tracking law of the kinematic CoM
-controller of Choi et al. 2007. When the measured ZMP lags
-behind the desired one, the CoM reference decelerates and c̈ = ω² (c − p) puts the ZMP
+controller of Choi et al. 2007. When the measured ZMP lags behind the desired one, the CoM reference decelerates and c̈ = ω² (c − p) puts the ZMP
 forward; when the stiff posture control pushes the ZMP beyond p_d (towards a sole edge,
 where the foot would roll), the reference yields to the push. The offset is driven through
 its acceleration, not its velocity, because Δċ reaches the CoM task as a velocity
@@ -56,7 +55,9 @@ natural frequency of 2.5 rad/s, overdamped).
 
 Limits, never silent: p_d is projected into the support polygon (shrunk by a margin) when
 (2) puts it outside, and Δc is bounded per axis; :class:`StabilizerStep` says when either
-happened.
+happened. A DCM outside the polygon cannot be brought back through the ZMP: that needs
+angular momentum (rotating the trunk, the hip strategy) or a step, neither of which is done
+here (the waist and foot references pass through unchanged).
 """
 
 from __future__ import annotations

@@ -247,6 +247,16 @@ def test_the_standing_robot_survives_a_lateral_push(body, force):
     np.testing.assert_array_equal(forces[pushing], np.tile(push.force, (pushing.sum(), 1)))
     np.testing.assert_array_equal(forces[~pushing], 0.0)
     assert q[:, 6].min() > 0.6  # the pelvis stayed up
-    # The push took: the pelvis swayed toward +y, then came back.
-    sway = q[:, 5] - q[0, 5]
-    assert sway.max() > 0.01 and abs(sway[-1]) < 0.01
+    # The push took: the pelvis swayed toward +y, then came back over the feet (which may have
+    # slid: measured from their midpoint), within 2 cm: after 450 N the robot still rocks
+    # from foot to foot 3 s later, with or without the stabilizer.
+    plant, _ = make_control_model()
+    plant_context = plant.CreateDefaultContext()
+    sway = []
+    for qk in q:
+        plant.SetPositions(plant_context, qk)
+        feet = [plant.GetFrameByName(built.info.frames[f"{side}_foot"]) for side in ("left", "right")]
+        middle = np.mean([f.CalcPoseInWorld(plant_context).translation()[1] for f in feet])
+        sway.append(qk[5] - middle)
+    sway = np.array(sway) - sway[0]
+    assert sway.max() > 0.03 and abs(sway[-1]) < 0.02, (sway.max(), sway[-1])
