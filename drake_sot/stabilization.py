@@ -38,13 +38,14 @@ admittance control of Caron et al. 2019 does on HRP-4):
 
 p̄ being the measured ZMP low-passed with the time constant τ; below the frequency d the
 offset moves at Δċ ≈ −(k_z / d) (p_d − p̄), the ZMP tracking law of the kinematic CoM
-controller of Choi et al. 2007. When the measured ZMP lags behind the desired one, the CoM reference decelerates and c̈ = ω² (c − p) puts the ZMP
-forward; when the stiff posture control pushes the ZMP beyond p_d (towards a sole edge,
-where the foot would roll), the reference yields to the push. The offset is driven through
-its acceleration, not its velocity, because Δċ reaches the CoM task as a velocity
-feed-forward: a velocity proportional to a (noisy) ZMP error would jump at every tick,
-and the inverse-dynamics torque feed-forward of the reference acceleration would kick the
-robot. With a robot that tracks its reference (c = c_r + Δc, p = c − c̈ / ω²), (2) and (3)
+controller of Choi et al. 2007. When the measured ZMP lags behind the desired one, the CoM
+reference decelerates and c̈ = ω² (c − p) puts the ZMP forward; when the stiff posture
+control pushes the ZMP beyond p_d (towards a sole edge, where the foot would roll), the
+reference yields to the push. The offset is driven through its acceleration, not its
+velocity, because Δċ reaches the CoM task as a velocity feed-forward: a velocity
+proportional to a (noisy) ZMP error would jump at every tick, and the inverse-dynamics
+torque feed-forward of the reference acceleration would kick the robot. With a robot that
+tracks its reference (c = c_r + Δc, p = c − c̈ / ω²), (2) and (3)
 give at rest
 
     (1 + k_z / ω²) Δc̈ + (d + k_z (1 + k_ξ / ω) / ω) Δċ + (k_z k_ξ / ω) Δc = 0,
