@@ -177,6 +177,11 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         "client process driving the stack through the command server (paced at real time)",
     )
     run.add_argument(
+        "--no-stabilizer",
+        action="store_true",
+        help="walk, walk_then_interact: without the balance stabilizer (to compare)",
+    )
+    run.add_argument(
         "--push",
         type=_push,
         action="append",
@@ -282,13 +287,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     study = args.scenario in STUDIES
     takes = ("--duration", "--out")
     takes += ("--workers",) if study else ("--no-record", "--push")
-    takes += () if study else tuple(f"--{name}" for name in SCENARIOS[args.scenario].parameters)
+    flags = {"stabilizer": "--no-stabilizer"}  # a parameter whose option is named otherwise
+    takes += (
+        () if study else tuple(flags.get(name, f"--{name}") for name in SCENARIOS[args.scenario].parameters)
+    )
     given = {
         "--workers": args.workers is not None,
         "--transition": args.transition is not None,
         "--decision": args.decision is not None,
         "--no-record": args.no_record,
         "--push": bool(args.push),
+        "--no-stabilizer": args.no_stabilizer,
     }
     refused = [option for option, present in given.items() if present and option not in takes]
     if refused:
@@ -306,6 +315,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _interruptible(lambda: _run_study(args, progress), progress, args.out, study=True)
     parameters = {"transition": args.transition} if args.transition is not None else {}
     parameters |= {"decision": args.decision} if args.decision is not None else {}
+    parameters |= {"stabilizer": False} if args.no_stabilizer else {}
     return _run_scenario(SCENARIOS[args.scenario], args, parameters)
 
 

@@ -20,6 +20,7 @@ import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform, RollPitchYaw
 
+from drake_sot.diagrams.balance import add_stabilizer, add_zmp_estimator
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
@@ -30,7 +31,6 @@ from drake_sot.models.humanoid import SOLE
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.stance_anchor import StanceAnchor
-from drake_sot.systems.zmp import ZmpEstimator
 
 TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
 START = 0.5  # [s] when the steps are given
@@ -87,17 +87,20 @@ def add_pattern_generator(
 
 
 def add_walking(
-    b: HumanoidSoTBuilder, *, anchored: bool = False
+    b: HumanoidSoTBuilder, *, anchored: bool = False, stabilizer: bool = True
 ) -> tuple[PatternGenerator, Footstep, Footstep]:
     """The pattern generator and the walking tasks: joint position and velocity limits
     (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
-    and CoM xy (references and velocity feed-forward from the generator), waist
-    orientation, both hands held relative to the waist. Returns the generator and the
-    initial footprints.
+    and CoM xy (references and velocity feed-forward from the generator, through the
+    balance stabilizer unless ``stabilizer`` is False), waist orientation, both hands held
+    relative to the waist. Returns the generator and the initial footprints.
 
     ``anchored``: the feet, CoM and waist references pass through a ``StanceAnchor``
     (re-anchored on the measured stance foot at each lift-off, so that landing errors
-    do not add up; :mod:`drake_sot.anchoring`)."""
+    do not add up; :mod:`drake_sot.anchoring`). The stabilizer then takes the anchored CoM
+    and the generator's ZMP, which the anchor does not move: the two differ by the
+    anchor's drift, one step's landing error (millimetres).
+    """
     pg, left, right = add_pattern_generator(b)
     refs = add_stance_anchor(b, pg) if anchored else pg
     b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
@@ -108,8 +111,13 @@ def add_walking(
             refs.GetOutputPort(foot + "_vel"), b.features[task_name].GetInputPort("velocity_des")
         )
     b.add_com_task("taskCom", selection="110", gain=20.0)
-    b.builder.Connect(refs.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
-    b.builder.Connect(refs.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
+    if stabilizer:  # issue 10: DCM feedback between the generator and the CoM task
+        references = {name: refs.GetOutputPort(name) for name in ("com", "com_vel")}
+        references["zmp"] = pg.GetOutputPort("zmp")
+        add_stabilizer(b, "taskCom", references)
+    else:
+        b.builder.Connect(refs.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
+        b.builder.Connect(refs.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))
     b.add_op_point_task("taskWaist", "pelvis", selection="000111", gain=10.0)
     b.builder.Connect(refs.GetOutputPort("waist"), b.features["taskWaist"].GetInputPort("position_des"))
     b.add_relative_task("taskRHwaist", "right_hand", "pelvis", gain=5.0)
@@ -147,9 +155,12 @@ def add_stance_anchor(b: HumanoidSoTBuilder, pg: PatternGenerator) -> StanceAnch
     return anchor
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """Build the ``walk`` diagram and its script, with ``pushes`` on the robot."""
-    return build_walk(walk_steps, meshcat=meshcat, pushes=pushes)
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), stabilizer: bool = True
+) -> ScenarioSetup:
+    """Build the ``walk`` diagram and its script, with ``pushes`` on the robot, with or without
+    the balance stabilizer."""
+    return build_walk(walk_steps, meshcat=meshcat, pushes=pushes, stabilizer=stabilizer)
 
 
 def build_walk(
@@ -158,20 +169,16 @@ def build_walk(
     meshcat: Meshcat | None = None,
     pushes: Sequence[ExternalPush] = (),
     anchored: bool = False,
+    stabilizer: bool = True,
 ) -> ScenarioSetup:
     """A walking diagram (the ``walk`` stack, the ZMP estimator, logs) and its script: at
     ``START`` the steps ``steps_of(left, right)`` (made from the initial footprints) are given
-    to the generator. ``anchored``: see :func:`add_walking`."""
+    to the generator. ``anchored``, ``stabilizer``: see :func:`add_walking`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
-    pg, left, right = add_walking(b, anchored=anchored)
+    pg, left, right = add_walking(b, anchored=anchored, stabilizer=stabilizer)
     b.add_posture_task("taskPosture", gain=1.0)
 
-    zmp = b.builder.AddSystem(
-        ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]])
-    )
-    zmp.set_name("zmp_estimator")
-    b.builder.Connect(b.plant.get_reaction_forces_output_port(), zmp.GetInputPort("reaction_forces"))
-    b.builder.Connect(b.plant.get_body_poses_output_port(), zmp.GetInputPort("body_poses"))
+    zmp = add_zmp_estimator(b)
     for name, port in (
         ("zmp", zmp.GetOutputPort("zmp")),
         ("zmp_ref", pg.GetOutputPort("zmp_ref")),
@@ -258,4 +265,5 @@ SCENARIO = Scenario(
     description="8 steps of 0.2 m forward, 4 steps turning 90°, stop in double support (ZMP preview control)",
     build=build,
     extra_plots=write_plots,
+    parameters=("stabilizer",),
 )

@@ -66,7 +66,10 @@ DECISIONS = ("sequencer", "remote")
 
 
 def build(
-    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), decision: str = "sequencer"
+    meshcat: Meshcat | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    decision: str = "sequencer",
+    stabilizer: bool = True,
 ) -> ScenarioSetup:
     """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on the robot.
 
@@ -75,12 +78,13 @@ def build(
     :data:`SWITCH_LINES` and ``force_active.value`` = 1 through the command server; the stack is
     then the solver's own and ``force_active`` a constant source that the server may write,
     listed in ``extras["writable"]``: name → (size, units, apply(root context, value)); what the
-    decision client polls and sends is ``extras["decision"]``)."""
+    decision client polls and sends is ``extras["decision"]``). ``stabilizer``: the balance
+    stabilizer between the pattern generator and the CoM task (see ``walk.add_walking``)."""
     if decision not in DECISIONS:
         raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
     if decision == "remote":
-        return _build_remote(meshcat, pushes)
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes)
+        return _build_remote(meshcat, pushes, stabilizer)
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer)
 
     # The DecisionServer: every 1 s, is the pattern generator still walking?
     switch = (*SWITCH, SetValue("force_active", np.ones(1)))
@@ -109,10 +113,10 @@ def build(
     )
 
 
-def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]):
+def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool):
     """The builder with the walking tasks, both admittance-controlled hand tasks and the posture."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
-    pg, left, right = add_walking(b)
+    pg, left, right = add_walking(b, stabilizer=stabilizer)
     admittances = {
         "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
         "taskForceLH": b.add_admittance_task("taskForceLH", "left", **ADMITTANCE),
@@ -121,8 +125,8 @@ def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]):
     return b, pg, left, right, admittances
 
 
-def _build_remote(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]) -> ScenarioSetup:
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes)
+def _build_remote(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool) -> ScenarioSetup:
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer)
     active = b.builder.AddSystem(ConstantVectorSource(np.zeros(1)))
     active.set_name("force_active")
     for admittance in admittances.values():
@@ -235,5 +239,5 @@ SCENARIO = Scenario(
     description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
     build=build,
     extra_plots=write_plots,
-    parameters=("decision",),
+    parameters=("decision", "stabilizer"),
 )

@@ -28,6 +28,8 @@ class ZmpEstimator(LeafSystem):
     Output ports:
         zmp: (2,) [m] measured ZMP; NaN when the feet carry less than ``min_force``.
         normal_force: (1,) [N] total vertical ground force on the feet.
+        foot_forces: (k,) [N] vertical ground force on each foot, in the order of
+            ``sensor_joints``.
 
     Args:
         plant: the simulated (finalized) plant.
@@ -55,7 +57,9 @@ class ZmpEstimator(LeafSystem):
         )
         self._cache = self.DeclareCacheEntry(
             "zmp_and_force",
-            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(3)), calc=self._calc),
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(np.zeros(3 + len(self._joints))), calc=self._calc
+            ),
             prerequisites_of_calc={self.all_input_ports_ticket()},
         )
         self.DeclareVectorOutputPort(
@@ -67,7 +71,13 @@ class ZmpEstimator(LeafSystem):
         self.DeclareVectorOutputPort(
             "normal_force",
             1,
-            lambda c, out: out.SetFromVector(self._cache.Eval(c)[2:]),
+            lambda c, out: out.SetFromVector(self._cache.Eval(c)[2:3]),
+            prerequisites_of_calc={self._cache.ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "foot_forces",
+            len(self._joints),
+            lambda c, out: out.SetFromVector(self._cache.Eval(c)[3:]),
             prerequisites_of_calc={self._cache.ticket()},
         )
 
@@ -86,6 +96,10 @@ class ZmpEstimator(LeafSystem):
             points += [X_WJ.translation(), X_WB @ p_BoBcm]
             forces += [-R @ F.translational(), -weight]
             torques += [-R @ F.rotational(), np.zeros(3)]
+        forces = np.array(forces)
+        per_foot = forces[0::2, 2] + forces[1::2, 2]
         value.set_value(
-            zmp_from_wrenches(np.array(points), np.array(forces), np.array(torques), self._min_force)
+            np.concatenate(
+                (zmp_from_wrenches(np.array(points), forces, np.array(torques), self._min_force), per_foot)
+            )
         )

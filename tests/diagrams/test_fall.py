@@ -16,6 +16,7 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_sot import cli
 from drake_sot.diagrams import scenario as scenario_module
 from drake_sot.diagrams import walk_then_interact
+from drake_sot.diagrams.balance import add_stabilizer
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import simulate
@@ -221,16 +222,18 @@ def test_a_3000_N_shove_knocks_the_robot_down_and_the_command_exits_3(tmp_path, 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("body", "force"), [("pelvis", 350.0), ("torso", 250.0)])
+@pytest.mark.parametrize(("body", "force"), [("pelvis", 450.0), ("torso", 250.0)])
 def test_the_standing_robot_survives_a_lateral_push(body, force):
-    """The README stack standing; a 0.1 s lateral push at t = 0.5 s: 350 N on the pelvis, 250 N
-    on the torso (about three quarters of what it was measured to survive: ~480 N and ~320 N)."""
+    """The README stack standing, with the balance stabilizer on its CoM task; a 0.1 s lateral
+    push at t = 0.5 s: 450 N on the pelvis (issue 10), 250 N on the torso (issue 10 asks 350 N:
+    not reached, the DCM leaves the support polygon; see benchmarks/README.md)."""
     push = ExternalPush(0.5, body, (0.0, force, 0.0), 0.1)
     b = HumanoidSoTBuilder(pushes=[push])
     b.add_op_point_task("taskLF", "left_foot", gain=5.0)
     b.add_op_point_task("taskRF", "right_foot", gain=5.0)
     b.add_com_task("taskCom", selection="110", gain=3.0)
     b.add_posture_task("taskPosture")
+    add_stabilizer(b, "taskCom")
     built = b.build(stack=["taskLF", "taskRF", "taskCom", "taskPosture"])
     simulator = built.create_simulator()
     result = simulate(simulator, 3.5)
@@ -244,6 +247,16 @@ def test_the_standing_robot_survives_a_lateral_push(body, force):
     np.testing.assert_array_equal(forces[pushing], np.tile(push.force, (pushing.sum(), 1)))
     np.testing.assert_array_equal(forces[~pushing], 0.0)
     assert q[:, 6].min() > 0.6  # the pelvis stayed up
-    # The push took: the pelvis swayed toward +y, then came back.
-    sway = q[:, 5] - q[0, 5]
-    assert sway.max() > 0.01 and abs(sway[-1]) < 0.01
+    # The push took: the pelvis swayed toward +y, then came back over the feet (which may have
+    # slid: measured from their midpoint), within 2 cm: after 450 N the robot still rocks
+    # from foot to foot 3 s later, with or without the stabilizer.
+    plant, _ = make_control_model()
+    plant_context = plant.CreateDefaultContext()
+    sway = []
+    for qk in q:
+        plant.SetPositions(plant_context, qk)
+        feet = [plant.GetFrameByName(built.info.frames[f"{side}_foot"]) for side in ("left", "right")]
+        middle = np.mean([f.CalcPoseInWorld(plant_context).translation()[1] for f in feet])
+        sway.append(qk[5] - middle)
+    sway = np.array(sway) - sway[0]
+    assert sway.max() > 0.03 and abs(sway[-1]) < 0.02, (sway.max(), sway[-1])

@@ -58,3 +58,7 @@ def test_sensor_zmp_matches_the_contact_centre_of_pressure():
     # Sensors plus the feet's weight carry the whole robot, as the contacts do.
     assert zmp.GetOutputPort("normal_force").Eval(zmp_context)[0] == pytest.approx(normal, rel=0.01)
     assert normal == pytest.approx(built.plant.CalcTotalMass(plant_context) * 9.81, rel=0.01)
+    # Per foot: the two shares make the total; leaning left, the left foot carries more.
+    left, right = zmp.GetOutputPort("foot_forces").Eval(zmp_context)
+    assert left + right == pytest.approx(normal, rel=0.01)
+    assert left > right > 0.0

@@ -1,0 +1,103 @@
+"""Balance around the humanoid: the measured ZMP and the DCM stabilizer, wired by name.
+
+:func:`add_stabilizer` puts a :class:`~drake_sot.systems.stabilizer.BalanceStabilizer`
+between the CoM references (a pattern generator's, or those of a robot standing still) and
+a CoM task: the task's ``sdes`` and ``sdes_dot`` come from the stabilizer, which reads the
+simulated robot's state and the ZMP of its ankle force sensors.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.systems.framework import OutputPort
+from pydrake.systems.primitives import ConstantVectorSource
+
+from drake_sot.diagrams.tasks import HumanoidTaskBuilder
+from drake_sot.models.humanoid import SOLE
+from drake_sot.stabilization import StabilizerGains
+from drake_sot.systems.stabilizer import BalanceStabilizer
+from drake_sot.systems.zmp import ZmpEstimator
+
+#: The reference ports a stabilizer takes (``PatternGenerator`` names them so).
+REFERENCES = ("com", "com_vel", "zmp")
+ZMP_ESTIMATOR = "zmp_estimator"
+
+
+def add_zmp_estimator(b: HumanoidTaskBuilder) -> ZmpEstimator:
+    """The diagram's ``ZmpEstimator`` on the two ankle force sensors (added once, then reused)."""
+    if b.builder.HasSubsystemNamed(ZMP_ESTIMATOR):
+        return b.builder.GetMutableSubsystemByName(ZMP_ESTIMATOR)
+    zmp = b.builder.AddSystem(
+        ZmpEstimator(b.plant, [b.info.force_sensors["left_ankle"], b.info.force_sensors["right_ankle"]])
+    )
+    zmp.set_name(ZMP_ESTIMATOR)
+    b.builder.Connect(b.plant.get_reaction_forces_output_port(), zmp.GetInputPort("reaction_forces"))
+    b.builder.Connect(b.plant.get_body_poses_output_port(), zmp.GetInputPort("body_poses"))
+    return zmp
+
+
+def add_stabilizer(
+    b: HumanoidTaskBuilder,
+    com_task: str,
+    references: dict[str, OutputPort] | None = None,
+    *,
+    gains: StabilizerGains = StabilizerGains(),
+) -> BalanceStabilizer:
+    """A ``BalanceStabilizer`` feeding the CoM task ``com_task`` (added before, without its own
+    ``sdes`` source), logged as ``stabilizer_offset``, ``zmp_desired``, ``dcm`` and
+    ``stabilizer_saturated``.
+
+    Args:
+        b: the builder, with the CoM task ``com_task``.
+        com_task: the CoM task's name.
+        references: output ports named as :data:`REFERENCES` (e.g. a ``PatternGenerator``'s:
+            ``{name: pg.GetOutputPort(name)}``); None: standing still, the references are
+            the initial CoM at rest, its ground projection as the ZMP.
+        gains: the stabilizer's gains.
+    """
+    if com_task not in b.features:
+        raise ValueError(f"com_task = {com_task!r}: no such task; known: {', '.join(b.features)}")
+    if references is None:
+        references = _standing_references(b)
+    missing = [name for name in REFERENCES if name not in references]
+    if missing:
+        raise ValueError(f"references: missing {', '.join(missing)} (needs {', '.join(REFERENCES)})")
+    builder = b.builder
+    stabilizer = builder.AddSystem(
+        BalanceStabilizer(
+            b.control_plant,
+            (b.control_info.frames["left_foot"], b.control_info.frames["right_foot"]),
+            SOLE,
+            gains=gains,
+            period=b.control_period,
+        )
+    )
+    for name in REFERENCES:
+        port = {"com": "com_ref", "com_vel": "com_vel_ref", "zmp": "zmp_ref"}.get(name, name)
+        builder.Connect(references[name], stabilizer.GetInputPort(port))
+    zmp = add_zmp_estimator(b)
+    builder.Connect(zmp.GetOutputPort("zmp"), stabilizer.GetInputPort("zmp"))
+    builder.Connect(zmp.GetOutputPort("foot_forces"), stabilizer.GetInputPort("foot_forces"))
+    builder.Connect(b.plant.get_state_output_port(b.info.model_instance), stabilizer.GetInputPort("state"))
+    feature = b.features[com_task]
+    builder.Connect(stabilizer.GetOutputPort("com"), feature.GetInputPort("sdes"))
+    builder.Connect(stabilizer.GetOutputPort("com_vel"), feature.GetInputPort("sdes_dot"))
+    for log, port in (
+        ("stabilizer_offset", "offset"),
+        ("zmp_desired", "zmp_desired"),
+        ("dcm", "dcm"),
+        ("stabilizer_saturated", "saturated"),
+    ):
+        b.log(log, stabilizer.GetOutputPort(port))
+    return stabilizer
+
+
+def _standing_references(b: HumanoidTaskBuilder) -> dict[str, OutputPort]:
+    """Constant references of a robot standing still in its initial posture."""
+    com = b.initial_com()
+    ports = {}
+    for name, value in {"com": com, "com_vel": np.zeros(3), "zmp": com[:2]}.items():
+        source = b.builder.AddSystem(ConstantVectorSource(value))
+        source.set_name(f"stabilizer_{name}_ref")
+        ports[name] = source.get_output_port()
+    return ports

@@ -1,0 +1,224 @@
+"""Balance stabilization by divergent-component-of-motion (DCM) feedback. Pure numpy.
+
+Notation (ground-plane quantities are (2,) [m], world frame):
+    c, ċ       CoM position and velocity of the robot (measured on the simulated plant);
+    c_r, ċ_r   their references (the pattern generator's cart-table CoM);
+    p, p_r     measured ZMP (ankle force sensors) and reference ZMP;
+    ω          natural frequency of the linear inverted pendulum, ω = sqrt(g / z_c) [1/s].
+
+Why DCM feedback (Englsberger, Ott, Albu-Schäffer 2015) rather than the LIPM tracking of
+Kajita et al. 2010. The LIPM  c̈ = ω² (c − p)  splits into a stable part, which converges by
+itself, and the divergent component
+
+    ξ = c + ċ / ω,          ξ̇ = ω (ξ − p),                                    (1)
+
+the only one the ZMP has to act on (Englsberger et al. 2015, eq. 4-8). A push is a jump of ċ,
+hence of ξ by Δv / ω; the robot can stop without a step only while ξ stays where the ZMP can
+reach, inside the support polygon. Feeding back the DCM error with the reference
+ξ̇_r = ω (ξ_r − p_r) gives the desired ZMP
+
+    p_d = p_r + (1 + k_ξ / ω) (ξ − ξ_r),                                       (2)
+
+with which (1) becomes  d(ξ − ξ_r)/dt = −k_ξ (ξ − ξ_r):  the error decays at the rate k_ξ
+one chooses (their eq. 11 with the virtual repellent point on the ground). Kajita et al.
+2010 place the poles of the full state (c, ċ, p) of the LIPM with a ZMP lag; its first
+stage is equivalent (a state feedback on c and ċ), but it realises p_d through ankle torque
+control of each foot (foot force and damping control), which a position-controlled robot
+driven by a kinematic Stack of Tasks does not have: here every joint tracks a reference
+posture. DCM feedback keeps one gain with a physical meaning (the decay rate of ξ), needs
+only c, ċ and p, and tells directly when a push cannot be rejected: p_d outside the
+support polygon.
+
+Realising p_d through the CoM reference. The SoT resolves the motion at the velocity level
+on a position-controlled robot, so p_d is obtained by correcting the CoM reference sent to
+the CoM task by an offset Δc, driven by the ZMP error as a CoM admittance (as the CoM
+admittance control of Caron et al. 2019 does on HRP-4):
+
+    Δc̈ = −k_z (p_d − p̄) − d Δċ,                                                (3)
+
+p̄ being the measured ZMP low-passed with the time constant τ; below the frequency d the
+offset moves at Δċ ≈ −(k_z / d) (p_d − p̄), the ZMP tracking law of the kinematic CoM
+controller of Choi et al. 2007. When the measured ZMP lags behind the desired one, the CoM
+reference decelerates and c̈ = ω² (c − p) puts the ZMP forward; when the stiff posture
+control pushes the ZMP beyond p_d (towards a sole edge, where the foot would roll), the
+reference yields to the push. The offset is driven through its acceleration, not its
+velocity, because Δċ reaches the CoM task as a velocity feed-forward: a velocity
+proportional to a (noisy) ZMP error would jump at every tick, and the inverse-dynamics
+torque feed-forward of the reference acceleration would kick the robot. With a robot that
+tracks its reference (c = c_r + Δc, p = c − c̈ / ω²), (2) and (3)
+give at rest
+
+    (1 + k_z / ω²) Δc̈ + (d + k_z (1 + k_ξ / ω) / ω) Δċ + (k_z k_ξ / ω) Δc = 0,
+
+stable for every k_ξ, k_z > 0, d >= 0: the offset returns to zero once the disturbance is
+gone (with the default gains, at the CoM height of the embedded humanoid, ω = 3.5 /s: a
+natural frequency of 2.5 rad/s, overdamped).
+
+Limits, never silent: p_d is projected into the support polygon (shrunk by a margin) when
+(2) puts it outside, and Δc is bounded per axis; :class:`StabilizerStep` says when either
+happened. A DCM outside the polygon cannot be brought back through the ZMP: that needs
+angular momentum (rotating the trunk, the hip strategy) or a step, neither of which is done
+here (the waist and foot references pass through unchanged).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from drake_sot import validation
+
+#: Standard gravity [m/s²] of the LIPM.
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class StabilizerGains:
+    """Gains and limits of the DCM stabilizer.
+
+    Attributes:
+        dcm: k_ξ [1/s], the decay rate of the DCM error (eq. 2), finite and > 0.
+        zmp: k_z [1/s²], the ZMP gain of the CoM offset's acceleration (eq. 3), finite and > 0.
+        damping: d [1/s], damping of the CoM offset's rate (eq. 3), >= 0.
+        zmp_filter: τ [s], time constant of the low-pass filter of the measured ZMP, >= 0
+            (0: no filter).
+        max_offset: [m] bound of the CoM offset |Δc| on each ground axis, finite and > 0.
+        margin: [m] the desired ZMP is kept this far inside the support polygon, >= 0.
+
+    Raises:
+        ValueError: a value out of its range, named.
+    """
+
+    dcm: float = 3.0
+    zmp: float = 20.0
+    damping: float = 10.0
+    zmp_filter: float = 0.02
+    max_offset: float = 0.10
+    margin: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name, unit in (("dcm", "1/s"), ("zmp", "1/s²"), ("max_offset", "m")):
+            object.__setattr__(self, name, validation.positive(name, getattr(self, name), unit=unit))
+        for name, unit in (("damping", "1/s"), ("zmp_filter", "s"), ("margin", "m")):
+            object.__setattr__(self, name, validation.nonnegative(name, getattr(self, name), unit=unit))
+
+
+def natural_frequency(com_height: float, gravity: float = GRAVITY) -> float:
+    """ω = sqrt(g / z_c) [1/s] of the linear inverted pendulum of height ``com_height`` [m]."""
+    com_height = validation.positive("com_height", com_height, unit="m")
+    return math.sqrt(validation.positive("gravity", gravity, unit="m/s²") / com_height)
+
+
+def divergent_component(com: np.ndarray, com_vel: np.ndarray, omega: float) -> np.ndarray:
+    """ξ = c + ċ / ω (eq. 1) [m], on as many axes as ``com`` has."""
+    return np.asarray(com, dtype=float) + np.asarray(com_vel, dtype=float) / omega
+
+
+def project_into_polygon(polygon: np.ndarray, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """The point of a convex polygon, shrunk by ``margin`` [m], nearest to ``point`` (2,).
+
+    Args:
+        polygon: (k, 2) counter-clockwise vertices (``support.support_polygon``), k >= 3.
+        point: (2,) [m].
+        margin: [m] >= 0, smaller than the polygon's inradius.
+
+    Raises:
+        ValueError: the polygon shrunk by ``margin`` is empty (named with the margin).
+    """
+    polygon = validation.matrix("polygon", polygon, (None, 2))
+    point = validation.vector("point", point, 2)
+    margin = validation.nonnegative("margin", margin, unit="m")
+    edge = np.roll(polygon, -1, axis=0) - polygon
+    normal = np.stack((-edge[:, 1], edge[:, 0]), axis=1) / np.linalg.norm(edge, axis=1, keepdims=True)
+    offset = np.einsum("ij,ij->i", normal, polygon) + margin  # inside: normal · x >= offset
+    if np.all(normal @ point >= offset):
+        return point
+    # Vertices of the shrunk polygon: edge i-1 and edge i, each moved inward by the margin.
+    vertices = []
+    for i in range(len(polygon)):
+        A = np.array([normal[i - 1], normal[i]])
+        vertices.append(np.linalg.solve(A, [offset[i - 1], offset[i]]))
+    vertices = np.array(vertices)
+    if np.any(normal @ vertices.T < offset[:, None] - 1e-9):
+        raise ValueError(f"margin = {margin!r} m: larger than the support polygon's inradius")
+    best, best_distance = point, math.inf
+    for a, b in zip(vertices, np.roll(vertices, -1, axis=0), strict=True):
+        ab = b - a
+        length2 = float(ab @ ab)
+        s = 0.0 if length2 == 0.0 else min(1.0, max(0.0, float((point - a) @ ab) / length2))
+        candidate = a + s * ab
+        distance = float(np.linalg.norm(point - candidate))
+        if distance < best_distance:
+            best, best_distance = candidate, distance
+    return best
+
+
+@dataclass(frozen=True)
+class StabilizerStep:
+    """The stabilizer's state after one control tick, and what it decided.
+
+    Attributes:
+        offset: Δc (2,) [m], the CoM reference offset.
+        offset_rate: Δċ (2,) [m/s], its rate (the velocity feed-forward).
+        zmp_filtered: p̄ (2,) [m], the low-passed measured ZMP.
+        zmp_desired: p_d (2,) [m], eq. 2 after projection into the support polygon.
+        zmp_saturated: eq. 2 put p_d outside the support polygon (it was projected).
+        offset_saturated: the offset reached ``max_offset`` on an axis (it was held there,
+            its rate set to zero on that axis).
+    """
+
+    offset: np.ndarray
+    offset_rate: np.ndarray
+    zmp_filtered: np.ndarray
+    zmp_desired: np.ndarray
+    zmp_saturated: bool
+    offset_saturated: bool
+
+
+def stabilizer_step(
+    offset: np.ndarray,
+    offset_rate: np.ndarray,
+    zmp_filtered: np.ndarray,
+    *,
+    com_ref: np.ndarray,
+    com_vel_ref: np.ndarray,
+    zmp_ref: np.ndarray,
+    com: np.ndarray,
+    com_vel: np.ndarray,
+    zmp: np.ndarray,
+    polygon: np.ndarray,
+    omega: float,
+    dt: float,
+    gains: StabilizerGains,
+) -> StabilizerStep:
+    """Advance the stabilizer by one tick of ``dt`` [s] (eq. 2 and 3, semi-implicit Euler).
+
+    All points are ground-plane (2,) [m] (velocities [m/s]); ``polygon`` is the support
+    polygon (k, 2). ``offset``, ``offset_rate`` and ``zmp_filtered`` are the state before the
+    tick (``zmp_filtered`` NaN: no measurement yet, the first one is taken as it is). A
+    measured ``zmp`` with NaN (the feet carry no load: no ZMP) leaves the filtered ZMP as it
+    was; while there is none, only the damping acts on the offset's rate.
+    """
+    dcm_error = divergent_component(com, com_vel, omega) - divergent_component(com_ref, com_vel_ref, omega)
+    raw = np.asarray(zmp_ref, dtype=float) + (1.0 + gains.dcm / omega) * dcm_error
+    desired = project_into_polygon(polygon, raw, gains.margin)
+    zmp, filtered = np.asarray(zmp, dtype=float), np.asarray(zmp_filtered, dtype=float)
+    if np.all(np.isfinite(zmp)):
+        first = not np.all(np.isfinite(filtered))
+        filtered = zmp if first else filtered + dt / (gains.zmp_filter + dt) * (zmp - filtered)
+    rate = np.asarray(offset_rate, dtype=float)
+    pull = -gains.zmp * (desired - filtered) if np.all(np.isfinite(filtered)) else np.zeros(2)
+    rate = rate + (pull - gains.damping * rate) * dt
+    moved = np.asarray(offset, dtype=float) + rate * dt
+    bounded = np.clip(moved, -gains.max_offset, gains.max_offset)
+    held = bounded != moved
+    return StabilizerStep(
+        offset=bounded,
+        offset_rate=np.where(held, 0.0, rate),
+        zmp_filtered=filtered,
+        zmp_desired=desired,
+        zmp_saturated=not np.array_equal(desired, raw),
+        offset_saturated=bool(held.any()),
+    )

@@ -1,0 +1,182 @@
+"""``BalanceStabilizer``: DCM feedback between the walking references and the Stack of Tasks.
+
+The pattern generator plans the CoM of a cart-table model; the simulated robot, pushed or
+simply not that model, drifts from it. The stabilizer measures the robot (CoM and CoM
+velocity of the simulated plant, ZMP from the ankle force sensors), and corrects the CoM
+reference sent to the CoM task so that the divergent component of motion returns to its
+reference (:mod:`drake_sot.stabilization` has the equations and the argument for them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+
+from drake_sot import validation
+from drake_sot.stabilization import StabilizerGains, divergent_component, natural_frequency, stabilizer_step
+from drake_sot.support import sole_corners, support_polygon
+
+#: Layout of the discrete state: offset Δc (2), its rate Δċ (2), filtered measured ZMP (2),
+#: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset).
+_OFFSET, _RATE, _ZMP_F, _ZMP_D, _DCM, _FLAGS = (slice(i, i + 2) for i in range(0, 12, 2))
+
+
+class BalanceStabilizer(LeafSystem):
+    """Corrects the CoM reference by DCM feedback on the measured CoM, CoM velocity and ZMP.
+
+    At each control tick (``period``) it reads the references and the measurements, applies
+    :func:`drake_sot.stabilization.stabilizer_step` (desired ZMP from the DCM error,
+    projected into the support polygon of the soles in contact; CoM offset moved to track
+    it) and holds the result; the corrected reference is the input reference plus the held
+    offset (ground axes only: the CoM height is passed through). The support polygon is the
+    measured one: rectangles of ``sole`` centred on the sole frames of the simulated robot,
+    for the feet whose sensors read a vertical ground force above ``contact_force`` (the
+    planned contacts may be wrong after a push: a foot that should swing may still carry the
+    robot).
+
+    Input ports:
+        com_ref: (3,) [m] CoM reference (e.g. ``PatternGenerator.com``); z is the
+            inverted pendulum's height.
+        com_vel_ref: (3,) [m/s] CoM velocity reference (``PatternGenerator.com_vel``).
+        zmp_ref: (2,) [m] ZMP of the reference motion (``PatternGenerator.zmp``).
+        zmp: (2,) [m] measured ZMP (``ZmpEstimator.zmp``); NaN when the feet carry no load.
+        state: (nq + nv,) the simulated robot's state ``[q; v]`` (the plant's state output
+            of the robot's model instance), laid out as ``plant``'s.
+        foot_forces: (2,) [N] [left, right] vertical ground force on each foot
+            (``ZmpEstimator.foot_forces``).
+    Output ports:
+        com: (3,) [m] corrected CoM reference, for the CoM feature's ``sdes``.
+        com_vel: (3,) [m/s] corrected CoM velocity reference, for ``sdes_dot``.
+        offset: (2,) [m] the CoM offset Δc.
+        zmp_desired: (2,) [m] the desired ZMP p_d (inside the support polygon).
+        dcm: (2,) [m] the measured divergent component of motion ξ.
+        saturated: (2,) [ZMP, offset] 1 when, at the last tick, the desired ZMP was projected
+            into the support polygon, or the offset was held at ``gains.max_offset``.
+
+    Args:
+        plant: a finalized model of the robot (e.g. the controller's model) whose positions and
+            velocities lay out ``state``; the stabilizer keeps its own context of it.
+        soles: names of the left and right sole frames in ``plant`` (centred on the soles).
+        sole: (length, width) [m] of a sole.
+        contact_force: [N] a foot is in the support polygon above this vertical force, > 0.
+        gains: the stabilizer's gains and limits.
+        period: [s] control period, finite and > 0.
+        name: system name.
+    """
+
+    def __init__(
+        self,
+        plant: MultibodyPlant,
+        soles: tuple[str, str],
+        sole: tuple[float, float],
+        *,
+        contact_force: float = 50.0,
+        gains: StabilizerGains = StabilizerGains(),
+        period: float = 0.005,
+        name: str = "stabilizer",
+    ) -> None:
+        super().__init__()
+        self.set_name(name)
+        if not isinstance(gains, StabilizerGains):
+            raise ValueError(f"gains = {gains!r}: must be a StabilizerGains")
+        self._period = validation.positive("period", period, unit="s")
+        self._sole = (
+            validation.positive("sole length", sole[0], unit="m"),
+            validation.positive("sole width", sole[1], unit="m"),
+        )
+        self.gains = gains
+        self._plant = plant
+        self._plant_context = plant.CreateDefaultContext()
+        self._com_ref = self.DeclareVectorInputPort("com_ref", 3)
+        self._com_vel_ref = self.DeclareVectorInputPort("com_vel_ref", 3)
+        self._zmp_ref = self.DeclareVectorInputPort("zmp_ref", 2)
+        self._zmp = self.DeclareVectorInputPort("zmp", 2)
+        self._x = self.DeclareVectorInputPort("state", plant.num_multibody_states())
+        self._foot_forces = self.DeclareVectorInputPort("foot_forces", 2)
+        self._soles = [plant.GetFrameByName(name) for name in soles]
+        self._contact_force = validation.positive("contact_force", contact_force, unit="N")
+        initial = np.zeros(12)
+        initial[_ZMP_F] = np.nan  # no measurement yet
+        self._state = self.DeclareDiscreteState(initial)
+        self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
+        held = self.discrete_state_ticket(self._state)
+        self.DeclareVectorOutputPort(
+            "com",
+            3,
+            lambda c, out: out.SetFromVector(self._com_ref.Eval(c) + np.append(self._held(c)[_OFFSET], 0.0)),
+            prerequisites_of_calc={held, self.input_port_ticket(self._com_ref.get_index())},
+        )
+        self.DeclareVectorOutputPort(
+            "com_vel",
+            3,
+            lambda c, out: out.SetFromVector(
+                self._com_vel_ref.Eval(c) + np.append(self._held(c)[_RATE], 0.0)
+            ),
+            prerequisites_of_calc={held, self.input_port_ticket(self._com_vel_ref.get_index())},
+        )
+        for port, part in (
+            ("offset", _OFFSET),
+            ("zmp_desired", _ZMP_D),
+            ("dcm", _DCM),
+            ("saturated", _FLAGS),
+        ):
+            self.DeclareVectorOutputPort(
+                port,
+                2,
+                lambda c, out, part=part: out.SetFromVector(self._held(c)[part]),
+                prerequisites_of_calc={held},
+            )
+
+    def _held(self, context: Context) -> np.ndarray:
+        return context.get_discrete_state(self._state).get_value()
+
+    def support_polygon(self, foot_forces: np.ndarray, feet: list[RigidTransform]) -> np.ndarray:
+        """The support polygon (k, 2) of the soles at ``feet`` whose force is above
+        ``contact_force`` (both when none is: the ZMP is then undefined)."""
+        on = [X for X, f in zip(feet, foot_forces, strict=True) if f > self._contact_force] or feet
+        return support_polygon(
+            [
+                sole_corners(*X.translation()[:2], RollPitchYaw(X.rotation()).yaw_angle(), self._sole)
+                for X in on
+            ]
+        )
+
+    def _update(self, context: Context, discrete: DiscreteValues) -> None:
+        com_ref = self._com_ref.Eval(context)
+        self._plant.SetPositionsAndVelocities(self._plant_context, self._x.Eval(context))
+        com = self._plant.CalcCenterOfMassPositionInWorld(self._plant_context)
+        com_vel = self._plant.CalcCenterOfMassTranslationalVelocityInWorld(self._plant_context)
+        omega = natural_frequency(com_ref[2])
+        feet = [frame.CalcPoseInWorld(self._plant_context) for frame in self._soles]
+        polygon = self.support_polygon(self._foot_forces.Eval(context), feet)
+        held = self._held(context)
+        step = stabilizer_step(
+            held[_OFFSET],
+            held[_RATE],
+            held[_ZMP_F],
+            com_ref=com_ref[:2],
+            com_vel_ref=self._com_vel_ref.Eval(context)[:2],
+            zmp_ref=self._zmp_ref.Eval(context),
+            com=com[:2],
+            com_vel=com_vel[:2],
+            zmp=self._zmp.Eval(context),
+            polygon=polygon,
+            omega=omega,
+            dt=self._period,
+            gains=self.gains,
+        )
+        discrete.set_value(
+            self._state,
+            np.concatenate(
+                (
+                    step.offset,
+                    step.offset_rate,
+                    step.zmp_filtered,
+                    step.zmp_desired,
+                    divergent_component(com[:2], com_vel[:2], omega),
+                    [float(step.zmp_saturated), float(step.offset_saturated)],
+                )
+            ),
+        )
