@@ -6,6 +6,7 @@ from drake_sot.diagrams import (
     priority_switching,
     reach,
     table_pounding,
+    telecooperation,
     walk,
     walk_then_interact,
 )
@@ -20,6 +21,7 @@ SCENARIOS: dict[str, Scenario] = {
         look_and_reach.SCENARIO,
         priority_switching.SCENARIO,
         table_pounding.SCENARIO,
+        telecooperation.SCENARIO,
     )
 }
 
