@@ -11,12 +11,14 @@ arms on a base placed for the best manipulability; :class:`~drake_sot.systems.ma
 the operator's hands pulled by a spring-damper towards an intention, the body walking.
 
 **Slave site (III-E).** The stack, highest priority first: joint limits (an inequality),
-e_walk (``taskLF``, ``taskRF``: both feet 6D from the pattern generator), e_com (``taskCom``),
+e_walk (``taskLF``, ``taskRF``: both feet 6D from the pattern generator), e_com (``taskCom``: x, y
+from the generator),
 the waist's orientation (``taskWaist``, from the generator), e_zr and e_zl (hand altitudes at
 their initial height, pushed by a sequencer when the pattern generator walks and removed when
 it stops), e_fr and e_fl (admittance-controlled hands, eq. 4, f = the wrist sensor's external
 wrench + the master's force), e_head (head orientation from the master), e_grip (the gripper
-joints to the master's aperture), the posture. The pattern generator is a planner fed by a
+joints to the master's aperture), the CoM's height (``taskComZ``, added here: the paper's e_com
+says nothing of z), the posture. The pattern generator is a planner fed by a
 :class:`~drake_sot.systems.hand_steps.StepDecider` (III-C, III-D): one footprint per executed
 step, four ahead, decided from the hands' error in the waist frame.
 
@@ -32,13 +34,14 @@ Choices where the paper is silent (said here, as the issue asks):
   gripper joints follow e_grip but do not act on the grasp.
 - The master and slave worlds are identified (x_S is used as a master-world position); the
   master's base rotation is left out of eq. 9.
-- The leader walks 2 m forward then 0.5 m sideways at 0.15 m/s from t = 3 s (standing
-  interaction before: holding the board under the delay); the follower moves along the same
-  path 1 s later, through a softer impedance. ``--leader operator``: the operator leads (the
-  issue's first case); ``--leader cooperator``: the co-operator leads (the paper's Fig. 7).
+- The leader lifts the board by 5 cm and sets it back (1-3 s, standing interaction), then
+  walks 2 m forward and 0.5 m sideways, all at 0.05 m/s (a slow walk, as in the paper); the
+  follower moves along the same path 1 s later, through a softer impedance.
+  ``--leader operator``: the operator leads (the issue's first case); ``--leader cooperator``:
+  the co-operator leads (the paper's Fig. 7).
 - The head's reference is the operator's head: yaw 0, pitch nodding by 0.1 rad at 0.25 Hz;
   the aperture opens from 0.1 to 0.5 rad between 1 and 2 s.
-- The step rule: reference = the hands' initial midpoint in the waist frame, threshold 8 cm,
+- The step rule: reference = the hands' initial midpoint in the waist frame, threshold 5 cm,
   strides up to 0.2 m.
 """
 
@@ -80,21 +83,34 @@ LEADERS = ("operator", "cooperator")
 SIDES = ("right", "left")
 ALTITUDE_TASKS = ("e_zr", "e_zl")
 HAND_TASKS = ("e_fr", "e_fl")
-STACK = ("taskJL", "taskLF", "taskRF", "taskCom", "taskWaist", *HAND_TASKS, "e_head", "e_grip", "taskPosture")
+STACK = (
+    "taskJL",
+    "taskLF",
+    "taskRF",
+    "taskCom",
+    "taskWaist",
+    *HAND_TASKS,
+    "e_head",
+    "e_grip",
+    "taskComZ",
+    "taskPosture",
+)
 GRIPPERS = ("r_gripper", "l_gripper")
 
-WALK_AT = 3.0  # [s] the leader starts walking
-SPEED = 0.15  # [m/s] the leader's walking speed
+INTERACT_AT = 1.0  # [s] the leader lifts the board by LIFT, then sets it back, standing
+LIFT = 0.05  # [m]
+SPEED = 0.05  # [m/s] the leader's walking speed
 PATH = ((2.0, 0.0, 0.0), (2.0, -0.5, 0.0))  # the leader's displacement waypoints [m]
 LAG = 1.0  # [s] the follower's lag behind the leader
 LEADER_IMPEDANCE = (200.0, 40.0)  # stiffness [N/m], damping [N s/m]
 FOLLOWER_IMPEDANCE = (80.0, 30.0)
 BOARD_LENGTH, BOARD_MASS, BOARD_THICKNESS = 1.5, 2.0, 0.03
-GRASP = {"force": (3000.0, 120.0), "torque": (20.0, 0.5)}  # stiffness, damping of the bushings
-HAND_ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (60.0, 60.0, 60.0, 4.0, 4.0, 4.0)}
+GRASP = {"force": (800.0, 60.0), "torque": (5.0, 0.2)}  # stiffness, damping of the bushings
+HAND_ADMITTANCE = {"mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2), "damping": (150.0, 150.0, 150.0, 4.0, 4.0, 4.0)}
 MASTER_ADMITTANCE = {"mass": 2.0, "damping": 60.0, "stiffness": 400.0}
 STEP_LIMITS = StepLimits(max_stride=0.2)
-STEP_THRESHOLD = 0.08
+STEP_THRESHOLD = 0.05
+WALK_AT = INTERACT_AT + 2 * LIFT / SPEED  # [s] the leader starts walking
 DURATION = WALK_AT + LAG + (2.0 + 0.5) / SPEED + 4.0
 
 
@@ -133,8 +149,9 @@ def _add_board(plant: MultibodyPlant, info: HumanoidInfo, hands: dict[str, Rigid
         plant.AddForceElement(LinearBushingRollPitchYaw(hand, grip, [kt] * 3, [dt] * 3, [kf] * 3, [df] * 3))
 
 
-def _leader_path(lag: float):
-    return piecewise_linear_path([0.0, 0.0, 0.0], PATH, SPEED, t0=WALK_AT + lag)
+def _waypoints(walk: bool) -> tuple[tuple[float, float, float], ...]:
+    """The leader's displacement waypoints: lift, set back, then (``walk``) the walk."""
+    return ((0.0, 0.0, LIFT), (0.0, 0.0, 0.0), *(PATH if walk else ()))
 
 
 def _references() -> TrajectorySource:
@@ -155,9 +172,11 @@ def build(
     leader: str = "operator",
     delay: float = DEFAULT_DELAY,
     pushes: Sequence[ExternalPush] = (),
+    walk: bool = True,
 ) -> ScenarioSetup:
     """Build the ``telecooperation`` diagram; ``leader`` is ``"operator"`` or ``"cooperator"``,
-    ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot."""
+    ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot;
+    ``walk=False``: the leader only lifts and sets back the board (standing interaction)."""
     if leader not in LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
     delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
@@ -170,6 +189,10 @@ def build(
     x_s0 = np.concatenate([hands0[side].translation() for side in SIDES])
 
     # --- slave side: the seven tasks ------------------------------------------------------
+    # The CoM's height, below the hands: without it the least-norm motion of the hands lowers
+    # the whole body (the robot squats under the board's weight and to reach forward); above
+    # the hands, it drives the arms into the body (a 100 N contact at the wrists).
+    b.add_com_task("taskComZ", selection="001", gain=5.0)
     for task_name, side in zip(ALTITUDE_TASKS, SIDES, strict=True):
         b.add_op_point_task(task_name, f"{side}_hand", selection="001000", gain=5.0)
     admittances = {
@@ -249,16 +272,17 @@ def build(
 
     # --- master side -------------------------------------------------------------------------
     operator_lag = 0.0 if leader == "operator" else LAG
-    walk = _leader_path(operator_lag)
+    waypoints = _waypoints(walk)
+    path = piecewise_linear_path([0.0, 0.0, 0.0], waypoints, SPEED, t0=INTERACT_AT + operator_lag)
     body0 = np.array([0.0, 0.0, 0.9])
     k_op, b_op = LEADER_IMPEDANCE if leader == "operator" else FOLLOWER_IMPEDANCE
 
     def intention(t: float) -> tuple[np.ndarray, np.ndarray]:
-        p, v = walk(t)
+        p, v = path(t)
         return x_s0 + np.tile(p, 2), np.tile(v, 2)
 
     def body(t: float) -> tuple[np.ndarray, np.ndarray]:
-        p, v = walk(t)
+        p, v = path(t)
         return body0 + p, v
 
     master = builder.AddSystem(MasterSite(x_s0, period=b.control_period, **MASTER_ADMITTANCE))
@@ -279,11 +303,10 @@ def build(
     # --- remote site: the co-operator holds the board's far end ----------------------------
     cooperator_lag = LAG if leader == "operator" else 0.0
     k_co, b_co = FOLLOWER_IMPEDANCE if leader == "operator" else LEADER_IMPEDANCE
-    t_walk = WALK_AT + cooperator_lag
-    keyframes = [(0.0, (0.0, 0.0, 0.0)), (t_walk, (0.0, 0.0, 0.0))]
-    t = t_walk
+    t = INTERACT_AT + cooperator_lag
+    keyframes = [(0.0, (0.0, 0.0, 0.0)), (t, (0.0, 0.0, 0.0))]
     previous = np.zeros(3)
-    for point in PATH:
+    for point in waypoints:
         t += float(np.linalg.norm(np.array(point) - previous)) / SPEED
         keyframes.append((t, point))
         previous = np.array(point)
@@ -319,6 +342,7 @@ def build(
         ("delay_forward", channel.GetOutputPort("forward_age")),
         ("delay_backward", channel.GetOutputPort("backward_age")),
         ("step_error", decider.GetOutputPort("error")),
+        ("planned_stance", decider.GetOutputPort("stance")),
         ("in_process", pg.GetOutputPort("in_process")),
         ("phase", pg.GetOutputPort("phase")),
         ("head_grip_ref", head_grip.get_output_port()),

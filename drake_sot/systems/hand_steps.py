@@ -11,7 +11,7 @@ from pydrake.common.value import Value
 from pydrake.systems.framework import Context, LeafSystem
 
 from drake_sot.footsteps import Footstep
-from drake_sot.hand_steps import HandStepRule
+from drake_sot.hand_steps import HandStepRule, stance_frame
 
 
 class StepDecider(LeafSystem):
@@ -27,6 +27,8 @@ class StepDecider(LeafSystem):
             step would reduce it).
         error: (2,) [m] the error ``(forward, lateral)`` in the waist frame over the planned
             stance.
+        stance: (3,) ``[x, y, yaw]`` [m, m, rad] that planned stance's waist frame (it changes
+            when the pattern generator plans a footprint: for logging the decisions).
 
     Args:
         rule: the step rule (reference, threshold, step limits; the limits must be the
@@ -44,6 +46,7 @@ class StepDecider(LeafSystem):
         self._planned = self.DeclareAbstractInputPort("planned_feet", Value[object](None))
         self.DeclareAbstractOutputPort("next_footprint", lambda: Value[object](None), self._calc_next)
         self.DeclareVectorOutputPort("error", 2, self._calc_error)
+        self.DeclareVectorOutputPort("stance", 3, self._calc_stance)
 
     def _inputs(self, context: Context) -> tuple[np.ndarray, Footstep, Footstep, str | None]:
         left, right, last = self._planned.Eval(context)
@@ -56,3 +59,8 @@ class StepDecider(LeafSystem):
     def _calc_error(self, context: Context, out) -> None:
         hands, left, right, _ = self._inputs(context)
         out.SetFromVector(self._rule.error(hands, left, right))
+
+    def _calc_stance(self, context: Context, out) -> None:
+        left, right, _ = self._planned.Eval(context)
+        centre, yaw = stance_frame(left, right)
+        out.SetFromVector([centre[0], centre[1], yaw])
