@@ -86,9 +86,15 @@ def _grip_stretch(run) -> np.ndarray:
     return np.array(out)
 
 
-@pytest.mark.parametrize("fixture", ["standing", "standing_cooperator"])
-def test_standing_the_robot_stays_up_holds_the_board_and_its_hands_follow_the_operators(fixture, request):
-    run = request.getfixturevalue(fixture)
+def test_standing_the_robot_stays_up_holds_the_board_and_its_hands_follow_the_operators(standing):
+    _check_standing(standing)
+
+
+def test_standing_with_the_cooperator_leading(standing_cooperator):
+    _check_standing(standing_cooperator)
+
+
+def _check_standing(run) -> None:
     assert run.result.fell is None
     a = run.arrays
     assert a["q"][:, 6].min() > 0.55  # pelvis height [m]
