@@ -56,9 +56,10 @@ class PatternGenerator(LeafSystem):
     Input port (optional):
         next_footprint: abstract ``Footstep`` or None. When connected (and not walking from a
             velocity), at each tick where fewer than ``FOOTPRINTS_AHEAD`` landings lie ahead
-            the generator reads it and plans that footprint (None: no step): a walk starts
-            with four footprints, and then one new footprint is read per executed step, as
-            in Evrard et al. 2009, III-C. The footprint must respect ``limits``.
+            the generator reads it and plans that footprint (None: no step), at most one per
+            tick: up to four footprints are kept ahead, and then one new footprint is read per
+            executed step, as in Evrard et al. 2009, III-C. The footprint must respect
+            ``limits`` (else the tick raises the limit's error).
 
     Commands (act on a context, like the paper's ``pg.parsecmd``): :meth:`add_steps`,
     :meth:`set_velocity`, :meth:`set_timing`, :meth:`set_model`, :meth:`parsecmd`.
