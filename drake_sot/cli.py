@@ -176,6 +176,21 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         help="walk_then_interact's decision layer: the sequencer in the diagram (default), or a separate "
         "client process driving the stack through the command server (paced at real time)",
     )
+    # --- telecooperation (Evrard et al. 2009) ---
+    run.add_argument(
+        "--leader",
+        choices=("operator", "cooperator"),
+        default=None,
+        help="telecooperation: who leads the walk, the remote operator (default) or the co-operator",
+    )
+    run.add_argument(
+        "--delay",
+        type=_checked(nonnegative, "delay", unit="s"),
+        default=None,
+        metavar="S",
+        help="telecooperation: one-way delay of the link [s], 0-0.3 (default 0.14)",
+    )
+    # --- end telecooperation ---
     run.add_argument(
         "--no-stabilizer",
         action="store_true",
@@ -295,6 +310,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--workers": args.workers is not None,
         "--transition": args.transition is not None,
         "--decision": args.decision is not None,
+        "--leader": args.leader is not None,
+        "--delay": args.delay is not None,
         "--no-record": args.no_record,
         "--push": bool(args.push),
         "--no-stabilizer": args.no_stabilizer,
@@ -316,6 +333,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parameters = {"transition": args.transition} if args.transition is not None else {}
     parameters |= {"decision": args.decision} if args.decision is not None else {}
     parameters |= {"stabilizer": False} if args.no_stabilizer else {}
+    parameters |= {
+        name: getattr(args, name) for name in ("leader", "delay") if getattr(args, name) is not None
+    }
     return _run_scenario(SCENARIOS[args.scenario], args, parameters)
 
 

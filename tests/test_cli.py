@@ -28,6 +28,7 @@ def test_list_names_the_scenarios():
         "priority_switching",
         "reach",
         "table_pounding",
+        "telecooperation",
         "walk",
         "walk_long",
         "walk_then_interact",

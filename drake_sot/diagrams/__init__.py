@@ -6,6 +6,7 @@ from drake_sot.diagrams import (
     priority_switching,
     reach,
     table_pounding,
+    telecooperation,
     walk,
     walk_long,
     walk_then_interact,
@@ -22,6 +23,7 @@ SCENARIOS: dict[str, Scenario] = {
         look_and_reach.SCENARIO,
         priority_switching.SCENARIO,
         table_pounding.SCENARIO,
+        telecooperation.SCENARIO,
     )
 }
 

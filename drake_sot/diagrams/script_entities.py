@@ -868,8 +868,20 @@ class PatternGeneratorEntity(Entity):
     #: the torque feed-forward between the feet and the feed-forward follows the reference's dynamics.
     REFERENCES = ("com", "com_vel", "left_foot", "right_foot", "left_foot_vel", "right_foot_vel", "waist")
 
+    def inputs(self) -> tuple[str, ...]:
+        return ("next_footprint",)  # the step decider of the tele-cooperation (Evrard et al. 2009)
+
     def outputs(self) -> tuple[str, ...]:
-        return (*self.REFERENCES, "zmp_ref", "zmp", "phase", "contacts", "load", "in_process")
+        return (
+            *self.REFERENCES,
+            "zmp_ref",
+            "zmp",
+            "phase",
+            "contacts",
+            "load",
+            "in_process",
+            "planned_feet",
+        )
 
     def construct(self) -> System:
         pg, _, _ = add_pattern_generator(self.session.builder, self.name)

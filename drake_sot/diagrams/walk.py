@@ -26,7 +26,7 @@ from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
-from drake_sot.footsteps import SIDES, Footstep, StepTiming, alternating_steps
+from drake_sot.footsteps import SIDES, Footstep, StepLimits, StepTiming, alternating_steps
 from drake_sot.models.humanoid import SOLE
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
@@ -68,11 +68,11 @@ def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: 
 
 
 def add_pattern_generator(
-    b: HumanoidSoTBuilder, name: str = "pg"
+    b: HumanoidSoTBuilder, name: str = "pg", limits: StepLimits = StepLimits()
 ) -> tuple[PatternGenerator, Footstep, Footstep]:
     """A pattern generator ``name`` standing on the robot's initial footprints, its CoM height
-    the initial CoM's, ticking at the control period, with this scenario's ``TIMING``.
-    Returns it and the initial footprints."""
+    the initial CoM's, ticking at the control period, with this scenario's ``TIMING`` and the
+    step ``limits``. Returns it and the initial footprints."""
     left, right = (
         footstep(b.initial_pose("left_foot"), "left"),
         footstep(b.initial_pose("right_foot"), "right"),
@@ -80,20 +80,31 @@ def add_pattern_generator(
     com0 = b.initial_com()
     pg = b.builder.AddSystem(
         PatternGenerator(
-            left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2], name=name
+            left,
+            right,
+            com_height=com0[2],
+            dt=b.control_period,
+            timing=TIMING,
+            limits=limits,
+            com=com0[:2],
+            name=name,
         )
     )
     return pg, left, right
 
 
 def add_walking(
-    b: HumanoidSoTBuilder, *, anchored: bool = False, stabilizer: bool = True
+    b: HumanoidSoTBuilder,
+    limits: StepLimits = StepLimits(),
+    *,
+    anchored: bool = False,
+    stabilizer: bool = True,
 ) -> tuple[PatternGenerator, Footstep, Footstep]:
     """The pattern generator and the walking tasks: joint position and velocity limits
     (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
     and CoM xy (references and velocity feed-forward from the generator, through the
     balance stabilizer unless ``stabilizer`` is False), waist orientation, both hands held
-    relative to the waist. Returns the generator and the initial footprints.
+    relative to the waist. Returns the generator (step ``limits``) and the initial footprints.
 
     ``anchored``: the feet, CoM and waist references pass through a ``StanceAnchor``
     (re-anchored on the measured stance foot at each lift-off, so that landing errors
@@ -101,7 +112,7 @@ def add_walking(
     and the generator's ZMP, which the anchor does not move: the two differ by the
     anchor's drift, one step's landing error (millimetres).
     """
-    pg, left, right = add_pattern_generator(b)
+    pg, left, right = add_pattern_generator(b, limits=limits)
     refs = add_stance_anchor(b, pg) if anchored else pg
     b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
     for task_name, foot in (("taskLF", "left_foot"), ("taskRF", "right_foot")):

@@ -19,7 +19,15 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import Context, LeafSystem, State
 
 from drake_sot import validation
-from drake_sot.footsteps import Footstep, StepLimits, StepTiming, WalkPlanner, relative_steps
+from drake_sot.footsteps import (
+    FOOTPRINTS_AHEAD,
+    SIDES,
+    Footstep,
+    StepLimits,
+    StepTiming,
+    WalkPlanner,
+    relative_steps,
+)
 from drake_sot.systems._context import own_context
 
 
@@ -42,6 +50,16 @@ class PatternGenerator(LeafSystem):
             ZMP reference lies between the soles (1/0 in single support, moving with the
             ZMP during double support).
         in_process: (1,) 1 while a walk is under way, 0 once standing.
+        planned_feet: abstract ``(left Footstep, right Footstep, last side or None)``, the last
+            planned footprint of each foot and the side of the last planned step.
+
+    Input port (optional):
+        next_footprint: abstract ``Footstep`` or None. When connected (and not walking from a
+            velocity), at each tick where fewer than ``FOOTPRINTS_AHEAD`` landings lie ahead
+            the generator reads it and plans that footprint (None: no step), at most one per
+            tick: up to four footprints are kept ahead, and then one new footprint is read per
+            executed step, as in Evrard et al. 2009, III-C. The footprint must respect
+            ``limits`` (else the tick raises the limit's error).
 
     Commands (act on a context, like the paper's ``pg.parsecmd``): :meth:`add_steps`,
     :meth:`set_velocity`, :meth:`set_timing`, :meth:`set_model`, :meth:`parsecmd`.
@@ -117,6 +135,15 @@ class PatternGenerator(LeafSystem):
         vector("contacts", 2, lambda p: p.contacts)
         vector("load", 2, lambda p: p.load)
         vector("in_process", 1, lambda p: np.array([float(p.in_process)]))
+        self.DeclareAbstractOutputPort(
+            "planned_feet",
+            lambda: Value[object]((left, right, None)),
+            lambda c, value: value.set_value(
+                (*(self._state(c).feet[s] for s in SIDES), self._state(c).last_side)
+            ),
+            prerequisites_of_calc=ticket,
+        )
+        self._next = self.DeclareAbstractInputPort("next_footprint", Value[object](None))
 
     # --- the state ----------------------------------------------------------------------
     def _state(self, context: Context) -> WalkPlanner:
@@ -239,7 +266,16 @@ class PatternGenerator(LeafSystem):
 
     # --- the control tick -----------------------------------------------------------------
     def _tick(self, context: Context, state: State) -> None:
-        state.get_mutable_abstract_state(self._planner).set_value(self._state(context).advance())
+        planner = self._state(context).advance()
+        if (
+            planner.velocity is None
+            and len(planner.landings_ahead()) < FOOTPRINTS_AHEAD
+            and self._next.HasValue(context)
+        ):
+            step = self._next.Eval(context)
+            if step is not None:
+                planner = planner.add_steps([step])
+        state.get_mutable_abstract_state(self._planner).set_value(planner)
 
 
 def _one(values: list[float]) -> float:

@@ -1,0 +1,208 @@
+"""The ``telecooperation`` scenario in physics (Evrard et al. 2009).
+
+Standing interaction (the leader lifts the board by 5 cm and sets it back) at 0, 140 and 300 ms
+one way with the operator leading, and at 140 ms with the co-operator leading; the walk at
+140 ms with the operator leading. Each run is simulated once per module (20 s of simulated time
+take about 90 s of wall time on a shared core).
+"""
+
+import functools
+
+import numpy as np
+import pytest
+
+from drake_sot.diagrams import SCENARIOS
+from drake_sot.diagrams import telecooperation as tc
+from drake_sot.diagrams.scenario import Scenario, run_scenario
+from drake_sot.diagrams.walk_then_interact import hand_positions
+
+pytestmark = pytest.mark.slow
+
+STANDING = 20.0  # [s]
+
+
+def _standing(tmp_path_factory, leader: str, delay: float, duration: float):
+    scenario = Scenario(
+        name="telecooperation",
+        description="standing only",
+        build=functools.partial(tc.build, walk=False),
+        extra_plots=tc.write_plots,
+        parameters=("leader", "delay"),
+    )
+    return run_scenario(
+        scenario,
+        tmp_path_factory.mktemp(f"standing_{leader}_{delay}"),
+        duration=duration,
+        record=False,
+        parameters={"leader": leader, "delay": delay},
+    )
+
+
+@pytest.fixture(scope="module", params=[0.0, 0.14, 0.3], ids=lambda d: f"{1000 * d:.0f}ms")
+def standing(request, tmp_path_factory):
+    return _standing(tmp_path_factory, "operator", request.param, STANDING)
+
+
+@pytest.fixture(scope="module")
+def standing_cooperator(tmp_path_factory):
+    return _standing(tmp_path_factory, "cooperator", 0.14, 8.0)
+
+
+@pytest.fixture(scope="module")
+def walking(tmp_path_factory):
+    return run_scenario(
+        SCENARIOS["telecooperation"],
+        tmp_path_factory.mktemp("walking"),
+        record=False,
+        parameters={"leader": "operator", "delay": 0.14},
+    )
+
+
+def _hand_error(run) -> np.ndarray:
+    """(T, 2) distance [m] between the operator's hands and the robot's, right and left."""
+    a = run.arrays
+    return np.linalg.norm((a["operator_hands"] - a["robot_hands"]).reshape(-1, 2, 3), axis=2)
+
+
+def _grip_stretch(run) -> np.ndarray:
+    """(K, 2) distance [m] between each simulated hand and its grip point on the board."""
+    a = run.arrays
+    hands = hand_positions(run.setup, a)
+    plant = run.setup.built.plant
+    context = plant.CreateDefaultContext()
+    board = plant.GetModelInstanceByName("board")
+    out = []
+    for k in range(0, len(a["time"]), 20):
+        plant.SetPositions(context, board, a["board_state"][k, :7])
+        out.append(
+            [
+                np.linalg.norm(
+                    plant.GetFrameByName(f"board_{side}_grip").CalcPoseInWorld(context).translation()
+                    - hands[side][k]
+                )
+                for side in ("right", "left")
+            ]
+        )
+    return np.array(out)
+
+
+def test_standing_the_robot_stays_up_holds_the_board_and_its_hands_follow_the_operators(standing):
+    _check_standing(standing)
+
+
+def test_standing_with_the_cooperator_leading(standing_cooperator):
+    _check_standing(standing_cooperator)
+
+
+def _check_standing(run) -> None:
+    assert run.result.fell is None
+    a = run.arrays
+    assert a["q"][:, 6].min() > 0.55  # pelvis height [m]
+    assert _grip_stretch(run).max() < 0.03  # the board never leaves the hands
+    assert a["board_state"][:, 6].min() > 0.4
+    t = a["time"]
+    error = _hand_error(run)
+    assert error[t > tc.WALK_AT + 1.5].max() <= 0.02  # steady, after the lift
+    assert error[t > 1.0].max() <= 0.04  # while the leader lifts and sets back the board
+    if run.setup.extras["leader"] == "operator":
+        # The operator's lift reached the robot's hands, up from where the board's weight had
+        # them, attenuated: the hands' damping (150 N s/m) against the operator's 200 N/m pull,
+        # 1 s up and 1 s down (1.3, 1.7 and 2.5 cm at 0, 140 and 300 ms).
+        z = a["robot_hands"][:, 2]
+        lifting = (t > tc.INTERACT_AT) & (t < tc.INTERACT_AT + 2 * tc.LIFT / tc.SPEED)
+        rise = z[lifting].max() - z[t <= tc.INTERACT_AT][-1]
+        assert 0.01 < rise < tc.LIFT
+    # Standing: the altitude tasks are never in the stack.
+    for task in tc.ALTITUDE_TASKS:
+        assert np.all(np.isnan(a[f"error/{task}"]))
+    for key in ("npz", "png", "svg", "fig7"):
+        assert run.files[key].exists()
+
+
+def test_the_coupling_stays_bounded_and_does_not_oscillate_across_delay(standing):
+    """At 0, 140 and 300 ms one way: the energy the operator puts into the coupling stays bounded
+    (each lift puts in and takes back about f · 5 cm) and the hands' motion dies out after the
+    lift instead of growing."""
+    a = standing.arrays
+    t = a["time"]
+    dt = np.diff(t, prepend=t[0])
+    power = np.sum(a["operator_forces"] * np.gradient(a["operator_hands"], t, axis=0), axis=1)
+    energy = np.cumsum(power * dt)
+    assert np.abs(energy).max() < 2.0  # [J]
+    speed = np.linalg.norm(np.gradient(a["robot_hands"], t, axis=0), axis=1)
+    late, settling = speed[t > 15.0], speed[(t > 5.0) & (t < 10.0)]
+    assert late.max() <= max(settling.max(), 0.005)
+    assert late.max() < 0.01  # [m/s]
+
+
+def test_gripper_and_head_follow_their_references(standing):
+    a = standing.arrays
+    delay = standing.setup.extras["delay"]
+    t = a["time"]
+    plant, instance = standing.setup.built.plant, standing.setup.built.info.model_instance
+    received = np.column_stack([np.interp(t - delay, t, a["head_grip_ref"][:, j]) for j in range(3)])
+    settled = t > 2.5
+    for joint in tc.GRIPPERS:
+        q = np.zeros(plant.num_positions())
+        q[plant.GetJointByName(joint, instance).position_start()] = 1.0
+        index = int(np.argmax(plant.GetPositionsFromArray(instance, q)))
+        assert np.abs(a["q"][settled, index] - received[settled, 2]).max() < 0.05
+    context = plant.CreateDefaultContext()
+    head = plant.GetFrameByName(standing.setup.built.info.frames["head"], instance)
+    errors = []
+    for k in np.flatnonzero(settled)[::20]:
+        plant.SetPositions(context, instance, a["q"][k])
+        R = head.CalcPoseInWorld(context).rotation().matrix()
+        errors.append([np.arcsin(-R[2, 0]) - received[k, 1], np.arctan2(R[1, 0], R[0, 0]) - received[k, 0]])
+    assert np.abs(errors).max() < 0.05  # [rad] pitch and yaw
+
+
+def test_walking_steps_are_decided_above_the_threshold_and_each_reduces_the_error(walking):
+    a = walking.arrays
+    stance, error = a["planned_stance"], np.linalg.norm(a["step_error"], axis=1)
+    changed = np.flatnonzero(np.any(np.abs(np.diff(stance, axis=0)) > 1e-9, axis=1))
+    assert len(changed) >= 4, "the walk needs steps"
+    assert np.all(error[changed] >= tc.STEP_THRESHOLD)  # the sample before the footprint
+    assert np.all(error[changed + 1] < error[changed])
+
+
+def test_walking_the_altitude_tasks_are_in_the_stack_only_while_walking(walking):
+    a = walking.arrays
+    walking_flag = a["in_process"][:, 0] > 0.5
+    edges = np.flatnonzero(np.diff(walking_flag.astype(int)) != 0)
+    away = np.ones(len(walking_flag), dtype=bool)
+    for e in edges:
+        away[max(e - 2, 0) : e + 3] = False  # the switch acts at the tick after the flag
+    assert walking_flag.any() and (~walking_flag).any()
+    for task in tc.ALTITUDE_TASKS:
+        active = np.all(np.isfinite(a[f"error/{task}"]), axis=1)
+        np.testing.assert_array_equal(active[away], walking_flag[away])
+
+
+def test_walking_the_hands_follow_the_operators_until_the_first_landing(walking):
+    a = walking.arrays
+    t = a["time"]
+    phase = a["phase"][:, 0]
+    first_landing = t[np.flatnonzero((phase[:-1] != 0) & (phase[1:] == 0))[0] + 1]
+    assert first_landing > tc.WALK_AT
+    assert _hand_error(walking)[(t > 1.0) & (t < first_landing)].max() <= 0.02
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="at the landings the hand error jumps to 7-19 cm (the base, open-loop without the "
+    "stabilizer of issue 10, lags and sways under the board)",
+)
+def test_walking_the_hands_follow_the_operators_within_5_cm(walking):
+    t = walking.arrays["time"]
+    end = walking.result.end_time if walking.result.fell is None else walking.result.fell.time
+    assert _hand_error(walking)[(t > 1.0) & (t < end)].max() <= 0.05
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="without the balance stabilizer (issue 10) the robot falls while walking with the board "
+    "(about 13 s into the run: its base lags the kinematic reference by ~9 cm under the interaction)",
+)
+def test_walking_the_robot_stays_upright_to_the_end(walking):
+    assert walking.result.fell is None
