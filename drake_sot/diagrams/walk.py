@@ -26,7 +26,6 @@ from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import Footstep, StepTiming, alternating_steps
-from drake_sot.models.humanoid import SOLE
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.zmp import ZmpEstimator
@@ -174,7 +173,7 @@ def analyse(built: HumanoidSoT, arrays: dict[str, np.ndarray]) -> WalkAnalysis:
             X = frame.CalcPoseInWorld(context)
             soles[side][k] = (*X.translation()[:2], RollPitchYaw(X.rotation()).yaw_angle())
             if arrays["contacts"][k, i] > 0.5:
-                corners.append(sole_corners(*soles[side][k], SOLE))
+                corners.append(sole_corners(*soles[side][k], info.sole_size))
         com[k] = plant.CalcCenterOfMassPositionInWorld(context)
         polygon = support_polygon(corners)
         polygons.append(polygon)
@@ -194,7 +193,7 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
         arrays["com_ref"],
         analysis.com,
         analysis.polygons,
-        [sole_corners(s.x, s.y, s.yaw, SOLE) for s in setup.extras["steps"]],
+        [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras["steps"]],
         path,
     )
     return {"walk_zmp": path}
