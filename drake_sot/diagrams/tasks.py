@@ -26,7 +26,7 @@ from drake_sot.diagrams.world import add_humanoid_plant
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, half_sitting_configuration
-from drake_sot.robots import RobotDescription, make_robot_control_model
+from drake_sot.robots import RobotDescription, get_robot, make_robot_control_model
 from drake_sot.systems.admittance import AdmittanceController
 from drake_sot.systems.fall_monitor import FallCriteria, FallMonitor
 from drake_sot.systems.features import (
@@ -111,6 +111,7 @@ class HumanoidTaskBuilder:
         if fall_criteria is not None and not isinstance(fall_criteria, FallCriteria):
             raise ValueError(f"fall_criteria = {fall_criteria!r}: must be a FallCriteria or None")
         self.fixed_base = fixed_base
+        self.robot = get_robot(robot)
         self.builder = DiagramBuilder()
         self.plant, self.scene_graph, self.info = add_humanoid_plant(
             self.builder,
@@ -118,13 +119,13 @@ class HumanoidTaskBuilder:
             pd_gains=self.POSITION_CONTROLLED,
             fixed_base=fixed_base,
             before_finalize=before_finalize,
-            robot=robot,
+            robot=self.robot,
         )
         self.pushes = check_pushes(pushes, self.info.frames)
         self.fall_criteria = None if fixed_base else fall_criteria
         self.fall_monitor: FallMonitor | None = None  # added by _finish
         self._spatial_forces: list[OutputPort] = []
-        self.control_plant, self.control_info = make_robot_control_model(robot, fixed_base=fixed_base)
+        self.control_plant, self.control_info = make_robot_control_model(self.robot, fixed_base=fixed_base)
         self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
         self.control_period = control_period
         self.meshcat = meshcat

@@ -25,12 +25,14 @@ from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
-from drake_sot.footsteps import Footstep, StepTiming, alternating_steps
+from drake_sot.footsteps import Footstep, alternating_steps
+from drake_sot.robots import EMBEDDED
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.zmp import ZmpEstimator
 
-TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
+#: The embedded robot's step timing (each robot's is ``RobotDescription.step_timing``).
+TIMING = EMBEDDED.step_timing
 START = 0.5  # [s] when the steps are given
 STACK = (
     "taskJL",
@@ -69,7 +71,7 @@ def add_pattern_generator(
     b: HumanoidSoTBuilder, name: str = "pg"
 ) -> tuple[PatternGenerator, Footstep, Footstep]:
     """A pattern generator ``name`` standing on the robot's initial footprints, its CoM height
-    the initial CoM's, ticking at the control period, with this scenario's ``TIMING``.
+    the initial CoM's, ticking at the control period, with the robot's step timing and limits.
     Returns it and the initial footprints."""
     left, right = (
         footstep(b.initial_pose("left_foot"), "left"),
@@ -78,7 +80,14 @@ def add_pattern_generator(
     com0 = b.initial_com()
     pg = b.builder.AddSystem(
         PatternGenerator(
-            left, right, com_height=com0[2], dt=b.control_period, timing=TIMING, com=com0[:2], name=name
+            left,
+            right,
+            com_height=com0[2],
+            dt=b.control_period,
+            timing=b.robot.step_timing,
+            limits=b.robot.step_limits,
+            com=com0[:2],
+            name=name,
         )
     )
     return pg, left, right
@@ -106,9 +115,12 @@ def add_walking(b: HumanoidSoTBuilder) -> tuple[PatternGenerator, Footstep, Foot
     return pg, left, right
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """Build the ``walk`` diagram and its script, with ``pushes`` on the robot."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), robot: str = "embedded"
+) -> ScenarioSetup:
+    """Build the ``walk`` diagram and its script, with ``pushes`` on ``robot`` (a name of
+    ``drake_sot.robots.ROBOTS``)."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b)
     b.add_posture_task("taskPosture", gain=1.0)
 
@@ -129,7 +141,7 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
     built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, solver="hqp")
     steps = walk_steps(left, right)
     commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
-    duration = START + len(steps) * (TIMING.single_support + TIMING.double_support) + 2.0
+    duration = START + len(steps) * b.robot.step_timing.period + 2.0
     return ScenarioSetup(
         built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}
     )
@@ -203,5 +215,6 @@ SCENARIO = Scenario(
     name="walk",
     description="8 steps of 0.2 m forward, 4 steps turning 90°, stop in double support (ZMP preview control)",
     build=build,
+    parameters=("robot",),
     extra_plots=write_plots,
 )

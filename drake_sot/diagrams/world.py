@@ -106,9 +106,9 @@ def add_humanoid_plant(
     plant, scene_graph = AddMultibodyPlant(config, builder)
     info = load_robot(plant, robot, pd_gains=pd_gains)
     if body_collision:
-        add_robot_collision(plant, scene_graph, info)
+        add_robot_collision(plant, scene_graph, info, robot)
     if fixed_base:
-        weld_robot_base(plant, info)
+        weld_robot_base(plant, info, robot)
     else:
         add_ground(plant)
     if before_finalize is not None:

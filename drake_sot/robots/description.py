@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
+from drake_sot.footsteps import StepLimits, StepTiming
 from drake_sot.robots.urdf import AddedWeld
 
 #: The logical frames every robot gives (sole = the sole plane under the ankle, x
@@ -98,6 +99,8 @@ class RobotDescription:
         joint_limits: joint name → (lower, upper) [rad], as in the model.
         frozen_joints: model joints made fixed at load (grippers, mimic linkages).
         collision: simple collision shapes of the body (besides the soles).
+        step_timing: the walking scenarios' step timing on this robot.
+        step_limits: the reachability of a step on this robot (checked by the walking planner).
     """
 
     name: str
@@ -115,6 +118,8 @@ class RobotDescription:
     added_welds: tuple[AddedWeld, ...] = ()
     frozen_joints: tuple[str, ...] = ()
     collision: tuple[CollisionShape, ...] = field(default=())
+    step_timing: StepTiming = StepTiming()
+    step_limits: StepLimits = StepLimits()
 
     def __post_init__(self) -> None:
         missing = [f for f in LOGICAL_FRAMES if f not in self.frames]

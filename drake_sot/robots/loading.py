@@ -27,6 +27,7 @@ from drake_sot.models.humanoid import (
     FRICTION,
     HumanoidInfo,
     add_body_collision,
+    half_sitting_configuration,
     load_humanoid,
     sole_corner_points,
     weld_base,
@@ -109,7 +110,8 @@ def load_robot(
     text, fixes = urdf_text(robot, geometry=geometry, mesh_cache=mesh_cache)
     _log.info("robot %s: %s", robot.name, "; ".join(fixes))
     parser = Parser(plant)
-    parser.package_map().Add(MESH_PACKAGE, str(cache_dir() if mesh_cache is None else mesh_cache))
+    if geometry:  # the cache directory exists: the meshes were just converted into it
+        parser.package_map().Add(MESH_PACKAGE, str(cache_dir() if mesh_cache is None else mesh_cache))
     (instance,) = parser.AddModelsFromString(text, "urdf")
     for name, drive in robot.drives.items():
         joint = plant.GetJointByName(name, instance)
@@ -167,12 +169,14 @@ def _frames(plant: MultibodyPlant, robot: RobotDescription, info: HumanoidInfo) 
     return MappingProxyType(names)
 
 
-def add_robot_collision(plant: MultibodyPlant, scene_graph: SceneGraph, info: HumanoidInfo) -> None:
+def add_robot_collision(
+    plant: MultibodyPlant, scene_graph: SceneGraph, info: HumanoidInfo, robot: str | RobotDescription
+) -> None:
     """Whole-body collision shapes, so that a fallen robot lies on the ground: the embedded
     humanoid's :func:`~drake_sot.models.humanoid.add_body_collision`, or the description's
     simple shapes (``RobotDescription.collision``), which collide with the world but not
     with each other nor with the soles (they lie far apart on a standing robot)."""
-    robot = get_robot(info.robot)
+    robot = get_robot(robot)
     if robot.model_file is None:
         add_body_collision(plant, scene_graph, info)
         return
@@ -195,11 +199,24 @@ def add_robot_collision(plant: MultibodyPlant, scene_graph: SceneGraph, info: Hu
     scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(ids)))
 
 
-def weld_robot_base(plant: MultibodyPlant, info: HumanoidInfo) -> None:
-    """Weld the base where half-sitting puts it (the embedded robot only)."""
-    if get_robot(info.robot).model_file is not None:
-        raise ValueError(f"fixed_base: only the embedded robot can be welded in the air, not {info.robot!r}")
-    weld_base(plant, info)
+def weld_robot_base(plant: MultibodyPlant, info: HumanoidInfo, robot: str | RobotDescription) -> None:
+    """Weld the base to the world where half-sitting puts it (soles on z = 0): the fixed-base
+    robot of the paper's real-iCub experiments. Call before ``Finalize``."""
+    robot = get_robot(robot)
+    if robot.model_file is None:
+        weld_base(plant, info)
+        return
+    free = MultibodyPlant(time_step=0.0)
+    free_info = load_robot(free, robot, pd_gains=False, collision=False)
+    free.Finalize()
+    context = free.CreateDefaultContext()
+    free.SetPositions(context, half_sitting_configuration(free, free_info))
+    base = free.GetBodyByName(robot.base_body)
+    plant.WeldFrames(
+        plant.world_frame(),
+        plant.GetBodyByName(robot.base_body, info.model_instance).body_frame(),
+        base.EvalPoseInWorld(context),
+    )
 
 
 def make_robot_control_model(
@@ -211,6 +228,6 @@ def make_robot_control_model(
     plant = MultibodyPlant(time_step=0.0)
     info = load_robot(plant, robot, pd_gains=False, collision=False)
     if fixed_base:
-        weld_robot_base(plant, info)
+        weld_robot_base(plant, info, robot)
     plant.Finalize()
     return plant, info
