@@ -66,9 +66,13 @@ DECISIONS = ("sequencer", "remote")
 
 
 def build(
-    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), decision: str = "sequencer"
+    meshcat: Meshcat | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    decision: str = "sequencer",
+    robot: str = "embedded",
 ) -> ScenarioSetup:
-    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on the robot.
+    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on ``robot`` (a
+    name of ``drake_sot.robots.ROBOTS``).
 
     ``decision``: ``"sequencer"`` (the DecisionServer is a ``TaskSequencer`` in the diagram)
     or ``"remote"`` (as the paper ran it: a separate program polls ``pg.in_process`` and sends
@@ -79,8 +83,8 @@ def build(
     if decision not in DECISIONS:
         raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
     if decision == "remote":
-        return _build_remote(meshcat, pushes)
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes)
+        return _build_remote(meshcat, pushes, robot)
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, robot)
 
     # The DecisionServer: every 1 s, is the pattern generator still walking?
     switch = (*SWITCH, SetValue("force_active", np.ones(1)))
@@ -109,9 +113,9 @@ def build(
     )
 
 
-def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]):
+def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], robot: str):
     """The builder with the walking tasks, both admittance-controlled hand tasks and the posture."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b)
     admittances = {
         "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
@@ -121,8 +125,8 @@ def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]):
     return b, pg, left, right, admittances
 
 
-def _build_remote(meshcat: Meshcat | None, pushes: Sequence[ExternalPush]) -> ScenarioSetup:
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes)
+def _build_remote(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], robot: str) -> ScenarioSetup:
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, robot)
     active = b.builder.AddSystem(ConstantVectorSource(np.zeros(1)))
     active.set_name("force_active")
     for admittance in admittances.values():
@@ -235,5 +239,5 @@ SCENARIO = Scenario(
     description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
     build=build,
     extra_plots=write_plots,
-    parameters=("decision",),
+    parameters=("decision", "robot"),
 )
