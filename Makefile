@@ -55,6 +55,7 @@ bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_sot.py
 	$(BIN)/python benchmarks/bench_walk.py
 	$(BIN)/python benchmarks/bench_generalized.py
+	$(BIN)/python benchmarks/bench_robots.py
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis

@@ -103,10 +103,10 @@ def bench_hqp(repeat: int = 2000) -> dict[str, float]:
     }
 
 
-def bench_tick(repeat: int = 300) -> dict[str, float]:
+def bench_tick(repeat: int = 300, robot: str = "embedded") -> dict[str, float]:
     from drake_sot.diagrams import reach
 
-    setup = reach.build(None)
+    setup = reach.build(None, robot=robot)
     built = setup.built
     simulator = built.create_simulator()
     context = simulator.get_mutable_context()
@@ -163,7 +163,7 @@ def bench_tick_against_baseline(rounds: int = 3, repeat: int = 300) -> dict[str,
     }
 
 
-def plant_alone_realtime(duration: float, *, body_collision: bool = True) -> float:
+def plant_alone_realtime(duration: float, *, body_collision: bool = True, robot: str = "embedded") -> float:
     """Real-time factor of the humanoid's plant alone (SAP, 1 ms, point contact) standing on
     constant PD set points (half-sitting) for ``duration`` [s], with no controller."""
     from pydrake.systems.analysis import Simulator
@@ -174,7 +174,7 @@ def plant_alone_realtime(duration: float, *, body_collision: bool = True) -> flo
     from drake_sot.models import half_sitting_configuration
 
     builder = DiagramBuilder()
-    plant, _, info = add_humanoid_plant(builder, body_collision=body_collision)
+    plant, _, info = add_humanoid_plant(builder, body_collision=body_collision, robot=robot)
     q0 = half_sitting_configuration(plant, info)
     x_des = np.concatenate(
         [
@@ -192,15 +192,15 @@ def plant_alone_realtime(duration: float, *, body_collision: bool = True) -> flo
     return duration / (time.perf_counter() - t0)
 
 
-def bench_realtime(duration: float | None = 4.0, scenario=None) -> dict[str, float]:
+def bench_realtime(duration: float | None = 4.0, scenario=None, robot: str = "embedded") -> dict[str, float]:
     """Real-time factor of a scenario module (``reach`` by default; its whole script when
-    ``duration`` is None) and of the plant alone on constant set points, same duration."""
+    ``duration`` is None) and of the plant alone on constant set points, same duration, on ``robot``."""
     from drake_sot.diagrams import reach
     from drake_sot.diagrams.run import simulate
 
-    setup = (scenario or reach).build(None)
+    setup = (scenario or reach).build(None, robot=robot)
     duration = duration or setup.duration
-    rtf_plant = plant_alone_realtime(duration)
+    rtf_plant = plant_alone_realtime(duration, robot=robot)
     simulator = setup.built.create_simulator()
     result = simulate(simulator, duration, setup.commands)
     if not result.completed:

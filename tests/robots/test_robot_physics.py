@@ -13,7 +13,9 @@ import numpy as np
 import pytest
 from robot_data import robot_or_skip
 
+from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams import reach, walk
+from drake_sot.diagrams import walk_then_interact as wti
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.scenario import run_scenario
 
@@ -101,3 +103,41 @@ def test_walk_ends_upright_where_planned(walk_run):
     q_end = output.arrays["q"][-1]
     assert np.linalg.norm(q_end[4:6] - planned_xy) < 0.05, name
     assert q_end[6] > 0.9 * output.arrays["q"][0, 6], f"{name}: the pelvis sank"
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_walk_then_interact_switches_to_compliant_hands_that_follow_the_partner(name, tmp_path):
+    robot_or_skip(name)
+    output = run_scenario(wti.SCENARIO, tmp_path, record=False, parameters={"robot": name})
+    assert output.result.completed, (output.result.failure, output.result.fell)
+    arrays = output.arrays
+    t = arrays["time"]
+    assert arrays["transitions"][-1, 0] == 2  # standing -> walking -> interacting
+    hands = wti.hand_positions(output.setup, arrays)
+    grip = np.searchsorted(t, wti.GRIP_AT)
+    pulled = np.searchsorted(t, wti.GRIP_AT + 2.0)  # the partner's grip is 8 cm forward then
+    for side in ("right", "left"):
+        moved = hands[side][pulled] - hands[side][grip]
+        assert moved[0] > 0.04, f"{name}: {side} hand did not follow the pull ({moved[0]:.3f} m)"
+    assert arrays["q"][:, 6].min() > 0.9 * arrays["q"][0, 6], f"{name}: the pelvis sank"
+    assert np.all(arrays["fault/taskForce"] == 0) and np.all(arrays["fault/taskForceLH"] == 0)
+
+
+def test_priority_switching_on_talos_gives_the_priority_task_the_smaller_error(tmp_path):
+    """The generalized projector on TALOS's fixed base: before the switch the left hand has
+    priority over the head, after it the head over the left hand (Liu, Lober, Padois 2016, fig. 10)."""
+    robot_or_skip("talos")
+    output = run_scenario(ps.SCENARIO, tmp_path, record=False, parameters={"robot": "talos"})
+    assert output.result.completed, output.result.failure
+    arrays = output.arrays
+    t, errors = arrays["time"], ps.task_errors(arrays)
+
+    def mean(start, end):
+        window = (t >= start) & (t <= end)
+        return {task: float(np.mean(e[window])) for task, e in errors.items()}
+
+    before, after = mean(ps.SWITCH_AT - 1.0, ps.SWITCH_AT), mean(ps.DURATION - 1.5, ps.DURATION)
+    assert before["taskLH"] < 0.5 * before["taskHead"]
+    assert after["taskHead"] < 0.5 * after["taskLH"]
+    assert before["taskHead"] > 0.01  # a real conflict
+    assert np.all(arrays["status"][t > 0.05] == 0)  # optimal once the first ticks are past
