@@ -105,6 +105,34 @@ EMBEDDED = _embedded()
 _OPTICAL = (-math.pi / 2, 0.0, -math.pi / 2)  # camera axes (z forward, x right, y down) on a link (x forward)
 
 
+def _frames(
+    *,
+    pelvis: str,
+    torso: str,
+    head: str,
+    head_camera: FrameSpec,
+    foot: str,
+    ankle: str,
+    wrist: str,
+    hand: FrameSpec,
+) -> dict[str, FrameSpec]:
+    """The logical frames of a robot whose left and right links differ by a word (``{side}``
+    in ``foot``, ``ankle``, ``wrist`` and ``hand``'s parent); the waist is the pelvis."""
+    frames = {
+        "pelvis": FrameSpec(pelvis),
+        "waist": FrameSpec(pelvis),
+        "torso": FrameSpec(torso),
+        "head": FrameSpec(head),
+        "head_camera": head_camera,
+    }
+    for side in ("left", "right"):
+        frames[f"{side}_foot"] = FrameSpec(foot.format(side=side))
+        frames[f"{side}_ankle"] = FrameSpec(ankle.format(side=side))
+        frames[f"{side}_wrist"] = FrameSpec(wrist.format(side=side))
+        frames[f"{side}_hand"] = FrameSpec(hand.parent.format(side=side), hand.xyz, hand.rpy)
+    return frames
+
+
 @functools.cache
 def talos() -> RobotDescription:
     """PAL Robotics' TALOS (``talos_full_v2.urdf``; half-sitting from ``talos.srdf``).
@@ -142,21 +170,16 @@ def talos() -> RobotDescription:
         model_file=model,
         packages={"example-robot-data": root.parent},
         base_body="base_link",
-        frames={
-            "pelvis": FrameSpec("base_link"),
-            "waist": FrameSpec("base_link"),
-            "torso": FrameSpec("torso_2_link"),
-            "head": FrameSpec("head_2_link"),
-            "head_camera": FrameSpec("rgbd_rgb_optical_frame"),
-            "left_foot": FrameSpec("left_sole_link"),
-            "right_foot": FrameSpec("right_sole_link"),
-            "left_ankle": FrameSpec("leg_left_6_link"),
-            "right_ankle": FrameSpec("leg_right_6_link"),
-            "left_wrist": FrameSpec("arm_left_7_link"),
-            "right_wrist": FrameSpec("arm_right_7_link"),
-            "left_hand": FrameSpec("gripper_left_base_link", (0.0, 0.0, -0.10)),
-            "right_hand": FrameSpec("gripper_right_base_link", (0.0, 0.0, -0.10)),
-        },
+        frames=_frames(
+            pelvis="base_link",
+            torso="torso_2_link",
+            head="head_2_link",
+            head_camera=FrameSpec("rgbd_rgb_optical_frame"),
+            foot="{side}_sole_link",
+            ankle="leg_{side}_6_link",
+            wrist="arm_{side}_7_link",
+            hand=FrameSpec("gripper_{side}_base_link", (0.0, 0.0, -0.10)),
+        ),
         sole_size=(0.21, 0.13),
         contact_radius=CONTACT_RADIUS,
         force_sensors={
@@ -224,21 +247,16 @@ def g1() -> RobotDescription:
         model_file=model,
         packages={"example-robot-data": root.parent},
         base_body="pelvis",
-        frames={
-            "pelvis": FrameSpec("pelvis"),
-            "waist": FrameSpec("pelvis"),
-            "torso": FrameSpec("torso_link"),
-            "head": FrameSpec("head_link"),
-            "head_camera": FrameSpec("d435_link", rpy=_OPTICAL),
-            "left_foot": FrameSpec("left_sole_link"),
-            "right_foot": FrameSpec("right_sole_link"),
-            "left_ankle": FrameSpec("left_ankle_roll_link"),
-            "right_ankle": FrameSpec("right_ankle_roll_link"),
-            "left_wrist": FrameSpec("left_wrist_yaw_link"),
-            "right_wrist": FrameSpec("right_wrist_yaw_link"),
-            "left_hand": FrameSpec("left_rubber_hand", (0.08, 0.0, 0.0)),
-            "right_hand": FrameSpec("right_rubber_hand", (0.08, 0.0, 0.0)),
-        },
+        frames=_frames(
+            pelvis="pelvis",
+            torso="torso_link",
+            head="head_link",
+            head_camera=FrameSpec("d435_link", rpy=_OPTICAL),
+            foot="{side}_sole_link",
+            ankle="{side}_ankle_roll_link",
+            wrist="{side}_wrist_yaw_link",
+            hand=FrameSpec("{side}_rubber_hand", (0.08, 0.0, 0.0)),
+        ),
         sole_size=(0.17, 0.06),
         contact_radius=0.005,
         force_sensors={
