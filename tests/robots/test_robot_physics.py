@@ -15,6 +15,7 @@ from robot_data import robot_or_skip
 
 from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams import reach, walk
+from drake_sot.diagrams import table_pounding as tp
 from drake_sot.diagrams import walk_then_interact as wti
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.scenario import run_scenario
@@ -140,4 +141,30 @@ def test_priority_switching_on_talos_gives_the_priority_task_the_smaller_error(t
     assert before["taskLH"] < 0.5 * before["taskHead"]
     assert after["taskHead"] < 0.5 * after["taskLH"]
     assert before["taskHead"] > 0.01  # a real conflict
+    assert np.all(arrays["status"][t > 0.05] == 0)  # optimal once the first ticks are past
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_table_pounding_presses_30_newtons_without_foot_slip(name, tmp_path):
+    """The generalized projector on the standing robot: each hand in turn presses the spring
+    table with 30 N (Liu, Lober, Padois 2016, 4.1), the soles do not slip."""
+    robot_or_skip(name)
+    output = run_scenario(tp.SCENARIO, tmp_path, record=False, parameters={"robot": name})
+    assert output.result.completed, (output.result.failure, output.result.fell)
+    arrays, built = output.arrays, output.setup.built
+    t, force = arrays["time"], arrays["table_force"][:, 0]
+    for phase, after in zip(tp.PHASES, tp.PHASES[1:], strict=False):
+        if phase.name.endswith("contact"):  # the last second of each contact phase: settled
+            window = (t >= after.start - 1.0) & (t < after.start)
+            assert np.all(np.abs(force[window] - tp.FORCE) < 3.0), (
+                f"{name}: {phase.hand} hand force outside 30 ± 3 N"
+            )
+    context = built.plant.CreateDefaultContext()
+    for foot in ("left_foot", "right_foot"):
+        frame = built.plant.GetFrameByName(built.info.frames[foot], built.info.model_instance)
+        xy = []
+        for qk in arrays["q"][::20]:
+            built.plant.SetPositions(context, built.info.model_instance, qk)
+            xy.append(frame.CalcPoseInWorld(context).translation()[:2])
+        assert np.max(np.linalg.norm(np.array(xy) - xy[0], axis=1)) < 0.005, f"{name}: the {foot} slipped"
     assert np.all(arrays["status"][t > 0.05] == 0)  # optimal once the first ticks are past
