@@ -122,7 +122,7 @@ def _frames(
         "pelvis": FrameSpec(pelvis),
         "waist": FrameSpec(pelvis),
         "torso": FrameSpec(torso),
-        "head": FrameSpec(head),
+        "head": head,
         "head_camera": head_camera,
     }
     for side in ("left", "right"):
@@ -173,7 +173,7 @@ def talos() -> RobotDescription:
         frames=_frames(
             pelvis="base_link",
             torso="torso_2_link",
-            head="head_2_link",
+            head=FrameSpec("head_2_link"),
             head_camera=FrameSpec("rgbd_rgb_optical_frame"),
             foot="{side}_sole_link",
             ankle="leg_{side}_6_link",
@@ -250,7 +250,7 @@ def g1() -> RobotDescription:
         frames=_frames(
             pelvis="pelvis",
             torso="torso_link",
-            head="head_link",
+            head=FrameSpec("head_link", (0.005, 0.0, 0.43)),  # the link's origin is at the waist
             head_camera=FrameSpec("d435_link", rpy=_OPTICAL),
             foot="{side}_sole_link",
             ankle="{side}_ankle_roll_link",
