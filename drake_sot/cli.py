@@ -375,6 +375,10 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
     if args.port > 65535:
         parser.error(f"port = {args.port}: at most 65535")
+    scenario = SCENARIOS[args.scenario]
+    if args.robot is not None and "robot" not in scenario.parameters:
+        parser.error(f"serve: {args.scenario} takes no --robot")
+    _check_robot(parser, args.robot)
     if args.out is not None:
         try:
             output_directory(args.out)
@@ -384,10 +388,6 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         network = NetworkThread(args.host, args.port, token=args.token)
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
-    scenario = SCENARIOS[args.scenario]
-    if args.robot is not None and "robot" not in scenario.parameters:
-        parser.error(f"serve: {args.scenario} takes no --robot")
-    _check_robot(parser, args.robot)
     meshcat = loopback_meshcat()
     setup = scenario.build(meshcat, **({"robot": args.robot} if args.robot is not None else {}))
 

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
 import pytest
+from robot_data import robot_or_skip
 
 from drake_sot import cli
 from drake_sot.robots import catalog
@@ -53,3 +57,29 @@ def test_unknown_robot_is_refused_with_the_known_ones(capsys):
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "asimo" in err and "talos" in err and "g1" in err
+
+
+def test_serve_refuses_a_robot_before_binding(without_robot_data, capsys):
+    for argv, message in (
+        (["serve", "look_and_reach", "--robot", "embedded"], "look_and_reach takes no --robot"),
+        (["serve", "reach", "--robot", "g1"], "pip install 'drake_sot[robots]'"),
+    ):
+        with pytest.raises(SystemExit) as exit_info:
+            cli.main(argv)
+        assert exit_info.value.code == 2
+        err = capsys.readouterr().err
+        assert message in err and "serving on" not in err
+
+
+@pytest.mark.parametrize(
+    "argv", [["run", "reach"], ["script", str(Path(__file__).parents[2] / "examples" / "paper_III_B.sot")]]
+)
+def test_run_and_script_take_a_robot(argv, tmp_path, capsys):
+    robot_or_skip("talos")
+    code = cli.main([*argv, "--robot", "talos", "--duration", "0.3", "--no-record", "--out", str(tmp_path)])
+    assert code == 0, capsys.readouterr().err
+    (npz,) = tmp_path.glob("*.npz")
+    q = np.load(npz)["q"]
+    assert q.shape[1] == 7 + 30  # TALOS's floating base and 30 moving joints (grippers frozen)
+    # TALOS's pelvis height in half-sitting (its SRDF: 1.01927 m), not the embedded robot's 0.649 m.
+    assert q[-1, 6] == pytest.approx(1.019, abs=0.01)
