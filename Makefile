@@ -62,6 +62,7 @@ bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_sot.py
 	$(BIN)/python benchmarks/bench_walk.py
 	$(BIN)/python benchmarks/bench_generalized.py
+	$(BIN)/python benchmarks/bench_robots.py
 
 # The peer benchmark against PlaCo, in its own environment: placo 0.10.2 pins pin 3.8 and numpy 2.3,
 # so it is no dependency of the package. drake_sot comes from PYTHONPATH (the benchmark uses only its

@@ -31,6 +31,8 @@ from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.serving import decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
+from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
+from drake_sot.robots.catalog import INSTALL_HINT
 from drake_sot.script import ScriptError, Statement
 from drake_sot.validation import finite, nonnegative, positive, positive_int
 
@@ -145,7 +147,8 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
     """The command's parser and its ``run`` and ``script`` subparsers."""
     parser = _Parser(prog="drake-sot", description="The Stack of Tasks on Drake.")
     sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="list the scenarios")
+    listing = sub.add_parser("list", help="list the scenarios (or, with --robots, the robots)")
+    listing.add_argument("--robots", action="store_true", help="list the robots --robot takes")
     run = sub.add_parser(
         "run",
         help="simulate a scenario and write its artefacts",
@@ -196,6 +199,7 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         action="store_true",
         help="walk, walk_then_interact: without the balance stabilizer (to compare)",
     )
+    _robot_option(run)
     run.add_argument(
         "--push",
         type=_push,
@@ -211,6 +215,7 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         epilog="exit status: 0 completed, 1 failed, 2 bad arguments or script, 130 interrupted, 143 SIGTERM",
     )
     script.add_argument("file", metavar="FILE", help="the script (e.g. examples/paper_III_B.sot)")
+    _robot_option(script)
     _simulation_options(
         script, "simulated seconds (default: what the script's 'run SECONDS' lines add up to)"
     )
@@ -243,9 +248,39 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
     serve.add_argument(
         "--out", default=None, metavar="DIR", help="write the run's logs as SCENARIO.npz in DIR"
     )
+    _robot_option(serve)
     _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
     shell = sub.add_parser("shell", help="the interactive coshell of a 'drake-sot serve' server")
     _address_options(shell, "server address (default 127.0.0.1)")
+
+
+def _robot_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--robot",
+        choices=sorted(ROBOTS),
+        default=None,
+        metavar="NAME",
+        help=f"the robot, one of: {', '.join(sorted(ROBOTS))} (default embedded; see 'list --robots')",
+    )
+
+
+def _check_robot(parser: argparse.ArgumentParser, name: str | None) -> None:
+    """Refuse (exit 2) a robot whose models are not installed, saying how to install them."""
+    if name is not None:
+        try:
+            get_robot(name)
+        except RobotDataMissing as exc:
+            parser.error(f"--robot {name}: {exc}")
+
+
+def _list_robots() -> int:
+    for name in sorted(ROBOTS):
+        try:
+            title = get_robot(name).title
+        except RobotDataMissing:
+            title = f"(not installed: {INSTALL_HINT})"
+        print(f"{name:20s} {title}")
+    return 0
 
 
 def _address_options(parser: argparse.ArgumentParser, host_help: str) -> None:
@@ -293,6 +328,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return (
             _serve(args, parser) if args.command == "serve" else shell_main(args.host, args.port, args.token)
         )
+    if args.command == "list" and args.robots:
+        return _list_robots()
     if args.command == "list":
         for name in sorted(SCENARIOS):
             print(f"{name:20s} {SCENARIOS[name].description}")
@@ -315,10 +352,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--no-record": args.no_record,
         "--push": bool(args.push),
         "--no-stabilizer": args.no_stabilizer,
+        "--robot": args.robot is not None,
     }
     refused = [option for option, present in given.items() if present and option not in takes]
     if refused:
         run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
+    _check_robot(run, args.robot)
     try:
         check_pushes(args.push, FRAMES)
     except ValueError as exc:
@@ -336,6 +375,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parameters |= {
         name: getattr(args, name) for name in ("leader", "delay") if getattr(args, name) is not None
     }
+    parameters |= {"robot": args.robot} if args.robot is not None else {}
     return _run_scenario(SCENARIOS[args.scenario], args, parameters)
 
 
@@ -353,7 +393,8 @@ def _script(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except OSError as exc:
         parser.error(f"--out: {exc}")
     args.duration = duration
-    scenario = script_scenario(program, output_dir=args.out, echo=_echo)
+    _check_robot(parser, args.robot)
+    scenario = script_scenario(program, output_dir=args.out, echo=_echo, robot=args.robot or "embedded")
     try:
         return _run_scenario(scenario, args, {})
     except SessionError as exc:  # raised while the script built its diagram: nothing simulated
@@ -364,6 +405,10 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
     if args.port > 65535:
         parser.error(f"port = {args.port}: at most 65535")
+    scenario = SCENARIOS[args.scenario]
+    if args.robot is not None and "robot" not in scenario.parameters:
+        parser.error(f"serve: {args.scenario} takes no --robot")
+    _check_robot(parser, args.robot)
     if args.out is not None:
         try:
             output_directory(args.out)
@@ -374,7 +419,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
     meshcat = loopback_meshcat()
-    setup = SCENARIOS[args.scenario].build(meshcat)
+    setup = scenario.build(meshcat, **({"robot": args.robot} if args.robot is not None else {}))
 
     def ready(address: tuple[str, int]) -> None:
         print(f"serving on {address[0]}:{address[1]}", flush=True)

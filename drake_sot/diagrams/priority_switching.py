@@ -59,14 +59,15 @@ def build_with(
     duration: float = DURATION,
     motion_order: Sequence[str] = TASKS,
     pushes: Sequence[ExternalPush] = (),
+    robot: str = "embedded",
 ) -> ScenarioSetup:
     """The scenario's diagram with a given α schedule (the sweep reuses it with constant α).
 
     ``motion_order`` is the order the tasks are handed to the controller: it fixes the
     layout of the logged vectors only (priorities are matched by name). ``pushes`` are
-    applied to the robot.
+    applied to ``robot`` (a name of ``drake_sot.robots.ROBOTS``).
     """
-    b = TorqueHumanoidBuilder(meshcat=meshcat, fixed_base=True, pushes=pushes)
+    b = TorqueHumanoidBuilder(meshcat=meshcat, fixed_base=True, pushes=pushes, robot=robot)
     arm_and_body = [j for j in b.control_info.actuated_joints if not j.endswith("gripper")]
     b.add_joint_limits_task("taskJL", margin=0.05, joints=arm_and_body)
     X_head = b.initial_pose("head")
@@ -90,11 +91,13 @@ def build_with(
     )
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """The priority switch of the paper's figure 10, with ``pushes`` on the robot."""
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), robot: str = "embedded"
+) -> ScenarioSetup:
+    """The priority switch of the paper's figure 10, with ``pushes`` on ``robot``."""
     alpha = AlphaSchedule(list(TASKS), initial_alpha())
     alpha.switch("taskHead", "taskLH", start=SWITCH_AT, duration=SWITCH_DURATION)
-    return build_with(alpha, meshcat, pushes=pushes)
+    return build_with(alpha, meshcat, pushes=pushes, robot=robot)
 
 
 def task_errors(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -123,4 +126,5 @@ SCENARIO = Scenario(
     "(Liu, Lober, Padois 2016, fig. 10)",
     build=build,
     extra_plots=write_plots,
+    parameters=("robot",),
 )

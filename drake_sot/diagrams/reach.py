@@ -36,9 +36,12 @@ def _shifted(X: RigidTransform, offset: np.ndarray) -> RigidTransform:
     return RigidTransform(X.rotation(), X.translation() + offset)
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """Build the ``reach`` diagram and its script, with ``pushes`` on the robot."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), robot: str = "embedded"
+) -> ScenarioSetup:
+    """Build the ``reach`` diagram and its script, with ``pushes`` on ``robot`` (a name of
+    ``drake_sot.robots.ROBOTS``)."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
     target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
     b.add_joint_position_limits_task("taskJL", velocity_scale=1.0)
@@ -68,4 +71,5 @@ SCENARIO = Scenario(
     name="reach",
     description="stand, reach with the right hand (t=1 s), push then rm a left-hand task (t=3 s, t=5 s)",
     build=build,
+    parameters=("robot",),
 )

@@ -177,6 +177,8 @@ class ScriptSession:
         control_period: the controller's period [s] (5 ms, as on HRP-2).
         script_dir: where ``run FILE`` reads scripts (a file must resolve inside it).
         output_dir: where ``pool.writegraph FILE`` writes (a file must resolve inside it).
+        robot: the robot, a name of ``drake_sot.robots.ROBOTS`` (its logical frames are the
+            operational points the script can name).
 
     Attributes:
         builder: the :class:`~drake_sot.diagrams.humanoid.HumanoidSoTBuilder` the build uses.
@@ -199,8 +201,9 @@ class ScriptSession:
         control_period: float = 0.005,
         script_dir: str | Path = ".",
         output_dir: str | Path = ".",
+        robot: str = "embedded",
     ) -> None:
-        self.builder = HumanoidSoTBuilder(control_period=control_period, meshcat=meshcat)
+        self.builder = HumanoidSoTBuilder(control_period=control_period, meshcat=meshcat, robot=robot)
         self.script_dir = Path(script_dir)
         self.output_dir = Path(output_dir)
         self.built: HumanoidSoT | None = None
@@ -809,13 +812,17 @@ def schedule(
     return commands, t
 
 
-def script_scenario(program: ScriptProgram, *, output_dir: str | Path, echo: Echo | None = None) -> Scenario:
+def script_scenario(
+    program: ScriptProgram, *, output_dir: str | Path, echo: Echo | None = None, robot: str = "embedded"
+) -> Scenario:
     """The script as a scenario of :func:`~drake_sot.diagrams.scenario.run_scenario`: its name is
     the file's stem, its duration the scripted one; ``extras["session"]`` is the session.
-    ``pool.writegraph`` writes into ``output_dir``."""
+    ``pool.writegraph`` writes into ``output_dir``; the script drives ``robot``."""
 
     def build(meshcat: Meshcat | None) -> ScenarioSetup:
-        session = ScriptSession(meshcat=meshcat, script_dir=program.path.parent, output_dir=output_dir)
+        session = ScriptSession(
+            meshcat=meshcat, script_dir=program.path.parent, output_dir=output_dir, robot=robot
+        )
         commands, duration = schedule(session, program, echo)
         session.build()
         return ScenarioSetup(

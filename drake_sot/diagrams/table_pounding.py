@@ -22,7 +22,13 @@ import numpy as np
 from pydrake.geometry import Box, CollisionFilterDeclaration, GeometrySet, SceneGraph, Sphere
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
-from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, PrismaticSpring, SpatialInertia
+from pydrake.multibody.tree import (
+    FixedOffsetFrame,
+    PrismaticJoint,
+    PrismaticSpring,
+    RigidBody,
+    SpatialInertia,
+)
 from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
@@ -117,21 +123,53 @@ def _add_table(plant: MultibodyPlant, info: HumanoidInfo) -> None:
         )
 
 
-def _press_with_the_spheres_only(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
+def _press_with_the_spheres_only(plant: MultibodyPlant, scene_graph: SceneGraph, info: HumanoidInfo) -> None:
     """The table meets the hands only through the spheres at their tool points (the paper's
-    contact points): the whole-body shapes of the hands and fingers, which reach 2 to 6 cm
-    beyond the spheres, are filtered against it."""
+    contact points): the whole-body shapes of the hands and fingers (every body from the
+    hand tool point's body down the kinematic tree), which reach 2 to 6 cm beyond the
+    spheres on the embedded robot, are filtered against it."""
     inspector = scene_graph.model_inspector()
     shapes = [
         g
-        for link in ("r_hand", "r_finger", "l_hand", "l_finger")
-        for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link))
+        for side in ("right", "left")
+        for body in _bodies_below(plant, info, info.frames[f"{side}_hand"])
+        for g in plant.GetCollisionGeometriesForBody(body)
         if not isinstance(inspector.GetShape(g), Sphere)
     ]
     table = plant.GetCollisionGeometriesForBody(plant.GetBodyByName("table_top"))
     scene_graph.collision_filter_manager().Apply(
         CollisionFilterDeclaration().ExcludeBetween(GeometrySet(shapes), GeometrySet(table))
     )
+
+
+def _bodies_below(plant: MultibodyPlant, info: HumanoidInfo, frame: str) -> list[RigidBody]:
+    """The body of ``frame`` and every body below it in the robot's kinematic tree."""
+    children: dict[int, list[RigidBody]] = {}
+    for index in plant.GetJointIndices(info.model_instance):
+        joint = plant.get_joint(index)
+        children.setdefault(int(joint.parent_body().index()), []).append(joint.child_body())
+    bodies = [plant.GetFrameByName(frame, info.model_instance).body()]
+    for body in bodies:  # grows while it is walked: breadth first
+        bodies.extend(children.get(int(body.index()), []))
+    return bodies
+
+
+def back_joints(plant: MultibodyPlant, info: HumanoidInfo) -> list[str]:
+    """The actuated joints between the robot's base and its torso, from the base up (the
+    embedded robot's chest yaw and pitch, TALOS's torso_1 and torso_2)."""
+    parent_joint = {
+        int(plant.get_joint(index).child_body().index()): plant.get_joint(index)
+        for index in plant.GetJointIndices(info.model_instance)
+    }
+    base = plant.GetBodyByName(info.base_body, info.model_instance).index()
+    body = plant.GetFrameByName(info.frames["torso"], info.model_instance).body()
+    path = []
+    while body.index() != base:
+        joint = parent_joint[int(body.index())]
+        if joint.name() in info.actuated_joints:
+            path.append(joint.name())
+        body = joint.parent_body()
+    return path[::-1]
 
 
 class TableForce(LeafSystem):
@@ -177,13 +215,17 @@ def initial_alpha() -> np.ndarray:
     return alpha
 
 
-def build(meshcat=None, transition: float = 0.6, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
+def build(
+    meshcat=None, transition: float = 0.6, pushes: Sequence[ExternalPush] = (), robot: str = "embedded"
+) -> ScenarioSetup:
     """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]
     (finite, >= 0; ValueError naming it otherwise, before anything is built) and ``pushes``
-    on the robot."""
+    on ``robot`` (a name of ``drake_sot.robots.ROBOTS``). The table stands where it stands for
+    the embedded robot (surface 0.65 m high, presses 0.40 m ahead): TALOS and the G1 reach it
+    too."""
     transition = nonnegative("transition", transition, unit="s")
-    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table, pushes=pushes)
-    _press_with_the_spheres_only(b.plant, b.scene_graph)
+    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table, pushes=pushes, robot=robot)
+    _press_with_the_spheres_only(b.plant, b.scene_graph, b.info)
     X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
     b.add_com_task("taskCom", selection="110")
     b.add_op_point_task("taskRH", "right_hand", selection="111000", desired=X["right"])
@@ -192,7 +234,7 @@ def build(meshcat=None, transition: float = 0.6, pushes: Sequence[ExternalPush] 
     b.add_op_point_task("taskRHo", "right_hand", selection="000111", feature_of="taskRH")
     b.add_op_point_task("taskLHo", "left_hand", selection="000111", feature_of="taskLH")
     b.add_op_point_task("taskHead", "head", selection="000001")
-    b.add_posture_task("taskBack", ["chest_yaw", "chest_pitch"])
+    b.add_posture_task("taskBack", back_joints(b.control_plant, b.control_info))
     b.add_posture_task("taskPosture")
     # Force tasks: only their Jacobian row is used.
     b.add_op_point_task("taskRHF", "right_hand", selection="001000", feature_of="taskRH")
@@ -293,5 +335,5 @@ SCENARIO = Scenario(
     "smooth priority changes (Liu, Lober, Padois 2016, 4.1)",
     build=build,
     extra_plots=write_plots,
-    parameters=("transition",),
+    parameters=("transition", "robot"),
 )

@@ -25,8 +25,8 @@ from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.world import add_humanoid_plant
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
-from drake_sot.models import HumanoidInfo, half_sitting_configuration, make_control_model
-from drake_sot.models.humanoid import SOLE
+from drake_sot.models import HumanoidInfo, half_sitting_configuration
+from drake_sot.robots import RobotDescription, get_robot, make_robot_control_model
 from drake_sot.systems.admittance import AdmittanceController
 from drake_sot.systems.fall_monitor import FallCriteria, FallMonitor
 from drake_sot.systems.features import (
@@ -82,6 +82,8 @@ class HumanoidTaskBuilder:
         fall_criteria: on a floating base, a ``FallMonitor`` with these criteria is added
             (its ``fallen`` flag is logged; :func:`~drake_sot.diagrams.run.simulate` stops
             the run and reports the fall); None for none. Ignored on a fixed base.
+        robot: the robot, a name of ``drake_sot.robots.ROBOTS`` ("embedded", "talos", "g1")
+            or a :class:`~drake_sot.robots.RobotDescription`.
 
     Raises:
         ValueError: a period or step that is NaN, infinite or not > 0 (checked before
@@ -103,11 +105,13 @@ class HumanoidTaskBuilder:
         before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
         pushes: Sequence[ExternalPush] = (),
         fall_criteria: FallCriteria | None = FALL_CRITERIA,
+        robot: str | RobotDescription = "embedded",
     ) -> None:
         control_period = positive("control_period", control_period, unit="s")
         if fall_criteria is not None and not isinstance(fall_criteria, FallCriteria):
             raise ValueError(f"fall_criteria = {fall_criteria!r}: must be a FallCriteria or None")
         self.fixed_base = fixed_base
+        self.robot = get_robot(robot)
         self.builder = DiagramBuilder()
         self.plant, self.scene_graph, self.info = add_humanoid_plant(
             self.builder,
@@ -115,12 +119,13 @@ class HumanoidTaskBuilder:
             pd_gains=self.POSITION_CONTROLLED,
             fixed_base=fixed_base,
             before_finalize=before_finalize,
+            robot=self.robot,
         )
         self.pushes = check_pushes(pushes, self.info.frames)
         self.fall_criteria = None if fixed_base else fall_criteria
         self.fall_monitor: FallMonitor | None = None  # added by _finish
         self._spatial_forces: list[OutputPort] = []
-        self.control_plant, self.control_info = make_control_model(fixed_base=fixed_base)
+        self.control_plant, self.control_info = make_robot_control_model(self.robot, fixed_base=fixed_base)
         self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
         self.control_period = control_period
         self.meshcat = meshcat
@@ -518,7 +523,7 @@ class HumanoidTaskBuilder:
             raise ValueError(f"{task_name!r}: contacts select feet; with a polygon output there are none")
         task = self._add_inequality(
             CoMInSupportPolygon(
-                sole_size=None if polygon is not None else SOLE,
+                sole_size=None if polygon is not None else self.info.sole_size,
                 margin=margin,
                 gain=gain,
                 max_vertices=max_vertices,

@@ -134,7 +134,7 @@ class TorqueHumanoidBuilder(HumanoidTaskBuilder):
             else [
                 ContactPoints(
                     self.control_info.frames[foot],
-                    sole_corner_points(),
+                    sole_corner_points(self.info.sole_size),
                     mu=mu,
                     min_normal_force=min_normal_force,
                 )

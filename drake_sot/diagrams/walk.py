@@ -26,13 +26,14 @@ from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
-from drake_sot.footsteps import SIDES, Footstep, StepLimits, StepTiming, alternating_steps
-from drake_sot.models.humanoid import SOLE
+from drake_sot.footsteps import SIDES, Footstep, StepLimits, alternating_steps
+from drake_sot.robots import EMBEDDED
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.stance_anchor import StanceAnchor
 
-TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)
+#: The embedded robot's step timing (each robot's is ``RobotDescription.step_timing``).
+TIMING = EMBEDDED.step_timing
 START = 0.5  # [s] when the steps are given
 STACK = (
     "taskJL",
@@ -68,11 +69,11 @@ def walk_steps(left: Footstep, right: Footstep, stride: float = 0.2, n_forward: 
 
 
 def add_pattern_generator(
-    b: HumanoidSoTBuilder, name: str = "pg", limits: StepLimits = StepLimits()
+    b: HumanoidSoTBuilder, name: str = "pg", limits: StepLimits | None = None
 ) -> tuple[PatternGenerator, Footstep, Footstep]:
     """A pattern generator ``name`` standing on the robot's initial footprints, its CoM height
-    the initial CoM's, ticking at the control period, with this scenario's ``TIMING`` and the
-    step ``limits``. Returns it and the initial footprints."""
+    the initial CoM's, ticking at the control period, with the robot's step timing and the
+    step ``limits`` (None: the robot's). Returns it and the initial footprints."""
     left, right = (
         footstep(b.initial_pose("left_foot"), "left"),
         footstep(b.initial_pose("right_foot"), "right"),
@@ -84,8 +85,8 @@ def add_pattern_generator(
             right,
             com_height=com0[2],
             dt=b.control_period,
-            timing=TIMING,
-            limits=limits,
+            timing=b.robot.step_timing,
+            limits=b.robot.step_limits if limits is None else limits,
             com=com0[:2],
             name=name,
         )
@@ -95,7 +96,7 @@ def add_pattern_generator(
 
 def add_walking(
     b: HumanoidSoTBuilder,
-    limits: StepLimits = StepLimits(),
+    limits: StepLimits | None = None,
     *,
     anchored: bool = False,
     stabilizer: bool = True,
@@ -104,7 +105,8 @@ def add_walking(
     (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
     and CoM xy (references and velocity feed-forward from the generator, through the
     balance stabilizer unless ``stabilizer`` is False), waist orientation, both hands held
-    relative to the waist. Returns the generator (step ``limits``) and the initial footprints.
+    relative to the waist. Returns the generator (step ``limits``, None: the robot's) and the
+    initial footprints.
 
     ``anchored``: the feet, CoM and waist references pass through a ``StanceAnchor``
     (re-anchored on the measured stance foot at each lift-off, so that landing errors
@@ -167,11 +169,14 @@ def add_stance_anchor(b: HumanoidSoTBuilder, pg: PatternGenerator) -> StanceAnch
 
 
 def build(
-    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), stabilizer: bool = True
+    meshcat: Meshcat | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    stabilizer: bool = True,
+    robot: str = "embedded",
 ) -> ScenarioSetup:
-    """Build the ``walk`` diagram and its script, with ``pushes`` on the robot, with or without
-    the balance stabilizer."""
-    return build_walk(walk_steps, meshcat=meshcat, pushes=pushes, stabilizer=stabilizer)
+    """Build the ``walk`` diagram and its script, with ``pushes`` on ``robot`` (a name of
+    ``drake_sot.robots.ROBOTS``), with or without the balance stabilizer."""
+    return build_walk(walk_steps, meshcat=meshcat, pushes=pushes, stabilizer=stabilizer, robot=robot)
 
 
 def build_walk(
@@ -181,11 +186,13 @@ def build_walk(
     pushes: Sequence[ExternalPush] = (),
     anchored: bool = False,
     stabilizer: bool = True,
+    robot: str = "embedded",
 ) -> ScenarioSetup:
     """A walking diagram (the ``walk`` stack, the ZMP estimator, logs) and its script: at
     ``START`` the steps ``steps_of(left, right)`` (made from the initial footprints) are given
-    to the generator. ``anchored``, ``stabilizer``: see :func:`add_walking`."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
+    to the generator. ``anchored``, ``stabilizer``: see :func:`add_walking`; ``robot``: a name of
+    ``drake_sot.robots.ROBOTS``."""
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b, anchored=anchored, stabilizer=stabilizer)
     b.add_posture_task("taskPosture", gain=1.0)
 
@@ -201,7 +208,7 @@ def build_walk(
     built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, solver="hqp")
     steps = steps_of(left, right)
     commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
-    duration = START + len(steps) * (TIMING.single_support + TIMING.double_support) + 2.0
+    duration = START + len(steps) * b.robot.step_timing.period + 2.0
     return ScenarioSetup(
         built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}
     )
@@ -245,7 +252,7 @@ def analyse(built: HumanoidSoT, arrays: dict[str, np.ndarray]) -> WalkAnalysis:
             X = frame.CalcPoseInWorld(context)
             soles[side][k] = (*X.translation()[:2], RollPitchYaw(X.rotation()).yaw_angle())
             if arrays["contacts"][k, i] > 0.5:
-                corners.append(sole_corners(*soles[side][k], SOLE))
+                corners.append(sole_corners(*soles[side][k], info.sole_size))
         com[k] = plant.CalcCenterOfMassPositionInWorld(context)
         polygon = support_polygon(corners)
         polygons.append(polygon)
@@ -265,7 +272,7 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
         arrays["com_ref"],
         analysis.com,
         analysis.polygons,
-        [sole_corners(s.x, s.y, s.yaw, SOLE) for s in setup.extras["steps"]],
+        [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras["steps"]],
         path,
     )
     return {"walk_zmp": path}
@@ -276,5 +283,5 @@ SCENARIO = Scenario(
     description="8 steps of 0.2 m forward, 4 steps turning 90°, stop in double support (ZMP preview control)",
     build=build,
     extra_plots=write_plots,
-    parameters=("stabilizer",),
+    parameters=("stabilizer", "robot"),
 )

@@ -70,8 +70,10 @@ def build(
     pushes: Sequence[ExternalPush] = (),
     decision: str = "sequencer",
     stabilizer: bool = True,
+    robot: str = "embedded",
 ) -> ScenarioSetup:
-    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on the robot.
+    """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on ``robot`` (a
+    name of ``drake_sot.robots.ROBOTS``).
 
     ``decision``: ``"sequencer"`` (the DecisionServer is a ``TaskSequencer`` in the diagram)
     or ``"remote"`` (as the paper ran it: a separate program polls ``pg.in_process`` and sends
@@ -83,8 +85,8 @@ def build(
     if decision not in DECISIONS:
         raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
     if decision == "remote":
-        return _build_remote(meshcat, pushes, stabilizer)
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer)
+        return _build_remote(meshcat, pushes, stabilizer, robot)
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
 
     # The DecisionServer: every 1 s, is the pattern generator still walking?
     switch = (*SWITCH, SetValue("force_active", np.ones(1)))
@@ -113,9 +115,9 @@ def build(
     )
 
 
-def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool):
+def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool, robot: str):
     """The builder with the walking tasks, both admittance-controlled hand tasks and the posture."""
-    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
+    b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b, stabilizer=stabilizer)
     admittances = {
         "taskForce": b.add_admittance_task("taskForce", "right", **ADMITTANCE),
@@ -125,8 +127,10 @@ def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], 
     return b, pg, left, right, admittances
 
 
-def _build_remote(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool) -> ScenarioSetup:
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer)
+def _build_remote(
+    meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool, robot: str
+) -> ScenarioSetup:
+    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
     active = b.builder.AddSystem(ConstantVectorSource(np.zeros(1)))
     active.set_name("force_active")
     for admittance in admittances.values():
@@ -239,5 +243,5 @@ SCENARIO = Scenario(
     description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
     build=build,
     extra_plots=write_plots,
-    parameters=("decision", "stabilizer"),
+    parameters=("decision", "stabilizer", "robot"),
 )

@@ -17,7 +17,8 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.models import HumanoidInfo, add_body_collision, add_ground, load_humanoid, weld_base
+from drake_sot.models import HumanoidInfo, add_ground
+from drake_sot.robots import RobotDescription, add_robot_collision, load_robot, weld_robot_base
 from drake_sot.systems.fall_monitor import FallMonitor
 from drake_sot.systems.features import _Feature
 from drake_sot.systems.kinematics import RobotKinematics
@@ -84,12 +85,14 @@ def add_humanoid_plant(
     fixed_base: bool = False,
     body_collision: bool = True,
     before_finalize: Callable[[MultibodyPlant, HumanoidInfo], None] | None = None,
+    robot: str | RobotDescription = "embedded",
 ) -> tuple[MultibodyPlant, SceneGraph, HumanoidInfo]:
     """The simulated world in a finalized ``MultibodyPlant`` (SAP, point contact,
-    ``time_step`` [s]) and its ``SceneGraph``: the humanoid with PD-controlled actuators
+    ``time_step`` [s]) and its ``SceneGraph``: the humanoid ``robot`` (a name of
+    ``drake_sot.robots.ROBOTS`` or a description) with PD-controlled actuators
     (or torque-controlled ones, ``pd_gains=False``) on the ground, or with its pelvis
     welded in the air (``fixed_base``, no ground). With ``body_collision`` the whole body
-    collides (:func:`~drake_sot.models.humanoid.add_body_collision`), else only the soles.
+    collides (:func:`~drake_sot.robots.add_robot_collision`), else only the soles.
     ``before_finalize`` may add to the world (a table, collision shapes on the hands)
     before the plant is finalized.
 
@@ -101,11 +104,11 @@ def add_humanoid_plant(
         time_step=time_step, discrete_contact_approximation="sap", contact_model="point"
     )
     plant, scene_graph = AddMultibodyPlant(config, builder)
-    info = load_humanoid(plant, pd_gains=pd_gains)
+    info = load_robot(plant, robot, pd_gains=pd_gains)
     if body_collision:
-        add_body_collision(plant, scene_graph, info)
+        add_robot_collision(plant, scene_graph, info, robot)
     if fixed_base:
-        weld_base(plant, info)
+        weld_robot_base(plant, info, robot)
     else:
         add_ground(plant)
     if before_finalize is not None:

@@ -347,6 +347,8 @@ class HumanoidInfo:
             name of the weld joint whose reaction force is the sensor reading.
         half_sitting: joint name -> HRP-2 half-sitting angle (rad).
         mass: total mass of the robot (kg).
+        sole_size: (length, width) [m] of each sole, centred on its sole frame.
+        robot: the name of the robot's description (``drake_sot.robots``).
     """
 
     model_instance: ModelInstanceIndex
@@ -356,6 +358,8 @@ class HumanoidInfo:
     force_sensors: Mapping[str, str]
     half_sitting: Mapping[str, float]
     mass: float
+    sole_size: tuple[float, float] = SOLE
+    robot: str = "embedded"
 
 
 def _shape_and_inertia(link: _Link) -> tuple[Shape, SpatialInertia]:
@@ -602,9 +606,10 @@ def half_sitting_configuration(plant: MultibodyPlant, info: HumanoidInfo) -> np.
     return plant.GetPositions(context)
 
 
-def sole_corner_points() -> np.ndarray:
-    """The 4 corners (4, 3) [m] of a sole in its sole frame (on the sole plane z = 0)."""
-    half_length, half_width = SOLE[0] / 2, SOLE[1] / 2
+def sole_corner_points(sole_size: tuple[float, float] = SOLE) -> np.ndarray:
+    """The 4 corners (4, 3) [m] of a sole of ``sole_size`` (length, width; default the
+    embedded robot's) in its sole frame (on the sole plane z = 0)."""
+    half_length, half_width = sole_size[0] / 2, sole_size[1] / 2
     return np.array([[sx * half_length, sy * half_width, 0.0] for sx in (1, -1) for sy in (1, -1)])
 
 

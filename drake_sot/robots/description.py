@@ -1,0 +1,208 @@
+"""A robot as data: what every scenario asks of a robot, by logical name.
+
+A :class:`RobotDescription` is one frozen value per robot: its model file and package
+map, the logical frames the scenarios use (soles, ankles, wrists, hands, head, waist,
+pelvis, torso), the sole contact geometry, the force/torque sensor welds, the
+half-sitting configuration, PD gains, effort and joint limits, the joints frozen at
+load and the simple collision shapes. :mod:`drake_sot.robots.loading` turns one into
+bodies in a ``MultibodyPlant``; the embedded primitive-shape humanoid is one instance
+(its model is built in code: ``model_file`` is None).
+
+No pydrake import here.
+"""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+
+from drake_sot.footsteps import StepLimits, StepTiming
+from drake_sot.robots.urdf import AddedWeld
+
+#: The logical frames every robot gives (sole = the sole plane under the ankle, x
+#: forward; hand = the tool point of the hand; head_camera = optical axis z forward,
+#: x right, y down).
+LOGICAL_FRAMES = (
+    "pelvis",
+    "waist",
+    "torso",
+    "head",
+    "head_camera",
+    "left_foot",
+    "right_foot",
+    "left_ankle",
+    "right_ankle",
+    "left_wrist",
+    "right_wrist",
+    "left_hand",
+    "right_hand",
+)
+#: The force/torque sensors every robot gives.
+FORCE_SENSORS = ("left_ankle", "right_ankle", "left_wrist", "right_wrist")
+
+
+@dataclass(frozen=True)
+class FrameSpec:
+    """A frame fixed on a frame of the model (a link's, or one the model defines): position
+    ``xyz`` [m] and roll-pitch-yaw ``rpy`` [rad] in ``parent``. With both zero the logical
+    frame *is* ``parent``; otherwise the loader adds a frame named ``sot_<logical name>``."""
+
+    parent: str
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Drive:
+    """The position servo of a joint: PD gains ``kp`` [N m/rad], ``kd`` [N m s/rad], its
+    actuator's effort limit [N m] and the rotor inertia reflected at the joint [kg m^2]."""
+
+    kp: float
+    kd: float
+    effort: float
+    rotor_inertia: float = 0.0
+
+
+@dataclass(frozen=True)
+class CollisionShape:
+    """A simple collision shape on a body (for falls and contact with the world, not the
+    soles): ``kind`` "box" (dims = lx, ly, lz), "sphere" (r) or "capsule" (r, length along z)."""
+
+    body: str
+    kind: str
+    dims: tuple[float, ...]
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """Everything the builders need to know of a robot.
+
+    Attributes:
+        name: the name ``--robot`` takes ("embedded", "talos", "g1").
+        title: one line for ``drake-sot list --robots``.
+        model_file: the URDF; None for the embedded humanoid (built in code).
+        packages: package name → directory, for the model's ``package://`` URIs.
+        base_body: the floating base body (the pelvis).
+        frames: logical name (:data:`LOGICAL_FRAMES`) → where it is.
+        sole_size: (length along x, width along y) [m] of the sole, centred on the sole frame.
+        contact_radius: radius [m] of the four corner contact spheres under each sole.
+        force_sensors: logical sensor (:data:`FORCE_SENSORS`) → the weld joint that reads it.
+        added_welds: sensor links welded where the model has none.
+        half_sitting: joint name → angle [rad] of the reference posture; every moving joint.
+        drives: joint name → its servo; every moving joint.
+        joint_limits: joint name → (lower, upper) [rad], as in the model.
+        frozen_joints: model joints made fixed at load (grippers, mimic linkages).
+        collision: simple collision shapes of the body (besides the soles).
+        step_timing: the walking scenarios' step timing on this robot.
+        step_limits: the reachability of a step on this robot (checked by the walking planner).
+    """
+
+    name: str
+    title: str
+    model_file: Path | None
+    packages: Mapping[str, Path]
+    base_body: str
+    frames: Mapping[str, FrameSpec]
+    sole_size: tuple[float, float]
+    contact_radius: float
+    force_sensors: Mapping[str, str]
+    half_sitting: Mapping[str, float]
+    drives: Mapping[str, Drive]
+    joint_limits: Mapping[str, tuple[float, float]]
+    added_welds: tuple[AddedWeld, ...] = ()
+    frozen_joints: tuple[str, ...] = ()
+    collision: tuple[CollisionShape, ...] = field(default=())
+    step_timing: StepTiming = StepTiming()
+    step_limits: StepLimits = StepLimits()
+
+    def __post_init__(self) -> None:
+        missing = [f for f in LOGICAL_FRAMES if f not in self.frames]
+        if missing:
+            raise ValueError(f"robot {self.name!r}: logical frames {missing} are not given")
+        missing = [s for s in FORCE_SENSORS if s not in self.force_sensors]
+        if missing:
+            raise ValueError(f"robot {self.name!r}: force sensors {missing} are not given")
+        for what, table in (("half-sitting angle", self.half_sitting), ("drive", self.drives)):
+            missing = sorted(set(self.joint_limits) - set(table))
+            if missing:
+                raise ValueError(f"robot {self.name!r}: no {what} for joints {missing}")
+        outside = [
+            (j, a, self.joint_limits[j])
+            for j, a in self.half_sitting.items()
+            if not (self.joint_limits[j][0] <= a <= self.joint_limits[j][1])
+        ]
+        if outside:
+            raise ValueError(f"robot {self.name!r}: half-sitting angles outside the limits: {outside}")
+        for name in ("frames", "packages", "force_sensors", "half_sitting", "drives", "joint_limits"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+
+
+@dataclass(frozen=True)
+class UrdfJoint:
+    """A moving joint as the URDF declares it: limits [rad] and effort limit [N m]."""
+
+    lower: float
+    upper: float
+    effort: float
+
+
+def urdf_joints(path: Path, frozen: tuple[str, ...] = ()) -> dict[str, UrdfJoint]:
+    """The revolute joints of a URDF file (less ``frozen`` ones and mimic followers), in file order.
+
+    Raises FileNotFoundError naming the file when it is missing.
+    """
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"robot model file {path} does not exist")
+    joints = {}
+    for joint in ET.parse(path).getroot().findall("joint"):
+        name = joint.get("name")
+        if joint.get("type") != "revolute" or name in frozen or joint.find("mimic") is not None:
+            continue
+        limit = joint.find("limit")
+        joints[name] = UrdfJoint(
+            float(limit.get("lower")), float(limit.get("upper")), float(limit.get("effort"))
+        )
+    return joints
+
+
+def srdf_group_state(path: Path, state: str) -> dict[str, float]:
+    """The joint angles [rad] of group state ``state`` of an SRDF file (one-value joints only:
+    the root joint's pose is not an angle)."""
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"SRDF file {path} does not exist")
+    for element in ET.parse(path).getroot().findall("group_state"):
+        if element.get("name") == state:
+            angles = {}
+            for joint in element.findall("joint"):
+                values = joint.get("value").split()
+                if len(values) == 1:
+                    angles[joint.get("name")] = float(values[0])
+            return angles
+    raise ValueError(f"SRDF {path}: no group_state {state!r}")
+
+
+def drives_by_pattern(
+    joints: Mapping[str, UrdfJoint], table: Mapping[str, tuple[float, float, float]]
+) -> dict[str, Drive]:
+    """A drive for every joint: the first regular expression of ``table`` (pattern → (kp, kd,
+    rotor inertia)) that the joint name matches, with the joint's URDF effort limit.
+
+    Raises ValueError naming the joints that no pattern matches.
+    """
+    drives, unmatched = {}, []
+    for name, joint in joints.items():
+        match = next((gains for pattern, gains in table.items() if re.search(pattern, name)), None)
+        if match is None:
+            unmatched.append(name)
+            continue
+        kp, kd, rotor = match
+        drives[name] = Drive(kp=kp, kd=kd, effort=joint.effort, rotor_inertia=rotor)
+    if unmatched:
+        raise ValueError(f"no drive pattern matches joints {unmatched}; patterns: {list(table)}")
+    return drives
