@@ -298,7 +298,9 @@ class Run:
     path: str
 
     def __str__(self) -> str:
-        return f"run {self.path if _WORD.match(self.path) else _string_text(self.path)}"
+        # A bare word that also reads as a number (``.0``, ``.5``) would come back as a duration.
+        bare = _WORD.match(self.path) and not _NUMBER.match(self.path)
+        return f"run {self.path if bare else _string_text(self.path)}"
 
 
 @dataclass(frozen=True)
