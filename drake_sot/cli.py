@@ -20,11 +20,14 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import NoReturn, TextIO
 
+from pydrake.systems.analysis import Simulator
+
 from drake_sot.diagrams import SCENARIOS, STUDIES
-from drake_sot.diagrams.artifacts import log_arrays, output_directory, write_npz
+from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.humanoid import with_command_server
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.run import Interrupted, RunResult, SignalGuard
-from drake_sot.diagrams.scenario import Scenario, run_scenario
+from drake_sot.diagrams.scenario import Scenario, ScenarioSetup, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
@@ -36,6 +39,8 @@ from drake_sot.validation import finite, nonnegative, positive, positive_int
 
 #: Exit status of a run in which the robot fell.
 FELL = 3
+#: Simulated seconds ``serve FILE`` runs a script without ``run SECONDS`` lines (and no --duration).
+SERVED_SCRIPT_DURATION = 3600.0
 
 
 class ProgressBar:
@@ -205,13 +210,18 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         help="run a scenario paced at R x real time while serving the remote command protocol",
         epilog=f"the first line on stdout is 'serving on HOST:PORT'; a token may also come from ${TOKEN_ENV}",
     )
-    serve.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
+    serve.add_argument(
+        "target",
+        metavar="SCENARIO|FILE",
+        help=f"a scenario (one of: {', '.join(names)}) or a SoT script file (its run lines through 'run')",
+    )
     serve.add_argument(
         "--duration",
         type=_checked(positive, "duration", unit="s"),
         default=None,
         metavar="S",
-        help="simulated seconds (default: the scenario's)",
+        help="simulated seconds (default: the scenario's, the script's run lines, else "
+        f"{SERVED_SCRIPT_DURATION:g})",
     )
     serve.add_argument(
         "--realtime",
@@ -221,7 +231,10 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         help="pace: R x real time (default 1.0)",
     )
     serve.add_argument(
-        "--out", default=None, metavar="DIR", help="write the run's logs as SCENARIO.npz in DIR"
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg)",
     )
     _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
     shell = sub.add_parser("shell", help="the interactive coshell of a 'drake-sot serve' server")
@@ -334,6 +347,10 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
     if args.port > 65535:
         parser.error(f"port = {args.port}: at most 65535")
+    scenario = _served(args.target, args.out, parser)
+    if args.duration is None and scenario.name not in SCENARIOS:
+        program = load_script(args.target)
+        args.duration = program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
     if args.out is not None:
         try:
             output_directory(args.out)
@@ -343,27 +360,36 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         network = NetworkThread(args.host, args.port, token=args.token)
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
-    meshcat = loopback_meshcat()
-    setup = SCENARIOS[args.scenario].build(meshcat)
 
-    def ready(address: tuple[str, int]) -> None:
-        print(f"serving on {address[0]}:{address[1]}", flush=True)
-        print(f"live view (stack and task errors in the controls): {meshcat.web_url()}", flush=True)
+    def runner(setup: ScenarioSetup, simulator: Simulator, duration: float, **kwargs) -> RunResult:
+        def ready(address: tuple[str, int]) -> None:
+            print(f"serving on {address[0]}:{address[1]}", flush=True)
+            view = setup.built.meshcat.web_url()
+            print(f"live view (stack and task errors in the controls): {view}", flush=True)
+
+        result = serve_run(
+            setup, simulator, network, duration, realtime=args.realtime, on_ready=ready, **kwargs
+        )
+        print(f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True)
+        return result
 
     def serve() -> int:
-        simulator = setup.built.create_simulator()
-        duration = setup.duration if args.duration is None else args.duration
-        with SignalGuard() as guard:
-            result = serve_run(
-                setup, simulator, network, duration, realtime=args.realtime, guard=guard, on_ready=ready
-            )
-            print(
-                f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True
-            )
-            if args.out is not None:
-                path = output_directory(args.out) / f"{args.scenario}.npz"
-                write_npz(log_arrays(setup.built, simulator.get_context(), result), path)
-                print(f"wrote {path}", flush=True)
+        try:
+            with with_command_server():
+                if args.out is not None:  # the usual artefacts
+                    output = run_scenario(scenario, args.out, duration=args.duration, runner=runner)
+                    for path in output.files.values():
+                        print(f"wrote {path}", flush=True)
+                    result = output.result
+                else:
+                    setup = scenario.build(loopback_meshcat())
+                    simulator = setup.built.create_simulator()
+                    duration = setup.duration if args.duration is None else args.duration
+                    with SignalGuard() as guard:
+                        result = runner(setup, simulator, duration, guard=guard)
+        except SessionError as exc:  # the script could not build its diagram: nothing served
+            network.close()
+            parser.error(str(exc))
         if result.failure is not None:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
         return exit_status(result)
@@ -371,10 +397,28 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
 
-def _echo(statement: Statement, time: float, output: str) -> None:
-    """A script command's output on stdout, under its time and line."""
-    print(f"t = {time:.3f} s  {statement.where}: {statement.text}")
-    print("\n".join(f"  {line}" for line in output.splitlines()), flush=True)
+def _served(target: str, out: str | None, parser: argparse.ArgumentParser) -> Scenario:
+    """The scenario named ``target``, or the script in the file ``target``."""
+    if target in SCENARIOS:
+        return SCENARIOS[target]
+    if not os.path.isfile(target):
+        parser.error(f"serve: {target!r} is neither a scenario ({', '.join(sorted(SCENARIOS))}) nor a file")
+    try:
+        program = load_script(target)
+    except (ScriptError, SessionError) as exc:
+        parser.error(str(exc))
+    return script_scenario(program, output_dir=out or ".", echo=_echo_stderr)
+
+
+def _echo(statement: Statement, time: float, output: str, stream: TextIO | None = None) -> None:
+    """A script command's output on stdout (or ``stream``), under its time and line."""
+    print(f"t = {time:.3f} s  {statement.where}: {statement.text}", file=stream)
+    print("\n".join(f"  {line}" for line in output.splitlines()), file=stream, flush=True)
+
+
+def _echo_stderr(statement: Statement, time: float, output: str) -> None:
+    """:func:`_echo` on stderr (a server's stdout starts with its address)."""
+    _echo(statement, time, output, sys.stderr)
 
 
 def _interruptible(run: Callable[[], int], progress: ProgressBar, out: str, *, study: bool = False) -> int:

@@ -577,6 +577,8 @@ class ScriptSession:
                 stack_source=self._port(stack_feed.how.source) if stack_feed else None,
             )
         built.sot.set_name(sot.name)
+        if built.remote is not None:  # served: the stack commands of its clients name this solver
+            built.remote.sot_name = sot.name
         sot.system = built.sot
         return built
 

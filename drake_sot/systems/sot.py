@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.hierarchy import solve_hqp, solve_strict
@@ -22,6 +24,41 @@ from drake_sot.systems.task import Task
 STACK_PORT = "stack"
 #: The solvers a ``StackOfTasks`` can use.
 SOLVERS = ("svd", "hqp")
+#: Name of the optional input port of stack commands (``commands_input=True``).
+COMMANDS_PORT = "commands"
+
+
+# --- stack commands sent by another system (a remote command server) -------------------------
+@dataclass(frozen=True)
+class StackCommand:
+    """One of the paper's stack commands, given at ``time`` [s]: ``command`` is push, pop,
+    rm, up, down or clear; ``args`` its task name (none for pop and clear)."""
+
+    time: float
+    command: str
+    args: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class StackCommands:
+    """The value of the ``commands`` input: the commands of ``batch`` (numbered from 1, in the
+    order the sender took them); the solver applies each batch once."""
+
+    batch: int = 0
+    commands: tuple[StackCommand, ...] = ()
+
+
+@dataclass(frozen=True)
+class StackCommandResults:
+    """The value of the ``command_results`` output: per command of ``batch``, ``(True, output)``
+    when it was applied (output: the task ``pop`` removed, else ""), ``(False, error)`` when it
+    was refused (the error names the task and lists the stack)."""
+
+    batch: int = 0
+    results: tuple[tuple[bool, str], ...] = ()
+
+
+STACK_COMMANDS = ("push", "pop", "rm", "up", "down", "clear")
 
 
 class StackOfTasks(LeafSystem):
@@ -94,6 +131,15 @@ class StackOfTasks(LeafSystem):
             priority first (the name "stack" is therefore not a valid task name).
             Validated when it changes: an unknown task name or a task listed twice
             raises a RuntimeError naming them and listing the known tasks.
+        commands: only with ``commands_input=True``; abstract :class:`StackCommands`, batches of
+            stack commands from another system (a
+            :class:`~drake_sot.remote.server.RemoteCommandServer`). A new batch acts at the
+            tick that sees it, after the stack held in the context, in its order; a command
+            that cannot act (an unknown task, a push of a task in the stack, or any command
+            while the ``stack`` input drives the stack) is skipped and reported on
+            ``command_results``. A periodic unrestricted update commits the batch into the
+            held stack at the next tick (a context command commits it first), so that the
+            commands of the context and of the port act in the order they were given.
     Output ports:
         qdot: joint velocity (nv,) computed at the last tick [rad/s, m/s] (v layout of the model).
         errors: every declared task's error (an inequality task's: how far it is outside
@@ -103,6 +149,8 @@ class StackOfTasks(LeafSystem):
         stack: abstract ``tuple[str, ...]``, the current active task names, highest
             priority first: the ``stack`` input's value when it is connected, else the
             context's stack.
+        command_results: only with ``commands_input=True``; abstract
+            :class:`StackCommandResults` of the last batch of the ``commands`` input.
 
     Args:
         nv: size of q̇ (the model's number of velocities), >= 1.
@@ -117,6 +165,7 @@ class StackOfTasks(LeafSystem):
         name: the system's name.
         solver: ``"svd"`` (:func:`~drake_sot.hierarchy.solve_strict`) or ``"hqp"``
             (:func:`~drake_sot.hierarchy.solve_hqp`, equalities and inequalities).
+        commands_input: declare the ``commands`` input and the ``command_results`` output.
 
     Raises:
         ValueError: at construction, naming the bad argument (a task name twice, a
@@ -141,6 +190,7 @@ class StackOfTasks(LeafSystem):
         stack: Sequence[str] = (),
         name: str = "sot",
         solver: str = "svd",
+        commands_input: bool = False,
     ) -> None:
         super().__init__()
         self.set_name(name)
@@ -205,6 +255,15 @@ class StackOfTasks(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         self.DeclareStateOutputPort("qdot", self._qdot)
         self.DeclareStateOutputPort("errors", self._errors)
+        self._commands_input = self._declare_commands_input() if commands_input else None
+        remote = (
+            set()
+            if self._commands_input is None
+            else {
+                self.abstract_state_ticket(self._committed),
+                self.input_port_ticket(self._commands_input.get_index()),
+            }
+        )
         self.DeclareAbstractOutputPort(
             "stack",
             lambda: AbstractValue.Make(()),
@@ -212,6 +271,7 @@ class StackOfTasks(LeafSystem):
             prerequisites_of_calc={
                 self.abstract_state_ticket(self._stack),
                 self.input_port_ticket(self._stack_input.get_index()),
+                *remote,
             },
         )
 
@@ -238,7 +298,8 @@ class StackOfTasks(LeafSystem):
     def _current_stack(self, context: Context) -> Stack:
         """The stack in force for this system's own context (the input's, validated, when driven)."""
         if not self._stack_input.HasValue(context):
-            return context.get_abstract_state(self._stack).get_value()
+            held = context.get_abstract_state(self._stack).get_value()
+            return held if self._commands_input is None else self._with_batch(context, held)[0]
         names = self._stack_input.Eval(context)
         if type(names) is tuple and names == self._driven[0]:
             return self._driven[1]  # checked when it changed (a tuple cannot change in place)
@@ -269,6 +330,8 @@ class StackOfTasks(LeafSystem):
         known tasks or the stack.
         """
         context = settable_context(self, context, self._stack_input, command=command, what="the stack")
+        if self._commands_input is not None:
+            self._commit(context, context.get_mutable_state())  # the port's commands came first
         before = context.get_abstract_state(self._stack).get_value()
         after = getattr(before, command)(*args).transition_from(
             before, start=context.get_time(), duration=transition
@@ -300,6 +363,61 @@ class StackOfTasks(LeafSystem):
     def clear(self, context: Context, *, transition: float = 0.0) -> None:
         """Empty the stack (q̇ becomes zero at the next tick, or over ``transition`` seconds)."""
         self._command(context, "clear", transition=transition)
+
+    # --- stack commands from the ``commands`` input (commands_input=True) ---------------------
+    def _declare_commands_input(self):
+        port = self.DeclareAbstractInputPort(COMMANDS_PORT, AbstractValue.Make(StackCommands()))
+        self._committed = self.DeclareAbstractState(AbstractValue.Make(StackCommandResults()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(self._period, 0.0, self._commit)
+        self.DeclareAbstractOutputPort(
+            "command_results",
+            lambda: AbstractValue.Make(StackCommandResults()),
+            lambda context, value: value.set_value(
+                self._with_batch(context, context.get_abstract_state(self._stack).get_value())[1]
+            ),
+            prerequisites_of_calc={
+                self.abstract_state_ticket(self._stack),
+                self.abstract_state_ticket(self._committed),
+                self.input_port_ticket(port.get_index()),
+            },
+        )
+        return port
+
+    def _with_batch(self, context: Context, held: Stack) -> tuple[Stack, StackCommandResults]:
+        """``held`` with the input's batch applied when it is not committed yet, and its results."""
+        committed = context.get_abstract_state(self._committed).get_value()
+        if not self._commands_input.HasValue(context):
+            return held, committed
+        sent = self._commands_input.Eval(context)
+        if sent.batch <= committed.batch:
+            return held, committed
+        stack, results = held, []
+        for command in sent.commands:
+            try:
+                if self._stack_input.HasValue(context):
+                    raise ValueError(
+                        f"{self.get_name()!r}: cannot {command.command}: the stack comes from input "
+                        f"port {STACK_PORT!r}; change its source instead"
+                    )
+                if command.command not in STACK_COMMANDS:
+                    raise ValueError(
+                        f"{command.command!r}: not a stack command ({', '.join(STACK_COMMANDS)})"
+                    )
+                after = getattr(stack, command.command)(*command.args)
+                output = stack.active[-1] if command.command == "pop" else ""
+                stack = after.transition_from(stack, start=command.time, duration=0.0)
+                results.append((True, output))
+            except (StackError, ValueError, TypeError) as error:
+                results.append((False, str(error)))
+        return stack, StackCommandResults(sent.batch, tuple(results))
+
+    def _commit(self, context: Context, state: DrakeState) -> None:
+        """Hold the stack with the input's batch applied (once per batch)."""
+        held = context.get_abstract_state(self._stack).get_value()
+        stack, results = self._with_batch(context, held)
+        if results is not context.get_abstract_state(self._committed).get_value():
+            state.get_mutable_abstract_state(self._stack).set_value(stack)
+            state.get_mutable_abstract_state(self._committed).set_value(results)
 
     # --- the control law -----------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
