@@ -432,3 +432,114 @@ def test_a_remote_decision_layer_switches_the_stack_as_the_sequencer_does(tmp_pa
     assert stacks_remote == stacks_seq and len(stacks_seq) == 2  # walking, then the force tasks at one tick
     assert "taskForce" in stacks_seq[1] and "taskRHwaist" not in stacks_seq[1]
     assert abs(t_remote[1] - t_seq[1]) <= 1.0  # within one poll period (1 s)
+
+
+# --- limits, SIGTERM, the command server in the diagram, a served script -----------------------
+
+
+def test_the_seventeenth_subscription_of_a_connection_is_refused_naming_the_limit(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        readable = sorted(client.list()["readable"])
+        assert len(readable) > 17
+        for signal in readable[:16]:
+            assert client.request("subscribe", signal=signal, period=10.0) == signal
+        with pytest.raises(RemoteError, match="at most 16 subscriptions per connection"):
+            client.request("subscribe", signal=readable[16], period=10.0)
+        assert client.request("unsubscribe", signal=readable[0]) == readable[0]
+        assert client.request("subscribe", signal=readable[16], period=10.0) == readable[16]  # room again
+    with Client(host, port) as other:  # the limit is per connection
+        assert other.request("subscribe", signal=readable[0], period=10.0) == readable[0]
+
+
+def test_stack_commands_go_through_the_diagrams_command_server(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        listed = client.list()
+        assert "remote.commands" not in listed["writable"]
+        assert "taskRH.position_des" in listed["writable"]
+        with pytest.raises(RemoteError, match="takes 1 task name"):
+            client.run("sot.push")
+        with pytest.raises(RemoteError, match="unknown task 'nothing'"):
+            client.run("sot.push nothing")
+        stack = client.run("sot.list").split()
+        # removed and pushed back at one tick (one batch, in order): the lowest task is where it was
+        assert stack[-1] == "taskPosture"
+        removed_and_pushed = [
+            {"op": "run", "cmd": "sot.rm taskPosture"},
+            {"op": "run", "cmd": "sot.push taskPosture"},
+        ]
+        assert client.batch(removed_and_pushed) == ["", ""]
+        assert client.run("sot.list").split() == stack
+
+
+def test_sigterm_stops_serve_with_143_and_writes_the_usual_artefacts(tmp_path):
+    proc, host, port = _start("--port", "0", "--duration", "120", "--out", str(tmp_path))
+    try:
+        with Client(host, port) as client:
+            client.read("dyn.com")
+            while client.t < 0.5:
+                time.sleep(0.05)
+                client.read("dyn.com")
+            reached = client.t
+        proc.send_signal(15)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143, stderr
+    for name in ("reach.npz", "reach.html", "reach.svg", "reach.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    with np.load(tmp_path / "reach.npz") as npz:
+        assert reached - 1e-9 <= npz["time"][-1] < 120.0  # up to where it was stopped, not the duration
+
+
+SERVED_SCRIPT = """\
+new FeatureGeneric featureCom
+plug dyn.com featureCom.errorIN
+plug dyn.Jcom featureCom.jacobianIN
+set featureCom.selec 110
+new FeatureGeneric featureComDes
+set featureComDes.errorIN [3](0,0,0.64)
+set featureCom.sdes featureComDes
+new Task taskCom
+taskCom.add featureCom
+taskCom.controlGain 3
+new PatternGenerator pg
+sot.push taskCom
+"""
+
+
+def test_serve_a_script_and_run_its_dialect_remotely(tmp_path):
+    script = tmp_path / "served.sot"
+    script.write_text(SERVED_SCRIPT)
+    proc = subprocess.Popen(
+        [*DRAKE_SOT, "serve", str(script), "--port", "0", "--duration", "60"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+    )
+    try:
+        first = proc.stdout.readline()
+        assert first.startswith("serving on 127.0.0.1:"), (first, proc.stderr.read() if proc.poll() else "")
+        with Client("127.0.0.1", int(first.strip().rsplit(":", 1)[1])) as client:
+            assert client.run("sot.list") == "taskCom"
+            assert float(client.run("get taskCom.controlGain")) == 3.0
+            client.run("taskCom.controlGain 2")
+            assert float(client.run("get taskCom.controlGain")) == 2.0
+            client.run("set featureComDes.errorIN [3](0.01,-0.02,0.64)")
+            # e = s - s* on the selected rows (x, y) of the CoM: against dyn.com, read at the same tick
+            error, com = client.batch(
+                [{"op": "read", "signal": "featureCom.error"}, {"op": "read", "signal": "dyn.com"}]
+            )
+            assert np.allclose(error, np.array(com[:2]) - [0.01, -0.02], atol=1e-12)
+            assert client.run("pg.parsecmd :singlesupporttime 0.7") == ""
+            with pytest.raises(RemoteError, match="build-time command"):
+                client.run("new Task taskOther")
+            with pytest.raises(RemoteError, match="unknown entity 'nobody'"):
+                client.run("nobody.controlGain 1")
+            client.run("sot.rm taskCom")
+            assert client.run("sot.list") == ""
+    finally:
+        _stop(proc)

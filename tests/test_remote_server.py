@@ -159,3 +159,23 @@ def test_without_an_inbox_the_server_takes_nothing(served):
     assert server.taken(simulator.get_context()).serial == 0 and sot.list(simulator.get_context()) == ()
     with pytest.raises(ValueError, match="declared already"):
         server.declare_writable("gain", 1, "1/s")
+
+
+def test_with_a_driven_stack_the_commands_act_on_it_until_its_source_changes(served):
+    simulator, sot, server, inbox = served
+    context = simulator.get_mutable_context()
+    driven = sot.GetInputPort("stack")
+    driven.FixValue(sot.GetMyMutableContextFromRoot(context), ("a",))  # a sequencer's decision
+    with pytest.raises(ValueError, match="comes from input port 'stack'"):
+        sot.push(context, "b")  # the context's commands stay refused
+    inbox.put(_run("sot.push b"))
+    _tick(simulator)
+    assert sot.list(context) == ("a", "b") and np.allclose(_qdot(simulator, sot), [1.0, 2.0])
+    _tick(simulator, 3)  # committed: it lasts while the source says the same
+    assert sot.list(context) == ("a", "b")
+    driven.FixValue(sot.GetMyMutableContextFromRoot(context), ("b",))  # the source's newer decision
+    _tick(simulator)
+    assert sot.list(context) == ("b",) and np.allclose(_qdot(simulator, sot), [0.0, 2.0])
+    driven.FixValue(sot.GetMyMutableContextFromRoot(context), ("a",))  # back: the commands are forgotten
+    _tick(simulator)
+    assert sot.list(context) == ("a",)

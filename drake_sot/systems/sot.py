@@ -61,6 +61,14 @@ class StackCommandResults:
 STACK_COMMANDS = ("push", "pop", "rm", "up", "down", "clear")
 
 
+@dataclass(frozen=True)
+class _Remote:
+    """The last batch committed, and the ``stack`` input's value it acted on (None: not driven)."""
+
+    results: StackCommandResults = StackCommandResults()
+    base: tuple[str, ...] | None = None
+
+
 class StackOfTasks(LeafSystem):
     """Combines the tasks of its stack, in priority order, into one joint velocity q̇.
 
@@ -135,11 +143,12 @@ class StackOfTasks(LeafSystem):
             stack commands from another system (a
             :class:`~drake_sot.remote.server.RemoteCommandServer`). A new batch acts at the
             tick that sees it, after the stack held in the context, in its order; a command
-            that cannot act (an unknown task, a push of a task in the stack, or any command
-            while the ``stack`` input drives the stack) is skipped and reported on
-            ``command_results``. A periodic unrestricted update commits the batch into the
-            held stack at the next tick (a context command commits it first), so that the
-            commands of the context and of the port act in the order they were given.
+            that cannot act (an unknown task, a push of a task in the stack) is skipped and
+            reported on ``command_results``. A periodic unrestricted update commits the batch
+            into the held stack at the next tick (a context command commits it first), so that
+            the commands of the context and of the port act in the order they were given.
+            With the ``stack`` input connected too (a sequencer), the commands act on its
+            stack, and its next change replaces what they made: the newer decision wins.
     Output ports:
         qdot: joint velocity (nv,) computed at the last tick [rad/s, m/s] (v layout of the model).
         errors: every declared task's error (an inequality task's: how far it is outside
@@ -297,9 +306,14 @@ class StackOfTasks(LeafSystem):
 
     def _current_stack(self, context: Context) -> Stack:
         """The stack in force for this system's own context (the input's, validated, when driven)."""
+        if self._commands_input is not None:
+            return self._with_batch(context, self._before_batch(context))[0]
         if not self._stack_input.HasValue(context):
-            held = context.get_abstract_state(self._stack).get_value()
-            return held if self._commands_input is None else self._with_batch(context, held)[0]
+            return context.get_abstract_state(self._stack).get_value()
+        return self._driven_stack(context)
+
+    def _driven_stack(self, context: Context) -> Stack:
+        """The ``stack`` input's value, validated (when it changes)."""
         names = self._stack_input.Eval(context)
         if type(names) is tuple and names == self._driven[0]:
             return self._driven[1]  # checked when it changed (a tuple cannot change in place)
@@ -367,38 +381,43 @@ class StackOfTasks(LeafSystem):
     # --- stack commands from the ``commands`` input (commands_input=True) ---------------------
     def _declare_commands_input(self):
         port = self.DeclareAbstractInputPort(COMMANDS_PORT, AbstractValue.Make(StackCommands()))
-        self._committed = self.DeclareAbstractState(AbstractValue.Make(StackCommandResults()))
+        self._committed = self.DeclareAbstractState(AbstractValue.Make(_Remote()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(self._period, 0.0, self._commit)
         self.DeclareAbstractOutputPort(
             "command_results",
             lambda: AbstractValue.Make(StackCommandResults()),
-            lambda context, value: value.set_value(
-                self._with_batch(context, context.get_abstract_state(self._stack).get_value())[1]
-            ),
+            lambda context, value: value.set_value(self._with_batch(context, self._before_batch(context))[1]),
             prerequisites_of_calc={
                 self.abstract_state_ticket(self._stack),
                 self.abstract_state_ticket(self._committed),
                 self.input_port_ticket(port.get_index()),
+                self.input_port_ticket(self._stack_input.get_index()),
             },
         )
         return port
 
-    def _with_batch(self, context: Context, held: Stack) -> tuple[Stack, StackCommandResults]:
-        """``held`` with the input's batch applied when it is not committed yet, and its results."""
-        committed = context.get_abstract_state(self._committed).get_value()
+    def _before_batch(self, context: Context) -> Stack:
+        """The stack the input's next batch acts on: the held one; when the ``stack`` input drives
+        the stack, its value, or the held one if the commands changed it since the input changed."""
+        held = context.get_abstract_state(self._stack).get_value()
+        if not self._stack_input.HasValue(context):
+            return held
+        driven = self._driven_stack(context)
+        return (
+            held if context.get_abstract_state(self._committed).get_value().base == driven.active else driven
+        )
+
+    def _with_batch(self, context: Context, before: Stack) -> tuple[Stack, StackCommandResults]:
+        """``before`` with the input's batch applied when it is not committed yet, and its results."""
+        committed = context.get_abstract_state(self._committed).get_value().results
         if not self._commands_input.HasValue(context):
-            return held, committed
+            return before, committed
         sent = self._commands_input.Eval(context)
         if sent.batch <= committed.batch:
-            return held, committed
-        stack, results = held, []
+            return before, committed
+        stack, results = before, []
         for command in sent.commands:
             try:
-                if self._stack_input.HasValue(context):
-                    raise ValueError(
-                        f"{self.get_name()!r}: cannot {command.command}: the stack comes from input "
-                        f"port {STACK_PORT!r}; change its source instead"
-                    )
                 if command.command not in STACK_COMMANDS:
                     raise ValueError(
                         f"{command.command!r}: not a stack command ({', '.join(STACK_COMMANDS)})"
@@ -412,12 +431,16 @@ class StackOfTasks(LeafSystem):
         return stack, StackCommandResults(sent.batch, tuple(results))
 
     def _commit(self, context: Context, state: DrakeState) -> None:
-        """Hold the stack with the input's batch applied (once per batch)."""
-        held = context.get_abstract_state(self._stack).get_value()
-        stack, results = self._with_batch(context, held)
-        if results is not context.get_abstract_state(self._committed).get_value():
+        """Hold the stack with the input's batch applied (once per batch), and, when driven, the
+        input's value it was applied to; forget that value when the input changed since."""
+        remote = context.get_abstract_state(self._committed).get_value()
+        stack, results = self._with_batch(context, self._before_batch(context))
+        driven = self._driven_stack(context).active if self._stack_input.HasValue(context) else None
+        if results is not remote.results:
             state.get_mutable_abstract_state(self._stack).set_value(stack)
-            state.get_mutable_abstract_state(self._committed).set_value(results)
+            state.get_mutable_abstract_state(self._committed).set_value(_Remote(results, driven))
+        elif remote.base is not None and remote.base != driven:  # the input's newer stack wins
+            state.get_mutable_abstract_state(self._committed).set_value(_Remote(results, None))
 
     # --- the control law -----------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
