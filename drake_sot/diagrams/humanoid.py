@@ -17,7 +17,7 @@ dynamics of the reference), loggers and (optionally) a recorded Meshcat replay.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
@@ -95,6 +95,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         dynamic_feedforward: bool = False,
         stack_source: OutputPort | None = None,
         solver: str = "svd",
+        wire_solver: Callable[[StackOfTasks], None] | None = None,
     ) -> HumanoidSoT:
         """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
 
@@ -111,6 +112,8 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 for validation and the context commands are refused.
             solver: the ``StackOfTasks`` solver, ``"svd"`` (equality tasks) or ``"hqp"``
                 (also the inequality tasks, e.g. :meth:`add_joint_position_limits_task`).
+            wire_solver: called with the ``StackOfTasks`` before the diagram is built, to
+                connect its outputs (``qdot``, ``errors``, ``stack``) to other systems.
         """
         b = self.builder
         period = self.control_period
@@ -157,6 +160,8 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             feedforward.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance)
         )
 
+        if wire_solver is not None:
+            wire_solver(sot)
         history = b.AddSystem(StackHistory(period=period))
         b.Connect(sot.GetOutputPort("stack"), history.GetInputPort("stack"))
 
