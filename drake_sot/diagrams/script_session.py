@@ -166,6 +166,7 @@ RESERVED_NAMES = (
     "stack_history",
     "left_wrist_sensor",
     "right_wrist_sensor",
+    "remote",
 )
 
 # ---------------------------------------------------------------------------------------

@@ -120,7 +120,12 @@ class Serving:
         diagram = simulator.get_system()
         self._readable = _readable_ports(diagram)
         self._sots = {s.get_name(): s for s in _systems(diagram) if isinstance(s, StackOfTasks)}
-        self._sot = next(s for s in self._sots.values() if s.HasInputPort("commands"))
+        commanded = [s for s in self._sots.values() if s.HasInputPort("commands")]
+        if not commanded:
+            raise ValueError(
+                "no StackOfTasks of the diagram takes the server's commands (commands_input=True)"
+            )
+        self._sot = commanded[0]
         self._subscriptions: dict[int, dict[str, _Subscription]] = {}
         self._answers: list[tuple[int, Any, Any, str | None]] = []
         self._seen = server.taken(simulator.get_context()).serial
