@@ -1,7 +1,9 @@
-"""The ``drake-sot`` command: ``drake-sot list``, ``drake-sot run SCENARIO`` and
-``drake-sot script FILE`` (a SoT script, see :mod:`drake_sot.diagrams.script_session`).
+"""The ``drake-sot`` command: ``drake-sot list``, ``drake-sot run SCENARIO``,
+``drake-sot script FILE`` (a SoT script, see :mod:`drake_sot.diagrams.script_session`),
+``drake-sot serve SCENARIO|FILE`` (the remote command server, :mod:`drake_sot.remote`) and
+``drake-sot shell``.
 
-Exit status of ``run`` and ``script``: 0 the run completed, 1 it failed (the exception on
+Exit status of ``run``, ``script`` and ``serve``: 0 the run completed, 1 it failed (the exception on
 stderr), 2 bad arguments or a script that cannot be built (one line on stderr, nothing
 simulated), 3 the robot fell (when, on stderr), 130 interrupted by SIGINT (Ctrl-C), 143 by
 SIGTERM. Interrupted, failed or fallen, the artefacts of the simulated part are written; a

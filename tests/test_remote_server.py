@@ -179,3 +179,9 @@ def test_with_a_driven_stack_the_commands_act_on_it_until_its_source_changes(ser
     driven.FixValue(sot.GetMyMutableContextFromRoot(context), ("a",))  # back: the commands are forgotten
     _tick(simulator)
     assert sot.list(context) == ("a",)
+
+
+def test_a_task_named_like_the_commands_port_is_refused_by_name():
+    with pytest.raises(ValueError, match="'commands' cannot be a task name"):
+        StackOfTasks(NV, {"commands": 1}, commands_input=True)
+    assert StackOfTasks(NV, {"commands": 1}).task_names == ("commands",)  # no such port without it

@@ -227,6 +227,8 @@ class StackOfTasks(LeafSystem):
             raise type(error)(f"{where}: {error}") from None
         if STACK_PORT in empty.tasks:
             raise ValueError(f"{STACK_PORT!r} cannot be a task name: it is the name of the stack input port")
+        if commands_input and COMMANDS_PORT in empty.tasks:
+            raise ValueError(f"{COMMANDS_PORT!r} cannot be a task name with commands_input=True (its port)")
         dims = {
             task_name: validation.positive_int(f"{where}: dimension of task {task_name!r}", m)
             for task_name, m in pairs
