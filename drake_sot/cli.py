@@ -34,7 +34,7 @@ from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
-from drake_sot.remote.serving import decision_runner, serve_run
+from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.script import ScriptError, Statement
 from drake_sot.validation import finite, nonnegative, positive, positive_int
@@ -389,9 +389,9 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     duration = setup.duration if args.duration is None else args.duration
                     with SignalGuard() as guard:
                         result = runner(setup, simulator, duration, guard=guard)
-        except SessionError as exc:  # the script could not build its diagram: nothing served
+        except (SessionError, NotServable) as exc:  # nothing served
             network.close()
-            parser.error(str(exc))
+            parser.error(f"serve {args.target}: {exc}")
         if result.failure is not None:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
         return exit_status(result)

@@ -322,6 +322,18 @@ def test_another_address_without_a_token_refuses_to_start():
     assert "token" in proc.stderr and "0.0.0.0" in proc.stderr
 
 
+def test_a_scenario_without_a_command_server_is_refused():
+    proc = subprocess.run(
+        [*DRAKE_SOT, "serve", "table_pounding", "--port", "0"],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=300,
+    )
+    assert proc.returncode == 2 and "serving on" not in proc.stdout
+    assert "table_pounding" in proc.stderr and "no RemoteCommandServer" in proc.stderr
+
+
 def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
     env = {**os.environ, "DRAKE_SOT_TOKEN": TOKEN}
     proc, host, port = _start("--port", "0", "--duration", "60", env=env)

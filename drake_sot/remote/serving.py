@@ -66,6 +66,10 @@ class Writable:
     apply: Callable[[Context, np.ndarray], None]
 
 
+class NotServable(ValueError):
+    """A diagram without a command server."""
+
+
 @dataclass
 class _Subscription:
     period: float
@@ -374,9 +378,9 @@ def serve_run(
     changed the context are in the result's ``events`` with the timed commands."""
     built = setup.built
     if getattr(built, "remote", None) is None:
-        raise ValueError(
-            "the diagram has no RemoteCommandServer: build the scenario inside "
-            "drake_sot.diagrams.humanoid.with_command_server() (or declare a writable signal)"
+        raise NotServable(
+            "the diagram has no RemoteCommandServer (a kinematic SoT built by HumanoidSoTBuilder "
+            "inside drake_sot.diagrams.humanoid.with_command_server() has one)"
         )
     status = MeshcatStatus(built.meshcat, built.sot) if built.meshcat is not None else None
     serving = Serving(
