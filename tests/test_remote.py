@@ -185,20 +185,26 @@ def test_a_pushed_task_gets_its_error_at_a_later_tick(server):
         assert "taskLH" not in client.run("sot.list").split()
 
 
+def _hold_the_right_hand(client):
+    """Make the right hand's target where the hand is, once the scenario's own new target (t = 1 s)
+    is set; its position. e = p - p* (position rows), so a written p* and the error read after it
+    give the hand position p (twice: p* = p then holds it)."""
+    client.read("dyn.com")
+    while client.t < 1.05:
+        time.sleep(0.05)
+        client.read("dyn.com")
+    target = np.array([0.3, -0.25, 0.9])
+    for _ in range(2):
+        client.write("taskRH.position_des", target.tolist())
+        target = np.array(client.read("feature_taskRH.error"))[:3] + target
+    return target
+
+
 def test_a_written_target_changes_the_error_then_the_motion(server):
     _, host, port = server
     with Client(host, port) as client:
-        # e = p - p* (position rows), so a written p* and the error read after it give the hand
-        # position p; p* = p then holds the hand still, and a step of p* is a step of the error
-        client.read("dyn.com")
-        while client.t < 1.05:  # after the scenario's own new right-hand target (t = 1 s)
-            time.sleep(0.05)
-            client.read("dyn.com")
-        target = np.array([0.3, -0.25, 0.9])
-        for _ in range(2):
-            client.write("taskRH.position_des", target.tolist())
-            p = np.array(client.read("feature_taskRH.error"))[:3] + target
-            target = p
+        # a step of p* is a step of the error (e = p - p*, position rows)
+        p = _hold_the_right_hand(client)
         assert 0.5 < p[2] < 1.5  # a hand of a standing humanoid
         step = np.array([0.05, 0.0, -0.10])  # the new target: 5 cm ahead of the hand, 10 cm below
         client.write("taskRH.position_des", (p + step).tolist())
@@ -226,6 +232,30 @@ def test_a_bad_write_is_refused_and_names_why(server, signal, value, named):
         with pytest.raises(RemoteError, match=re.escape(named)):
             client.write(signal, value)
         assert len(client.read("dyn.com")) == 3
+
+
+def test_a_task_gain_set_remotely_sets_the_decay_rate_of_its_error(server):
+    """ė* = -λ e (Mansard et al. 2009, eq. 3): after a step of the target, the hand's error decays as
+    exp(-λ t); with λ = 10 1/s it is at exp(-2.5) = 8 % after 0.25 s, against 54 % at the
+    scenario's λ = 2.5 (the margin: the motion of the tasks above it and a tick's delay)."""
+    _, host, port = server
+    with Client(host, port) as client:
+        with pytest.raises(RemoteError, match=r"gain = -1.0 1/s: must be finite and > 0"):
+            client.run("taskRH.controlGain -1")
+        with pytest.raises(RemoteError, match=r"taskRH.add: not a run-time command"):
+            client.run("taskRH.add feature_taskLH")
+        client.run("taskRH.controlGain 10")
+        try:
+            p = _hold_the_right_hand(client)
+            step = np.array([0.0, 0.0, 0.06])  # up: the test before leaves the hand 10 cm lower
+            client.write("taskRH.position_des", (p + step).tolist())
+            e1 = np.array(client.read("feature_taskRH.error"))[:3]
+            start = client.t
+            while client.t < start + 0.25:
+                e2 = np.array(client.read("feature_taskRH.error"))[:3]
+            assert np.linalg.norm(e2) < 0.3 * np.linalg.norm(e1), (client.t - start, e1, e2)
+        finally:
+            client.run("taskRH.controlGain 2.5")
 
 
 def test_a_nan_literal_is_refused_as_not_finite(server):

@@ -15,9 +15,10 @@ server took at that tick: the stack commands with the solver's ``command_results
 and subscriptions with the values at the tick (any vector output port, ``<system>.<port>``:
 ``sot.errors``, ``dyn.com``, ``device.q``…), and it applies the requests that set another
 system's parameter — a 6D task's desired position (``TASK.position_des``, kept a parameter
-so that the scenario's own timed commands still set it), and, when a script is served, its
-run-time lines through :meth:`~drake_sot.diagrams.script_session.ScriptSession.execute`
-(``set``, ``task.controlGain``, ``pg.parsecmd``…). Those act at the next tick and are
+so that the scenario's own timed commands still set it), the run-time commands of a
+scenario's tasks and pattern generator as the script dialect has them (``taskRH.controlGain
+5``, ``pg.parsecmd :stepseq …``), and, when a script is served, all its run-time lines through
+:meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too). Those act at the next tick and are
 answered after it. Then it sleeps to hold ``realtime`` × real time.
 
 A written value must be finite and of the declared size; only the declared signals and the
@@ -41,6 +42,7 @@ from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.scenario import Runner, ScenarioSetup
+from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
 from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
@@ -48,7 +50,9 @@ from drake_sot.remote.server import DONE, STACK, RemoteCommandServer, TakenReque
 from drake_sot.remote.status import MeshcatStatus
 from drake_sot.script import Call, Get, parse_line
 from drake_sot.systems.features import FeaturePoint6d
+from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.sot import StackOfTasks
+from drake_sot.systems.task import Task
 from drake_sot.validation import positive
 
 #: Subscriptions a connection may hold at once.
@@ -130,6 +134,7 @@ class Serving:
                 "no StackOfTasks of the diagram takes the server's commands (commands_input=True)"
             )
         self._sot = commanded[0]
+        self._entities = {} if session is not None else _scenario_entities(diagram)
         self._subscriptions: dict[int, dict[str, _Subscription]] = {}
         self._answers: list[tuple[int, Any, Any, str | None]] = []
         self._seen = server.taken(simulator.get_context()).serial
@@ -277,6 +282,8 @@ class Serving:
             signal = f"{command.signal.entity}.{command.signal.name}"
             self._port(signal)
             return " ".join(f"{x:.6g}" for x in self._read(signal)), False
+        if isinstance(command, Call) and command.entity in self._entities:
+            return self._entity_command(command, context), True
         if isinstance(command, Call) and command.entity in self._sots and command.command == "list":
             if command.args:
                 raise ValueError(f"{cmd!r}: {command.entity}.list takes no argument")
@@ -285,11 +292,33 @@ class Serving:
             return self._help(), False
         raise ValueError(f"{cmd!r}: not a run-time command here; {self._help()}")
 
+    def _entity_command(self, command: Call, context: Context) -> str:
+        """A run-time command of a task or the pattern generator of a served scenario
+        (``taskRH.controlGain 5``, ``pg.parsecmd :stepseq …``), as the script dialect runs it."""
+        entity = self._entities[command.entity]
+        runnable = _runnable(entity)
+        if command.command not in runnable:
+            raise ValueError(
+                f"{command.entity}.{command.command}: not a run-time command of {entity.describe()} "
+                f"(those are: {', '.join(runnable)})"
+            )
+        return getattr(entity, command.command)(command.args, context)
+
     def _help(self) -> str:
         sots = ", ".join(self._sots) or "none"
-        dialect = (
-            "the script's run-time commands (set, get, E.COMMAND ...)" if self._session else "get SYSTEM.PORT"
-        )
+        if self._session is not None:
+            dialect = "the script's run-time commands (set, get, E.COMMAND ...)"
+        else:
+            kinds: dict[str, list[str]] = {}
+            for name, entity in self._entities.items():
+                label = "TASK" if isinstance(entity, TaskEntity) else "PG"
+                kinds.setdefault(f"{label}.{'|'.join(_runnable(entity))}", []).append(name)
+            dialect = "; ".join(
+                [
+                    *(f"{usage} ({usage.split('.')[0]}: {', '.join(n)})" for usage, n in kinds.items()),
+                    "get SYSTEM.PORT",
+                ]
+            )
         return (
             f"commands: SOT.push|rm|up|down TASK, SOT.pop, SOT.clear, SOT.list (SOT: {sots}); {dialect}; help"
         )
@@ -314,6 +343,26 @@ class Serving:
             },
             "period": self.period,
         }
+
+
+def _scenario_entities(diagram: Diagram) -> dict[str, Entity]:
+    """The tasks and pattern generators of a scenario's diagram as the script's entities (their
+    run-time commands: ``controlGain``, ``parsecmd``...), by system name. They have no session:
+    a served scenario has none, and those commands need only their system."""
+    kinds = {Task: TaskEntity, PatternGenerator: PatternGeneratorEntity}
+    entities = {}
+    for system in _systems(diagram):
+        kind = kinds.get(type(system))
+        if kind is not None:
+            entity = kind(None, system.get_name(), None)
+            entity.system = system
+            entities[system.get_name()] = entity
+    return entities
+
+
+def _runnable(entity: Entity) -> list[str]:
+    """The commands of ``entity`` that act on a built diagram's context."""
+    return [name for name, spec in type(entity)._commands.items() if spec.phase in (Phase.RUN, Phase.BOTH)]
 
 
 def _resolve(result: Any) -> Any:
