@@ -349,10 +349,8 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
     if args.port > 65535:
         parser.error(f"port = {args.port}: at most 65535")
-    scenario = _served(args.target, args.out, parser)
-    if args.duration is None and scenario.name not in SCENARIOS:
-        program = load_script(args.target)
-        args.duration = program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
+    scenario, duration = _served(args.target, args.out, parser)
+    args.duration = duration if args.duration is None else args.duration
     if args.out is not None:
         try:
             output_directory(args.out)
@@ -399,17 +397,19 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
 
-def _served(target: str, out: str | None, parser: argparse.ArgumentParser) -> Scenario:
-    """The scenario named ``target``, or the script in the file ``target``."""
+def _served(target: str, out: str | None, parser: argparse.ArgumentParser) -> tuple[Scenario, float | None]:
+    """The scenario named ``target``, or the script in the file ``target``; and its default
+    duration (None: the scenario's own)."""
     if target in SCENARIOS:
-        return SCENARIOS[target]
+        return SCENARIOS[target], None
     if not os.path.isfile(target):
         parser.error(f"serve: {target!r} is neither a scenario ({', '.join(sorted(SCENARIOS))}) nor a file")
     try:
         program = load_script(target)
     except (ScriptError, SessionError) as exc:
         parser.error(str(exc))
-    return script_scenario(program, output_dir=out or ".", echo=_echo_stderr)
+    duration = program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
+    return script_scenario(program, output_dir=out or ".", echo=_echo_stderr), duration
 
 
 def _echo(statement: Statement, time: float, output: str, stream: TextIO | None = None) -> None:

@@ -362,6 +362,14 @@ def test_a_scenario_without_a_command_server_is_refused():
     )
     assert proc.returncode == 2 and "serving on" not in proc.stdout
     assert "table_pounding" in proc.stderr and "no RemoteCommandServer" in proc.stderr
+    proc = subprocess.run(
+        [*DRAKE_SOT, "serve", "no_such_thing", "--port", "0"],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
+    )
+    assert proc.returncode == 2 and "'no_such_thing' is neither a scenario (" in proc.stderr
 
 
 def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
