@@ -127,9 +127,9 @@ def test_a_declared_signal_is_written_at_the_tick_and_refused_when_bad(served):
         Request("write", 5, signal="taskRH.position_des", value=(1.0, 2.0, 3.0)),
         Request("read", 6, signal="sot.qdot"),
     )
-    _tick(simulator, 2)
+    _tick(simulator)
     taken = server.taken(simulator.get_context()).requests
-    assert [r.kind for r in taken] == [DONE, DONE, DONE, DONE, HOST, HOST]
+    assert [r.kind for r in taken] == [DONE, DONE, DONE, DONE, HOST]  # the read waits: see below
     assert taken[0].error is None
     assert "1 values, expected 2" in taken[1].error
     assert "value[1]" in taken[2].error and "not finite" in taken[2].error
@@ -185,3 +185,24 @@ def test_a_task_named_like_the_commands_port_is_refused_by_name():
     with pytest.raises(ValueError, match="'commands' cannot be a task name"):
         StackOfTasks(NV, {"commands": 1}, commands_input=True)
     assert StackOfTasks(NV, {"commands": 1}).task_names == ("commands",)  # no such port without it
+
+
+def test_what_comes_after_a_change_the_host_applies_waits_for_the_tick_it_acts_at(served):
+    """The host applies a parameter change after the tick that took it, so it acts at the next
+    tick; the stack command sent after it is taken at that tick, not before it (arrival order)."""
+    simulator, sot, server, inbox = served
+    inbox.put(_run("sot.push a", 1), _run("taskA.controlGain 2", 2), _run("sot.push b", 3))
+    inbox.put(Request("read", 4, signal="sot.qdot"), connection=1)
+    _tick(simulator)
+    context = simulator.get_context()
+    assert [r.request.id for r in server.taken(context).requests] == [1, 2]
+    assert [r.id for _, r in server.held(context)] == [3, 4]
+    assert sot.list(context) == ("a",)
+    inbox.put(_run("sot.list", 5))
+    _tick(simulator)
+    assert [r.request.id for r in server.taken(context).requests] == [3, 4, 5]  # held ones first
+    assert server.held(context) == () and sot.list(context) == ("a", "b")
+    inbox.put(_run("get sot.qdot", 6), _run("help", 7), _run("sot.push", 8), _run("sot.rm b", 9))
+    _tick(simulator)  # reads, help and refused lines change nothing: nothing waits
+    assert [r.request.id for r in server.taken(context).requests] == [6, 7, 8, 9]
+    assert sot.list(context) == ("a",)

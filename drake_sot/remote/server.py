@@ -17,8 +17,10 @@ own state what a Drake system may change — its own outputs:
 A Drake event can change only its own system's context. Everything else a request asks —
 reads, subscriptions, ``list``, script lines that set another system's parameter
 (``task.controlGain``, ``pg.parsecmd``, ``set``, a feature's desired pose) — is left, in
-order, in :attr:`taken` for the host that owns the simulator and the root context
-(:class:`~drake_sot.remote.serving.Serving`), which answers or applies it after the tick.
+order, in :meth:`taken` for the host that owns the simulator and the root context
+(:class:`~drake_sot.remote.serving.Serving`), which answers or applies it after the tick. The
+host's changes act at the following tick; so that every change acts in arrival order, the
+requests that come after one of them are held in the server's state and taken at that tick.
 Reads are therefore the values at the last tick, evaluated by that host on any output port
 of the diagram: declaring a readable input port per signal would copy every signal at every
 tick for the few a client reads, and could not reach the signals nobody wired.
@@ -37,7 +39,7 @@ from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.remote.protocol import Request
-from drake_sot.script import Call, Name, ScriptError, parse_line
+from drake_sot.script import Call, Get, Name, ScriptError, parse_line
 from drake_sot.systems._context import own_context
 from drake_sot.systems.sot import STACK_COMMANDS, StackCommand, StackCommands
 
@@ -106,6 +108,7 @@ class RemoteCommandServer(LeafSystem):
         self._writables: dict[str, tuple[Writable, int]] = {}
         self._taken = self.DeclareAbstractState(AbstractValue.Make(Taken()))
         self._commands = self.DeclareAbstractState(AbstractValue.Make(StackCommands()))
+        self._held = self.DeclareAbstractState(AbstractValue.Make(()))  # taken at the next tick
         self.DeclareStateOutputPort("commands", self._commands)
         self.DeclarePeriodicUnrestrictedUpdateEvent(self.period, 0.0, self._tick)
 
@@ -141,8 +144,13 @@ class RemoteCommandServer(LeafSystem):
         """The requests taken at the last tick that took any (own or root context)."""
         return own_context(self, context).get_abstract_state(self._taken).get_value()
 
+    def held(self, context: Context) -> tuple[tuple[int, Request | None], ...]:
+        """The requests held for the next tick (they came after one the host applies)."""
+        return own_context(self, context).get_abstract_state(self._held).get_value()
+
     def _tick(self, context: Context, state: DrakeState) -> None:
-        requests = self._inbox() if self._inbox is not None else []
+        held = context.get_abstract_state(self._held).get_value()
+        requests = [*held, *(self._inbox() if self._inbox is not None else [])]
         if not requests:
             return
         t = context.get_time()
@@ -150,6 +158,11 @@ class RemoteCommandServer(LeafSystem):
         taken = []
         for connection, request in requests:
             taken.append(self._take(connection, request, t, commands, state))
+            if taken[-1].kind == HOST and _host_changes_context(request):
+                break  # the host applies it after this tick: the next ones wait for the next tick
+        rest = tuple(requests[len(taken) :])
+        if rest or held:
+            state.get_mutable_abstract_state(self._held).set_value(rest)
         previous = context.get_abstract_state(self._taken).get_value()
         state.get_mutable_abstract_state(self._taken).set_value(Taken(previous.serial + 1, t, tuple(taken)))
         if commands:
@@ -191,6 +204,22 @@ class RemoteCommandServer(LeafSystem):
             return f"{self.get_name()}.{name}: value[{bad[0]}] = {value[bad[0]]!r}: not finite"
         state.get_mutable_discrete_state(index).SetFromVector(np.array(value))
         return None
+
+
+def _host_changes_context(request: Request | None) -> bool:
+    """True for a request the host applies to the context (a parameter write, a script line other
+    than ``get``, ``list``, ``help``): what comes after it waits for the tick after."""
+    if request is None or request.op not in ("write", "run"):
+        return False
+    if request.op == "write":
+        return True
+    try:
+        command = parse_line(request.cmd, source="<remote>")
+    except ScriptError:
+        return False  # refused: changes nothing
+    if command is None or isinstance(command, Get) or request.cmd.strip() == "help":
+        return False
+    return not (isinstance(command, Call) and command.command in ("list", "help"))
 
 
 def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:

@@ -18,8 +18,9 @@ system's parameter — a 6D task's desired position (``TASK.position_des``, kept
 so that the scenario's own timed commands still set it), the run-time commands of a
 scenario's tasks and pattern generator as the script dialect has them (``taskRH.controlGain
 5``, ``pg.parsecmd :stepseq …``), and, when a script is served, all its run-time lines through
-:meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too). Those act at the next tick and are
-answered after it. Then it sleeps to hold ``realtime`` × real time.
+:meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too). Those act
+at the next tick and are answered after it (the server holds what came after them until then,
+so that the changes act in arrival order). Then it sleeps to hold ``realtime`` × real time.
 
 A written value must be finite and of the declared size; only the declared signals and the
 6D tasks' ``position_des`` can be written.
@@ -175,7 +176,7 @@ class Serving:
         for cid, request_id, _, _ in self._answers:
             self._network.send(cid, error(request_id, "the run ended before the next tick"))
         self._answers = []
-        for cid, request in self._network.drain():
+        for cid, request in [*self._server.held(self.context), *self._network.drain()]:
             if request is not None:
                 self._network.send(cid, error(request.id, "the run ended before the next tick"))
 
