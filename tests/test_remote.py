@@ -338,37 +338,25 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
 # --- the token --------------------------------------------------------------------------
 
 
+def _serve_to_the_end(*args, env=None):
+    """``drake-sot serve ARGS`` run to its end (a refusal): the completed process."""
+    return subprocess.run(
+        [*DRAKE_SOT, "serve", *args], capture_output=True, text=True, cwd=REPO, env=env, timeout=300
+    )
+
+
 def test_another_address_without_a_token_refuses_to_start():
     env = {k: v for k, v in os.environ.items() if k != "DRAKE_SOT_TOKEN"}
-    proc = subprocess.run(
-        [*DRAKE_SOT, "serve", "reach", "--host", "0.0.0.0", "--port", "0"],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        env=env,
-        timeout=120,
-    )
+    proc = _serve_to_the_end("reach", "--host", "0.0.0.0", "--port", "0", env=env)
     assert proc.returncode == 2 and proc.stdout == ""
     assert "token" in proc.stderr and "0.0.0.0" in proc.stderr
 
 
 def test_a_scenario_without_a_command_server_is_refused():
-    proc = subprocess.run(
-        [*DRAKE_SOT, "serve", "table_pounding", "--port", "0"],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        timeout=300,
-    )
+    proc = _serve_to_the_end("table_pounding", "--port", "0")
     assert proc.returncode == 2 and "serving on" not in proc.stdout
     assert "table_pounding" in proc.stderr and "no RemoteCommandServer" in proc.stderr
-    proc = subprocess.run(
-        [*DRAKE_SOT, "serve", "no_such_thing", "--port", "0"],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        timeout=120,
-    )
+    proc = _serve_to_the_end("no_such_thing", "--port", "0")
     assert proc.returncode == 2 and "'no_such_thing' is neither a scenario (" in proc.stderr
 
 
