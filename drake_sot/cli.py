@@ -1,7 +1,9 @@
-"""The ``drake-sot`` command: ``drake-sot list``, ``drake-sot run SCENARIO`` and
-``drake-sot script FILE`` (a SoT script, see :mod:`drake_sot.diagrams.script_session`).
+"""The ``drake-sot`` command: ``drake-sot list``, ``drake-sot run SCENARIO``,
+``drake-sot script FILE`` (a SoT script, see :mod:`drake_sot.diagrams.script_session`),
+``drake-sot serve SCENARIO|FILE`` (the remote command server, :mod:`drake_sot.remote`) and
+``drake-sot shell``.
 
-Exit status of ``run`` and ``script``: 0 the run completed, 1 it failed (the exception on
+Exit status of ``run``, ``script`` and ``serve``: 0 the run completed, 1 it failed (the exception on
 stderr), 2 bad arguments or a script that cannot be built (one line on stderr, nothing
 simulated), 3 the robot fell (when, on stderr), 130 interrupted by SIGINT (Ctrl-C), 143 by
 SIGTERM. Interrupted, failed or fallen, the artefacts of the simulated part are written; a
@@ -20,16 +22,19 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import NoReturn, TextIO
 
+from pydrake.systems.analysis import Simulator
+
 from drake_sot.diagrams import SCENARIOS, STUDIES
-from drake_sot.diagrams.artifacts import log_arrays, output_directory, write_npz
+from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.humanoid import with_command_server
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.run import Interrupted, RunResult, SignalGuard
-from drake_sot.diagrams.scenario import Scenario, run_scenario
+from drake_sot.diagrams.scenario import Scenario, ScenarioSetup, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
-from drake_sot.remote.serving import decision_runner, serve_run
+from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT
@@ -38,6 +43,8 @@ from drake_sot.validation import finite, nonnegative, positive, positive_int
 
 #: Exit status of a run in which the robot fell.
 FELL = 3
+#: Simulated seconds ``serve FILE`` runs a script without ``run SECONDS`` lines (and no --duration).
+SERVED_SCRIPT_DURATION = 3600.0
 
 
 class ProgressBar:
@@ -230,13 +237,18 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         help="run a scenario paced at R x real time while serving the remote command protocol",
         epilog=f"the first line on stdout is 'serving on HOST:PORT'; a token may also come from ${TOKEN_ENV}",
     )
-    serve.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
+    serve.add_argument(
+        "target",
+        metavar="SCENARIO|FILE",
+        help=f"a scenario (one of: {', '.join(names)}) or a SoT script file (its run lines through 'run')",
+    )
     serve.add_argument(
         "--duration",
         type=_checked(positive, "duration", unit="s"),
         default=None,
         metavar="S",
-        help="simulated seconds (default: the scenario's)",
+        help="simulated seconds (default: the scenario's, the script's run lines, else "
+        f"{SERVED_SCRIPT_DURATION:g})",
     )
     serve.add_argument(
         "--realtime",
@@ -246,7 +258,10 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         help="pace: R x real time (default 1.0)",
     )
     serve.add_argument(
-        "--out", default=None, metavar="DIR", help="write the run's logs as SCENARIO.npz in DIR"
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg)",
     )
     _robot_option(serve)
     _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
@@ -405,10 +420,12 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``drake-sot serve``: bind (refused before anything is built when unsafe), build, serve."""
     if args.port > 65535:
         parser.error(f"port = {args.port}: at most 65535")
-    scenario = SCENARIOS[args.scenario]
-    if args.robot is not None and "robot" not in scenario.parameters:
-        parser.error(f"serve: {args.scenario} takes no --robot")
     _check_robot(parser, args.robot)
+    scenario, duration = _served(args.target, args.out, parser, args.robot)
+    args.duration = duration if args.duration is None else args.duration
+    parameters = {"robot": args.robot} if args.robot is not None and args.target in SCENARIOS else {}
+    if parameters and "robot" not in scenario.parameters:
+        parser.error(f"serve: {args.target} takes no --robot")
     if args.out is not None:
         try:
             output_directory(args.out)
@@ -418,27 +435,38 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         network = NetworkThread(args.host, args.port, token=args.token)
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
-    meshcat = loopback_meshcat()
-    setup = scenario.build(meshcat, **({"robot": args.robot} if args.robot is not None else {}))
 
-    def ready(address: tuple[str, int]) -> None:
-        print(f"serving on {address[0]}:{address[1]}", flush=True)
-        print(f"live view (stack and task errors in the controls): {meshcat.web_url()}", flush=True)
+    def runner(setup: ScenarioSetup, simulator: Simulator, duration: float, **kwargs) -> RunResult:
+        def ready(address: tuple[str, int]) -> None:
+            print(f"serving on {address[0]}:{address[1]}", flush=True)
+            view = setup.built.meshcat.web_url()
+            print(f"live view (stack and task errors in the controls): {view}", flush=True)
+
+        result = serve_run(
+            setup, simulator, network, duration, realtime=args.realtime, on_ready=ready, **kwargs
+        )
+        print(f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True)
+        return result
 
     def serve() -> int:
-        simulator = setup.built.create_simulator()
-        duration = setup.duration if args.duration is None else args.duration
-        with SignalGuard() as guard:
-            result = serve_run(
-                setup, simulator, network, duration, realtime=args.realtime, guard=guard, on_ready=ready
-            )
-            print(
-                f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True
-            )
-            if args.out is not None:
-                path = output_directory(args.out) / f"{args.scenario}.npz"
-                write_npz(log_arrays(setup.built, simulator.get_context(), result), path)
-                print(f"wrote {path}", flush=True)
+        try:
+            with with_command_server():
+                if args.out is not None:  # the usual artefacts
+                    output = run_scenario(
+                        scenario, args.out, duration=args.duration, runner=runner, parameters=parameters
+                    )
+                    for path in output.files.values():
+                        print(f"wrote {path}", flush=True)
+                    result = output.result
+                else:
+                    setup = scenario.build(loopback_meshcat(), **parameters)
+                    simulator = setup.built.create_simulator()
+                    duration = setup.duration if args.duration is None else args.duration
+                    with SignalGuard() as guard:
+                        result = runner(setup, simulator, duration, guard=guard)
+        except (SessionError, NotServable) as exc:  # nothing served
+            network.close()
+            parser.error(f"serve {args.target}: {exc}")
         if result.failure is not None:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
         return exit_status(result)
@@ -446,10 +474,33 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
 
-def _echo(statement: Statement, time: float, output: str) -> None:
-    """A script command's output on stdout, under its time and line."""
-    print(f"t = {time:.3f} s  {statement.where}: {statement.text}")
-    print("\n".join(f"  {line}" for line in output.splitlines()), flush=True)
+def _served(
+    target: str, out: str | None, parser: argparse.ArgumentParser, robot: str | None
+) -> tuple[Scenario, float | None]:
+    """The scenario named ``target``, or the script in the file ``target`` (driving ``robot``,
+    None: the embedded one); and its default duration (None: the scenario's own)."""
+    if target in SCENARIOS:
+        return SCENARIOS[target], None
+    if not os.path.isfile(target):
+        parser.error(f"serve: {target!r} is neither a scenario ({', '.join(sorted(SCENARIOS))}) nor a file")
+    try:
+        program = load_script(target)
+    except (ScriptError, SessionError) as exc:
+        parser.error(str(exc))
+    duration = program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
+    scenario = script_scenario(program, output_dir=out or ".", echo=_echo_stderr, robot=robot or "embedded")
+    return scenario, duration
+
+
+def _echo(statement: Statement, time: float, output: str, stream: TextIO | None = None) -> None:
+    """A script command's output on stdout (or ``stream``), under its time and line."""
+    print(f"t = {time:.3f} s  {statement.where}: {statement.text}", file=stream)
+    print("\n".join(f"  {line}" for line in output.splitlines()), file=stream, flush=True)
+
+
+def _echo_stderr(statement: Statement, time: float, output: str) -> None:
+    """:func:`_echo` on stderr (a server's stdout starts with its address)."""
+    _echo(statement, time, output, sys.stderr)
 
 
 def _interruptible(run: Callable[[], int], progress: ProgressBar, out: str, *, study: bool = False) -> int:

@@ -185,20 +185,26 @@ def test_a_pushed_task_gets_its_error_at_a_later_tick(server):
         assert "taskLH" not in client.run("sot.list").split()
 
 
+def _hold_the_right_hand(client):
+    """Make the right hand's target where the hand is, once the scenario's own new target (t = 1 s)
+    is set; its position. e = p - p* (position rows), so a written p* and the error read after it
+    give the hand position p (twice: p* = p then holds it)."""
+    client.read("dyn.com")
+    while client.t < 1.05:
+        time.sleep(0.05)
+        client.read("dyn.com")
+    target = np.array([0.3, -0.25, 0.9])
+    for _ in range(2):
+        client.write("taskRH.position_des", target.tolist())
+        target = np.array(client.read("feature_taskRH.error"))[:3] + target
+    return target
+
+
 def test_a_written_target_changes_the_error_then_the_motion(server):
     _, host, port = server
     with Client(host, port) as client:
-        # e = p - p* (position rows), so a written p* and the error read after it give the hand
-        # position p; p* = p then holds the hand still, and a step of p* is a step of the error
-        client.read("dyn.com")
-        while client.t < 1.05:  # after the scenario's own new right-hand target (t = 1 s)
-            time.sleep(0.05)
-            client.read("dyn.com")
-        target = np.array([0.3, -0.25, 0.9])
-        for _ in range(2):
-            client.write("taskRH.position_des", target.tolist())
-            p = np.array(client.read("feature_taskRH.error"))[:3] + target
-            target = p
+        # a step of p* is a step of the error (e = p - p*, position rows)
+        p = _hold_the_right_hand(client)
         assert 0.5 < p[2] < 1.5  # a hand of a standing humanoid
         step = np.array([0.05, 0.0, -0.10])  # the new target: 5 cm ahead of the hand, 10 cm below
         client.write("taskRH.position_des", (p + step).tolist())
@@ -226,6 +232,30 @@ def test_a_bad_write_is_refused_and_names_why(server, signal, value, named):
         with pytest.raises(RemoteError, match=re.escape(named)):
             client.write(signal, value)
         assert len(client.read("dyn.com")) == 3
+
+
+def test_a_task_gain_set_remotely_sets_the_decay_rate_of_its_error(server):
+    """ė* = -λ e (Mansard et al. 2009, eq. 3): after a step of the target, the hand's error decays as
+    exp(-λ t); with λ = 10 1/s it is at exp(-2.5) = 8 % after 0.25 s, against 54 % at the
+    scenario's λ = 2.5 (the margin: the motion of the tasks above it and a tick's delay)."""
+    _, host, port = server
+    with Client(host, port) as client:
+        with pytest.raises(RemoteError, match=r"gain = -1.0 1/s: must be finite and > 0"):
+            client.run("taskRH.controlGain -1")
+        with pytest.raises(RemoteError, match=r"taskRH.add: not a run-time command"):
+            client.run("taskRH.add feature_taskLH")
+        client.run("taskRH.controlGain 10")
+        try:
+            p = _hold_the_right_hand(client)
+            step = np.array([0.0, 0.0, 0.06])  # up: the test before leaves the hand 10 cm lower
+            client.write("taskRH.position_des", (p + step).tolist())
+            e1 = np.array(client.read("feature_taskRH.error"))[:3]
+            start = client.t
+            while client.t < start + 0.25:
+                e2 = np.array(client.read("feature_taskRH.error"))[:3]
+            assert np.linalg.norm(e2) < 0.3 * np.linalg.norm(e1), (client.t - start, e1, e2)
+        finally:
+            client.run("taskRH.controlGain 2.5")
 
 
 def test_a_nan_literal_is_refused_as_not_finite(server):
@@ -308,18 +338,26 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
 # --- the token --------------------------------------------------------------------------
 
 
+def _serve_to_the_end(*args, env=None):
+    """``drake-sot serve ARGS`` run to its end (a refusal): the completed process."""
+    return subprocess.run(
+        [*DRAKE_SOT, "serve", *args], capture_output=True, text=True, cwd=REPO, env=env, timeout=300
+    )
+
+
 def test_another_address_without_a_token_refuses_to_start():
     env = {k: v for k, v in os.environ.items() if k != "DRAKE_SOT_TOKEN"}
-    proc = subprocess.run(
-        [*DRAKE_SOT, "serve", "reach", "--host", "0.0.0.0", "--port", "0"],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        env=env,
-        timeout=120,
-    )
+    proc = _serve_to_the_end("reach", "--host", "0.0.0.0", "--port", "0", env=env)
     assert proc.returncode == 2 and proc.stdout == ""
     assert "token" in proc.stderr and "0.0.0.0" in proc.stderr
+
+
+def test_a_scenario_without_a_command_server_is_refused():
+    proc = _serve_to_the_end("table_pounding", "--port", "0")
+    assert proc.returncode == 2 and "serving on" not in proc.stdout
+    assert "table_pounding" in proc.stderr and "no RemoteCommandServer" in proc.stderr
+    proc = _serve_to_the_end("no_such_thing", "--port", "0")
+    assert proc.returncode == 2 and "'no_such_thing' is neither a scenario (" in proc.stderr
 
 
 def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
@@ -432,3 +470,114 @@ def test_a_remote_decision_layer_switches_the_stack_as_the_sequencer_does(tmp_pa
     assert stacks_remote == stacks_seq and len(stacks_seq) == 2  # walking, then the force tasks at one tick
     assert "taskForce" in stacks_seq[1] and "taskRHwaist" not in stacks_seq[1]
     assert abs(t_remote[1] - t_seq[1]) <= 1.0  # within one poll period (1 s)
+
+
+# --- limits, SIGTERM, the command server in the diagram, a served script -----------------------
+
+
+def test_the_seventeenth_subscription_of_a_connection_is_refused_naming_the_limit(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        readable = sorted(client.list()["readable"])
+        assert len(readable) > 17
+        for signal in readable[:16]:
+            assert client.request("subscribe", signal=signal, period=10.0) == signal
+        with pytest.raises(RemoteError, match="at most 16 subscriptions per connection"):
+            client.request("subscribe", signal=readable[16], period=10.0)
+        assert client.request("unsubscribe", signal=readable[0]) == readable[0]
+        assert client.request("subscribe", signal=readable[16], period=10.0) == readable[16]  # room again
+    with Client(host, port) as other:  # the limit is per connection
+        assert other.request("subscribe", signal=readable[0], period=10.0) == readable[0]
+
+
+def test_stack_commands_go_through_the_diagrams_command_server(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        listed = client.list()
+        assert "remote.commands" not in listed["writable"]
+        assert "taskRH.position_des" in listed["writable"]
+        with pytest.raises(RemoteError, match="takes 1 task name"):
+            client.run("sot.push")
+        with pytest.raises(RemoteError, match="unknown task 'nothing'"):
+            client.run("sot.push nothing")
+        stack = client.run("sot.list").split()
+        # removed and pushed back at one tick (one batch, in order): the lowest task is where it was
+        assert stack[-1] == "taskPosture"
+        removed_and_pushed = [
+            {"op": "run", "cmd": "sot.rm taskPosture"},
+            {"op": "run", "cmd": "sot.push taskPosture"},
+        ]
+        assert client.batch(removed_and_pushed) == ["", ""]
+        assert client.run("sot.list").split() == stack
+
+
+def test_sigterm_stops_serve_with_143_and_writes_the_usual_artefacts(tmp_path):
+    proc, host, port = _start("--port", "0", "--duration", "120", "--out", str(tmp_path))
+    try:
+        with Client(host, port) as client:
+            client.read("dyn.com")
+            while client.t < 0.5:
+                time.sleep(0.05)
+                client.read("dyn.com")
+            reached = client.t
+        proc.send_signal(15)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143, stderr
+    for name in ("reach.npz", "reach.html", "reach.svg", "reach.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    with np.load(tmp_path / "reach.npz") as npz:
+        assert reached - 1e-9 <= npz["time"][-1] < 120.0  # up to where it was stopped, not the duration
+
+
+SERVED_SCRIPT = """\
+new FeatureGeneric featureCom
+plug dyn.com featureCom.errorIN
+plug dyn.Jcom featureCom.jacobianIN
+set featureCom.selec 110
+new FeatureGeneric featureComDes
+set featureComDes.errorIN [3](0,0,0.64)
+set featureCom.sdes featureComDes
+new Task taskCom
+taskCom.add featureCom
+taskCom.controlGain 3
+new PatternGenerator pg
+sot.push taskCom
+"""
+
+
+def test_serve_a_script_and_run_its_dialect_remotely(tmp_path):
+    script = tmp_path / "served.sot"
+    script.write_text(SERVED_SCRIPT)
+    proc = subprocess.Popen(
+        [*DRAKE_SOT, "serve", str(script), "--port", "0", "--duration", "60"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+    )
+    try:
+        first = proc.stdout.readline()
+        assert first.startswith("serving on 127.0.0.1:"), (first, proc.stderr.read() if proc.poll() else "")
+        with Client("127.0.0.1", int(first.strip().rsplit(":", 1)[1])) as client:
+            assert client.run("sot.list") == "taskCom"
+            assert float(client.run("get taskCom.controlGain")) == 3.0
+            client.run("taskCom.controlGain 2")
+            assert float(client.run("get taskCom.controlGain")) == 2.0
+            client.run("set featureComDes.errorIN [3](0.01,-0.02,0.64)")
+            # e = s - s* on the selected rows (x, y) of the CoM: against dyn.com, read at the same tick
+            error, com = client.batch(
+                [{"op": "read", "signal": "featureCom.error"}, {"op": "read", "signal": "dyn.com"}]
+            )
+            assert np.allclose(error, np.array(com[:2]) - [0.01, -0.02], atol=1e-12)
+            assert client.run("pg.parsecmd :singlesupporttime 0.7") == ""
+            with pytest.raises(RemoteError, match="build-time command"):
+                client.run("new Task taskOther")
+            with pytest.raises(RemoteError, match="unknown entity 'nobody'"):
+                client.run("nobody.controlGain 1")
+            client.run("sot.rm taskCom")
+            assert client.run("sot.list") == ""
+    finally:
+        _stop(proc)

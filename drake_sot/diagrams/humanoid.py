@@ -17,13 +17,17 @@ dynamics of the reference), loggers and (optionally) a recorded Meshcat replay.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 
+import numpy as np
 from pydrake.systems.framework import OutputPort
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.diagrams.world import BuiltHumanoid
+from drake_sot.remote.server import RemoteCommandServer
 from drake_sot.systems.device import Device
 from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.sot import StackOfTasks
@@ -36,6 +40,24 @@ class HumanoidSoT(BuiltHumanoid):
 
     sot: StackOfTasks | None = None
     device: Device | None = None
+    remote: RemoteCommandServer | None = None
+
+
+# --- the remote command server in the diagram (drake_sot.remote) -------------------------------
+_WITH_COMMAND_SERVER: ContextVar[bool] = ContextVar("with_command_server", default=False)
+
+
+@contextmanager
+def with_command_server() -> Iterator[None]:
+    """Inside this block every :meth:`HumanoidSoTBuilder.build` adds a
+    :class:`~drake_sot.remote.server.RemoteCommandServer` driving the solver's stack commands
+    (``built.remote``), as a scenario that declares writable signals has; e.g. to serve a
+    scenario built by its own function."""
+    token = _WITH_COMMAND_SERVER.set(True)
+    try:
+        yield
+    finally:
+        _WITH_COMMAND_SERVER.reset(token)
 
 
 class HumanoidSoTBuilder(HumanoidTaskBuilder):
@@ -47,6 +69,22 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
     """
 
     POSITION_CONTROLLED = True
+    _server: RemoteCommandServer | None = None
+
+    def command_server(self) -> RemoteCommandServer:
+        """The diagram's remote command server, added on first use (see
+        :class:`~drake_sot.remote.server.RemoteCommandServer`)."""
+        if self._server is None:
+            self._server = self.builder.AddSystem(RemoteCommandServer(self.control_period))
+        return self._server
+
+    def declare_writable(
+        self, name: str, size: int, units: str, initial: np.ndarray | None = None
+    ) -> OutputPort:
+        """A signal remote clients may write, ``remote.<name>`` of ``size`` [``units``]: the
+        output port to wire into what it drives (see
+        :meth:`~drake_sot.remote.server.RemoteCommandServer.declare_writable`)."""
+        return self.command_server().declare_writable(name, size, units, initial)
 
     def build(
         self,
@@ -57,6 +95,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         dynamic_feedforward: bool = False,
         stack_source: OutputPort | None = None,
         solver: str = "svd",
+        wire_solver: Callable[[StackOfTasks], None] | None = None,
     ) -> HumanoidSoT:
         """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
 
@@ -73,6 +112,8 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 for validation and the context commands are refused.
             solver: the ``StackOfTasks`` solver, ``"svd"`` (equality tasks) or ``"hqp"``
                 (also the inequality tasks, e.g. :meth:`add_joint_position_limits_task`).
+            wire_solver: called with the ``StackOfTasks`` before the diagram is built, to
+                connect its outputs (``qdot``, ``errors``, ``stack``) to other systems.
         """
         b = self.builder
         period = self.control_period
@@ -83,8 +124,12 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 period=period,
                 stack=stack,
                 solver=solver,
+                commands_input=self._server is not None or _WITH_COMMAND_SERVER.get(),
             )
         )
+        remote = self.command_server() if _WITH_COMMAND_SERVER.get() else self._server
+        if remote is not None:
+            b.Connect(remote.GetOutputPort("commands"), sot.GetInputPort("commands"))
         for task_name, task in self.tasks.items():
             b.Connect(task.GetOutputPort("task"), sot.GetInputPort(task_name))
         if stack_source is not None:
@@ -115,6 +160,8 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             feedforward.GetOutputPort("tau"), self.plant.get_actuation_input_port(self.info.model_instance)
         )
 
+        if wire_solver is not None:
+            wire_solver(sot)
         history = b.AddSystem(StackHistory(period=period))
         b.Connect(sot.GetOutputPort("stack"), history.GetInputPort("stack"))
 
@@ -129,6 +176,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             dyn=self.dyn,
             sot=sot,
             device=device,
+            remote=remote,
             tasks=dict(self.tasks),
             features=dict(self.features),
             loggers=loggers,

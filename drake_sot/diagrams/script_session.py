@@ -71,6 +71,11 @@ reads ``dyn.com`` and ``dyn.Jcom`` unless plugged; every task goes into the solv
 ``PatternGenerator``'s CoM, feet or waist references are plugged, its ``load`` splits the
 torque feed-forward between the feet (``examples/walk_two_steps.sot``).
 
+The solver's outputs (``qdot``, ``errors``, ``stack``) plug into other entities like any
+output (``plug sot.errors decision.errors``: a sequencer's guard on the task errors); they are
+connected when the build makes the solver, which is last. An entity cannot take its size from
+``sot.errors`` (``FeatureGeneric.errorIN``): it is known only then.
+
 Files: ``run FILE`` and ``pool.writegraph FILE`` stay inside the session's script and
 output directories (a path that resolves outside them is refused).
 
@@ -135,6 +140,7 @@ from drake_sot.script import (
     format_value,
     parse_script,
 )
+from drake_sot.systems.sot import StackOfTasks
 
 __all__ = [
     "Phase",
@@ -162,6 +168,7 @@ RESERVED_NAMES = (
     "stack_history",
     "left_wrist_sensor",
     "right_wrist_sensor",
+    "remote",
 )
 
 # ---------------------------------------------------------------------------------------
@@ -270,6 +277,10 @@ class ScriptSession:
     def output_size(self, signal: Signal) -> int:
         """Size of an output signal (its entity is made first); SessionError if not a vector."""
         entity = self.entity(signal.entity)
+        if isinstance(entity, SotEntity):  # made last, when the build closes the loop
+            if signal.name == "qdot":
+                return self.builder.control_plant.num_velocities()
+            raise SessionError(f"{signal}: its size is known only once the diagram is built")
         self._construct(entity, ())
         port = entity.output_port(signal.name)
         if port.get_data_type() != PortDataType.kVectorValued:
@@ -451,11 +462,6 @@ class ScriptSession:
     def _plug(self, source: Signal, target: Signal) -> str:
         out_entity = self.entity(source.entity)
         out_entity.check_signal(source.name, "o")
-        if isinstance(out_entity, SotEntity):
-            raise SessionError(
-                f"{source}: the solver's outputs cannot be plugged (it is made last, when the build "
-                "closes the loop); read them with get"
-            )
         in_entity = self.entity(target.entity)
         in_entity.check_signal(target.name, "i")
         wired = in_entity.wired().get(target.name)
@@ -561,9 +567,15 @@ class ScriptSession:
             self._add(SotEntity(self, DEFAULT_SOT, None))
         for entity in list(self._entities.values()):
             self._construct(entity, ())
+        from_solver = []  # the plugs of the solver's outputs: connected once the builder made it
         for (name, signal), feed in self._feeds.items():
             if isinstance(self._entities[name], SotEntity):
                 continue  # its stack input: the builder connects it
+            if isinstance(feed.how, Plugged) and isinstance(
+                self._entities[feed.how.source.entity], SotEntity
+            ):
+                from_solver.append((self._entities[name], signal, feed))
+                continue
             with self._building(self._entities[name], feed.statement):
                 self._connect(self._entities[name], signal, feed)
         for entity in self._entities.values():
@@ -574,15 +586,24 @@ class ScriptSession:
         if pg is not None and not self._drives_the_robot(pg):
             pg = None
         stack_feed = self._feeds.get((sot.name, "stack"))
+
+        def wire_solver(solver: StackOfTasks) -> None:
+            solver.set_name(sot.name)
+            sot.system = solver
+            for entity, signal, feed in from_solver:
+                with self._building(entity, feed.statement):
+                    self._connect(entity, signal, feed)
+
         with self._building(sot, sot.statement):
             built = self.builder.build(
                 stack=(),
                 load=pg.system.GetOutputPort("load") if pg else None,
                 dynamic_feedforward=pg is not None,
                 stack_source=self._port(stack_feed.how.source) if stack_feed else None,
+                wire_solver=wire_solver,
             )
-        built.sot.set_name(sot.name)
-        sot.system = built.sot
+        if built.remote is not None:  # served: the stack commands of its clients name this solver
+            built.remote.sot_name = sot.name
         return built
 
     def _drives_the_robot(self, pg: Entity) -> bool:

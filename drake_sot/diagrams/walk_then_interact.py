@@ -18,8 +18,7 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat
-from pydrake.systems.framework import Context, OutputPort
-from pydrake.systems.primitives import ConstantVectorSource
+from pydrake.systems.framework import OutputPort
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
@@ -77,11 +76,11 @@ def build(
 
     ``decision``: ``"sequencer"`` (the DecisionServer is a ``TaskSequencer`` in the diagram)
     or ``"remote"`` (as the paper ran it: a separate program polls ``pg.in_process`` and sends
-    :data:`SWITCH_LINES` and ``force_active.value`` = 1 through the command server; the stack is
-    then the solver's own and ``force_active`` a constant source that the server may write,
-    listed in ``extras["writable"]``: name → (size, units, apply(root context, value)); what the
-    decision client polls and sends is ``extras["decision"]``). ``stabilizer``: the balance
-    stabilizer between the pattern generator and the CoM task (see ``walk.add_walking``)."""
+    :data:`SWITCH_LINES` and ``remote.force_active`` = 1 through the command server; the stack is
+    then the solver's own, driven by the server's stack commands, and ``force_active`` a signal
+    the diagram declares writable on its server; what the decision client polls and sends is
+    ``extras["decision"]``). ``stabilizer``: the balance stabilizer between the pattern generator
+    and the CoM task (see ``walk.add_walking``)."""
     if decision not in DECISIONS:
         raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
     if decision == "remote":
@@ -131,22 +130,16 @@ def _build_remote(
     meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool, robot: str
 ) -> ScenarioSetup:
     b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
-    active = b.builder.AddSystem(ConstantVectorSource(np.zeros(1)))
-    active.set_name("force_active")
+    active = b.declare_writable("force_active", 1, "1 on, 0 off", np.zeros(1))
     for admittance in admittances.values():
-        b.builder.Connect(active.get_output_port(), admittance.GetInputPort("active"))
-
-    def set_active(root_context: Context, value: np.ndarray) -> None:
-        active.get_mutable_source_value(active.GetMyContextFromRoot(root_context)).set_value(value)
-
-    writable = {"force_active.value": (1, "1 on, 0 off", set_active)}
+        b.builder.Connect(active, admittance.GetInputPort("active"))
     decision = {
         "signal": "pg.in_process",
         "period": 1.0,
         "run": SWITCH_LINES,
-        "write": ("force_active.value=1",),
+        "write": ("remote.force_active=1",),
     }
-    return _finish(b, pg, left, right, admittances, None, {"writable": writable, "decision": decision})
+    return _finish(b, pg, left, right, admittances, None, {"decision": decision})
 
 
 def _finish(

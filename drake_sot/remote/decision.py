@@ -2,7 +2,7 @@
 the DecisionServer drove the SoT through the coshell).
 
 ``python -m drake_sot.remote.decision --port P --signal pg.in_process --run "sot.rm taskRHwaist"
-... --write force_active.value=1`` polls ``--signal`` every ``--period`` simulated seconds (a
+... --write remote.force_active=1`` polls ``--signal`` every ``--period`` simulated seconds (a
 subscription); once it has seen it above 0.5 (the walk under way) and then below 0.5 (the
 walk over), it sends each ``--run`` line, then each ``--write``, all at once (applied at one
 control tick), and exits 0. Standard library

@@ -1,29 +1,29 @@
-"""Serve a built scenario: the loop that owns the context and applies remote requests.
+"""Serve a built diagram: the host that owns the simulator, beside its command server.
 
-Design (and why). DESIGN.md: the network never touches a context. A Drake LeafSystem's
-event can only change its own context, and the commands of the coshell (``sot.push
-taskLH``, a new desired pose, a source's value) change other systems' contexts. So the
-thread that owns the simulator applies them between control ticks, the way
-:func:`~drake_sot.diagrams.run.simulate` applies timed commands; in fact :class:`Serving` is
-``simulate``'s ``progress`` hook, run one control period per step (:func:`serve_run`), so a
-served run handles timed commands, signals, a failure and a fall as any run does. After each
-tick the hook replies to the requests applied before that tick (with the simulated time
-reached), sends the subscriptions that are due, sleeps to hold ``realtime`` × real time, then
-applies the requests the :class:`~drake_sot.remote.network.NetworkThread` queued since, in
-arrival order (those of one socket read together). Reads evaluate output
-ports on the root context in that thread, after the tick: the value at the last tick.
+Design (and why). DESIGN.md: the network never touches a context. The socket thread
+(:class:`~drake_sot.remote.network.NetworkThread`) only queues requests; the diagram's
+:class:`~drake_sot.remote.server.RemoteCommandServer` takes them at each control tick, in
+arrival order, in its own periodic event, and applies there what a Drake system may change:
+its own outputs — the stack commands, a batch the ``StackOfTasks`` applies at that tick, and
+the signals the diagram declared writable, output ports wired into what they drive.
 
-Signals are ``<system>.<port>``: every vector-valued output port of every system of the
-diagram can be read (``sot.errors``, ``dyn.com``, ``device.q``…). Only the allowlist given
-when the server is made (:class:`Writable`) can be written; a written value must be
-finite and of the declared size. ``run`` takes one script line of the run phase:
-``SOT.push|rm|up|down NAME``, ``SOT.pop``, ``SOT.clear``, ``SOT.list``, ``get SIGNAL``,
-``help``. The scenario's own timed commands still apply at their times.
+A Drake event cannot change another system's context, so the rest is the host's: the thread
+that owns the simulator, here :class:`Serving`, ``simulate``'s ``progress`` hook run one
+control period per step (:func:`serve_run`), so that a served run handles timed commands,
+signals, a failure and a fall as any run does. After each tick it answers the requests the
+server took at that tick: the stack commands with the solver's ``command_results``, reads
+and subscriptions with the values at the tick (any vector output port, ``<system>.<port>``:
+``sot.errors``, ``dyn.com``, ``device.q``…), and it applies the requests that set another
+system's parameter — a 6D task's desired position (``TASK.position_des``, kept a parameter
+so that the scenario's own timed commands still set it), the run-time commands of a
+scenario's tasks and pattern generator as the script dialect has them (``taskRH.controlGain
+5``, ``pg.parsecmd :stepseq …``), and, when a script is served, all its run-time lines through
+:meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too). Those act
+at the next tick and are answered after it (the server holds what came after them until then,
+so that the changes act in arrival order). Then it sleeps to hold ``realtime`` × real time.
 
-There is no RemoteCommandServer LeafSystem: a writable signal is a parameter or a source
-value of the diagram's own systems (a 6D task's desired position, ``force_active`` of
-``walk_then_interact --decision remote``), set by the loop that owns the context. The
-allowlist is fixed when the scenario is built (:func:`writables`).
+A written value must be finite and of the declared size; only the declared signals and the
+6D tasks' ``position_des`` can be written.
 """
 
 from __future__ import annotations
@@ -43,18 +43,21 @@ from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.scenario import Runner, ScenarioSetup
+from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
+from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
+from drake_sot.remote.server import DONE, STACK, RemoteCommandServer, TakenRequest
 from drake_sot.remote.status import MeshcatStatus
-from drake_sot.script import Call, Get, Name, parse_line
+from drake_sot.script import Call, Get, parse_line
 from drake_sot.systems.features import FeaturePoint6d
+from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.sot import StackOfTasks
+from drake_sot.systems.task import Task
 from drake_sot.validation import positive
 
 #: Subscriptions a connection may hold at once.
 MAX_SUBSCRIPTIONS = 16
-
-_SOT_COMMANDS = ("push", "rm", "up", "down", "pop", "clear", "list")
 
 
 @dataclass(frozen=True)
@@ -68,6 +71,10 @@ class Writable:
     apply: Callable[[Context, np.ndarray], None]
 
 
+class NotServable(ValueError):
+    """A diagram without a command server."""
+
+
 @dataclass
 class _Subscription:
     period: float
@@ -75,48 +82,65 @@ class _Subscription:
 
 
 class Serving:
-    """Serves the diagram of ``simulator`` through ``network``: :meth:`after_tick` is the
-    ``progress`` hook of :func:`~drake_sot.diagrams.run.simulate` run with ``chunk`` = the
-    control period, so that the timed commands, the signals, a failure and a fall are handled
-    as in any run.
+    """The host side of a served diagram: answers what ``server`` took at each tick.
 
-    After each tick :meth:`after_tick` replies to the requests applied before that tick (with
-    the simulated time reached), calls ``on_tick``, sends the subscriptions that are due, sleeps
-    to hold ``realtime`` × real time (not when the diagram is slower), then applies the
-    requests queued since, in arrival order (they act in the next tick).
+    :meth:`after_tick` is the ``progress`` hook of :func:`~drake_sot.diagrams.run.simulate`
+    run with ``chunk`` = the control period (so at most one tick per step). After each tick it
+    sends the replies of the requests applied before it; answers the requests the server took
+    at the tick in their order — the stack commands with the solver's ``command_results``, the
+    writes the server applied, reads, ``list`` and subscriptions with the values at the tick —
+    and applies the others that change the context (a 6D task's ``position_des``, script lines
+    through ``session``), answered after the next tick, when they acted; then calls
+    ``on_tick``, sends the subscriptions that are due, and sleeps to hold ``realtime`` × real
+    time (not when the diagram is slower). What arrives meanwhile is taken at the next tick.
 
     Args:
-        simulator: an initialized simulator.
+        simulator: an initialized simulator of a diagram holding ``server``.
+        server: the diagram's command server, attached to ``network`` here.
         network: the socket thread whose requests are served.
-        period: the control period [s]: one tick.
-        writable: the allowlist of signals clients may write.
+        writable: the allowlist of the signals the host applies (parameters of other systems);
+            the server's declared signals are allowed besides.
         realtime: the pace, > 0 (inf: as fast as possible).
         on_tick: called with the root context after each tick (e.g. a
             :class:`~drake_sot.remote.status.MeshcatStatus` update).
+        session: the script session of a served script: ``run`` lines it executes (set, get,
+            task.controlGain, pg.parsecmd...); None: a scenario (stack commands, get, help).
     """
 
     def __init__(
         self,
         simulator: Simulator,
+        server: RemoteCommandServer,
         network: NetworkThread,
         *,
-        period: float,
         writable: Sequence[Writable] = (),
         realtime: float = 1.0,
         on_tick: Callable[[Context], None] | None = None,
+        session: ScriptSession | None = None,
     ) -> None:
         self._simulator = simulator
+        self._server = server
         self._on_tick = on_tick
         self._network = network
-        self.period = positive("period", period, unit="s")
+        self._session = session
+        self.period = server.period
         self._realtime = positive("realtime", realtime)
         self._writable = {w.signal: w for w in writable}
         diagram = simulator.get_system()
         self._readable = _readable_ports(diagram)
         self._sots = {s.get_name(): s for s in _systems(diagram) if isinstance(s, StackOfTasks)}
+        commanded = [s for s in self._sots.values() if s.HasInputPort("commands")]
+        if not commanded:
+            raise ValueError(
+                "no StackOfTasks of the diagram takes the server's commands (commands_input=True)"
+            )
+        self._sot = commanded[0]
+        self._entities = {} if session is not None else _scenario_entities(diagram)
         self._subscriptions: dict[int, dict[str, _Subscription]] = {}
         self._answers: list[tuple[int, Any, Any, str | None]] = []
+        self._seen = server.taken(simulator.get_context()).serial
         self.events: list[tuple[float, str]] = []  # the requests that changed the context
+        server.attach(network.drain)
 
     @property
     def context(self) -> Context:
@@ -127,11 +151,13 @@ class Serving:
         context = self.context
         now = context.get_time()
         for cid, request_id, result, message in self._answers:
-            reply = (
-                error(request_id, message) if message is not None else ok(request_id, _resolve(result), now)
-            )
-            self._network.send(cid, reply)
+            self._reply(cid, request_id, result, message, now)
         self._answers = []
+        taken = self._server.taken(context)
+        if taken.serial != self._seen:
+            self._seen = taken.serial
+            for item in taken.requests:
+                self._answer(item, context, taken.time, now)
         if self._on_tick is not None:
             self._on_tick(context)
         for cid, subscriptions in self._subscriptions.items():
@@ -140,34 +166,66 @@ class Serving:
                     sub.due += sub.period * max(1, math.floor((now - sub.due) / sub.period + 1e-9) + 1)
                     self._network.send(cid, {"signal": signal, "t": now, "value": self._read(signal)})
         ahead = now / self._realtime - wall
-        if ahead > 0:  # paced: wait first, so that what arrives meanwhile acts at the next tick
+        if ahead > 0:  # paced: wait first, so that what arrives meanwhile is taken at the next tick
             wallclock.sleep(ahead)
-        for cid, request in self._network.drain():
-            if request is None:
-                self._subscriptions.pop(cid, None)
-                continue
-            try:
-                self._answers.append((cid, request.id, self._apply(cid, request, context), None))
-            except Exception as exc:  # noqa: BLE001 - a remote request must not end the served run
-                self._answers.append((cid, request.id, None, f"{type(exc).__name__}: {exc}"))
 
     def finish(self) -> None:
-        """Answer the requests the run ended before applying in a tick: an error saying so."""
+        """Answer the requests the run ended before applying in a tick: an error saying so; and
+        detach the server from the network."""
+        self._server.attach(None)
         for cid, request_id, _, _ in self._answers:
             self._network.send(cid, error(request_id, "the run ended before the next tick"))
         self._answers = []
+        for cid, request in [*self._server.held(self.context), *self._network.drain()]:
+            if request is not None:
+                self._network.send(cid, error(request.id, "the run ended before the next tick"))
 
-    def _apply(self, cid: int, request: Request, context: Context) -> Any:
-        """The result of ``request`` (a callable: evaluated after the tick), or ValueError."""
+    def _reply(self, cid: int, request_id: Any, result: Any, message: str | None, now: float) -> None:
+        reply = error(request_id, message) if message is not None else ok(request_id, _resolve(result), now)
+        self._network.send(cid, reply)
+
+    def _answer(self, item: TakenRequest, context: Context, tick: float, now: float) -> None:
+        cid, request = item.connection, item.request
+        if request is None:
+            self._subscriptions.pop(cid, None)
+            return
+        if item.kind == DONE:
+            if item.error is None:
+                self.events.append((tick, f"write {request.signal}"))
+            self._reply(cid, request.id, request.signal, item.error, now)
+            return
+        if item.kind == STACK:
+            results = self._sot.GetOutputPort("command_results").Eval(self._sot.GetMyContextFromRoot(context))
+            applied, text = results.results[item.index]
+            if applied:
+                self.events.append((tick, request.cmd.strip()))
+            self._reply(cid, request.id, text, None if applied else text, now)
+            return
+        try:
+            result, acts = self._apply(cid, request, context)
+        except Exception as exc:  # noqa: BLE001 - a remote request must not end the served run
+            self._reply(cid, request.id, None, f"{type(exc).__name__}: {exc}", now)
+            return
+        if acts:  # it changed the context: answered after the tick it acts at
+            self.events.append(
+                (now, request.cmd.strip() if request.op == "run" else f"write {request.signal}")
+            )
+            self._answers.append((cid, request.id, result, None))
+        else:
+            self._reply(cid, request.id, result, None, now)
+
+    def _apply(self, cid: int, request: Request, context: Context) -> tuple[Any, bool]:
+        """The result of ``request`` (a callable: evaluated when answered), and whether it changed
+        the context; ValueError (or the session's error) when it is refused."""
         if request.op == "read":
             self._port(request.signal)
-            return lambda: self._read(request.signal)
+            return self._read(request.signal), False
         if request.op == "write":
-            return self._write(request.signal, request.value, context)
+            return self._write(request.signal, request.value, context), True
         if request.op == "run":
             return self._run(request.cmd, context)
         if request.op == "list":
-            return self._list()
+            return self._list(), False
         if request.op == "subscribe":
             self._port(request.signal)
             if not (request.period >= self.period) or math.isinf(request.period):
@@ -178,12 +236,12 @@ class Serving:
             if request.signal not in subscriptions and len(subscriptions) >= MAX_SUBSCRIPTIONS:
                 raise ValueError(f"subscribe: at most {MAX_SUBSCRIPTIONS} subscriptions per connection")
             subscriptions[request.signal] = _Subscription(request.period, context.get_time())
-            return request.signal
+            return request.signal, False
         if request.op == "unsubscribe":
             if request.signal not in self._subscriptions.get(cid, {}):
                 raise ValueError(f"unsubscribe: {request.signal!r} is not subscribed")
             del self._subscriptions[cid][request.signal]
-            return request.signal
+            return request.signal, False
         raise ValueError(f"op = {request.op!r}: not served")
 
     def _port(self, signal: str):
@@ -198,56 +256,87 @@ class Serving:
     def _write(self, signal: str, value: tuple[float, ...], context: Context) -> str:
         writable = self._writable.get(signal)
         if writable is None:
-            allowed = ", ".join(self._writable) or "none"
-            raise ValueError(f"signal = {signal!r}: not writable (writable: {allowed})")
+            server = self._server.get_name()
+            allowed = [*self._writable, *(f"{server}.{name}" for name in self._server.writables)]
+            raise ValueError(f"signal = {signal!r}: not writable (writable: {', '.join(allowed) or 'none'})")
         if len(value) != writable.size:
             raise ValueError(f"{signal}: {len(value)} values, expected {writable.size}")
         bad = [i for i, x in enumerate(value) if not math.isfinite(x)]
         if bad:
-            raise ValueError(f"{signal}[{bad[0]}] = {value[bad[0]]!r}: not finite")
+            raise ValueError(f"{signal}: value[{bad[0]}] = {value[bad[0]]!r}: not finite")
         writable.apply(context, np.array(value))
-        self.events.append((context.get_time(), f"write {signal}"))
         return signal
 
-    def _run(self, cmd: str, context: Context) -> str:
+    def _run(self, cmd: str, context: Context) -> tuple[Any, bool]:
         if cmd.strip() == "help":
-            return self._help()
+            return self._help(), False
         command = parse_line(cmd, source="<remote>")
         if command is None:
-            return ""
+            return "", False
+        if self._session is not None:
+            if isinstance(command, Get) or (
+                isinstance(command, Call) and command.command in ("list", "help")
+            ):
+                return self._session.execute(cmd, context), False
+            return self._session.execute(cmd, context), True
         if isinstance(command, Get):
             signal = f"{command.signal.entity}.{command.signal.name}"
             self._port(signal)
-            return lambda: " ".join(f"{x:.6g}" for x in self._read(signal))
-        if isinstance(command, Call) and command.entity in self._sots and command.command in _SOT_COMMANDS:
-            sot = self._sots[command.entity]
-            names = [a.text if isinstance(a, Name) else a for a in command.args]
-            takes_name = command.command in ("push", "rm", "up", "down")
-            if len(names) != int(takes_name) or (takes_name and not isinstance(names[0], str)):
-                raise ValueError(
-                    f"{cmd!r}: {command.entity}.{command.command} takes {int(takes_name)} task name(s)"
-                )
-            result = getattr(sot, command.command)(context, *names)
-            self.events.append((context.get_time(), cmd.strip()))
-            if command.command == "list":
-                return " ".join(result)
-            return result if isinstance(result, str) else ""
+            return " ".join(f"{x:.6g}" for x in self._read(signal)), False
+        if isinstance(command, Call) and command.entity in self._entities:
+            return self._entity_command(command, context), True
+        if isinstance(command, Call) and command.entity in self._sots and command.command == "list":
+            if command.args:
+                raise ValueError(f"{cmd!r}: {command.entity}.list takes no argument")
+            return " ".join(self._sots[command.entity].list(context)), False
         if isinstance(command, Call) and command.command == "help":
-            return self._help()
+            return self._help(), False
         raise ValueError(f"{cmd!r}: not a run-time command here; {self._help()}")
+
+    def _entity_command(self, command: Call, context: Context) -> str:
+        """A run-time command of a task or the pattern generator of a served scenario
+        (``taskRH.controlGain 5``, ``pg.parsecmd :stepseq …``), as the script dialect runs it."""
+        entity = self._entities[command.entity]
+        runnable = _runnable(entity)
+        if command.command not in runnable:
+            raise ValueError(
+                f"{command.entity}.{command.command}: not a run-time command of {entity.describe()} "
+                f"(those are: {', '.join(runnable)})"
+            )
+        return getattr(entity, command.command)(command.args, context)
 
     def _help(self) -> str:
         sots = ", ".join(self._sots) or "none"
+        if self._session is not None:
+            dialect = "the script's run-time commands (set, get, E.COMMAND ...)"
+        else:
+            kinds: dict[str, list[str]] = {}
+            for name, entity in self._entities.items():
+                label = "TASK" if isinstance(entity, TaskEntity) else "PG"
+                kinds.setdefault(f"{label}.{'|'.join(_runnable(entity))}", []).append(name)
+            dialect = "; ".join(
+                [
+                    *(f"{usage} ({usage.split('.')[0]}: {', '.join(n)})" for usage, n in kinds.items()),
+                    "get SYSTEM.PORT",
+                ]
+            )
         return (
-            f"commands: SOT.push|rm|up|down TASK, SOT.pop, SOT.clear, SOT.list (SOT: {sots}); "
-            "get SYSTEM.PORT; help"
+            f"commands: SOT.push|rm|up|down TASK, SOT.pop, SOT.clear, SOT.list (SOT: {sots}); {dialect}; help"
         )
 
     def _list(self) -> dict[str, Any]:
+        server = self._server.get_name()
+        declared = {
+            f"{server}.{name}": {"size": w.size, "units": w.units}
+            for name, w in self._server.writables.items()
+        }
         return {
             "systems": sorted({name.split(".")[0] for name in self._readable}),
             "readable": {name: port.size() for name, (_, port) in self._readable.items()},
-            "writable": {w.signal: {"size": w.size, "units": w.units} for w in self._writable.values()},
+            "writable": {
+                **{w.signal: {"size": w.size, "units": w.units} for w in self._writable.values()},
+                **declared,
+            },
             "commands": self._help(),
             "error_slices": {
                 name: {task: [rows.start, rows.stop] for task, rows in sot.error_slices().items()}
@@ -255,6 +344,26 @@ class Serving:
             },
             "period": self.period,
         }
+
+
+def _scenario_entities(diagram: Diagram) -> dict[str, Entity]:
+    """The tasks and pattern generators of a scenario's diagram as the script's entities (their
+    run-time commands: ``controlGain``, ``parsecmd``...), by system name. They have no session:
+    a served scenario has none, and those commands need only their system."""
+    kinds = {Task: TaskEntity, PatternGenerator: PatternGeneratorEntity}
+    entities = {}
+    for system in _systems(diagram):
+        kind = kinds.get(type(system))
+        if kind is not None:
+            entity = kind(None, system.get_name(), None)
+            entity.system = system
+            entities[system.get_name()] = entity
+    return entities
+
+
+def _runnable(entity: Entity) -> list[str]:
+    """The commands of ``entity`` that act on a built diagram's context."""
+    return [name for name, spec in type(entity)._commands.items() if spec.phase in (Phase.RUN, Phase.BOTH)]
 
 
 def _resolve(result: Any) -> Any:
@@ -297,12 +406,9 @@ def desired_position_writables(features: dict[str, System]) -> list[Writable]:
 
 
 def writables(setup: ScenarioSetup) -> list[Writable]:
-    """The allowlist of a scenario: its 6D tasks' ``position_des`` and what it lists in
-    ``extras["writable"]`` (name → (size, units, apply(root context, value)))."""
-    declared = setup.extras.get("writable", {})
-    return desired_position_writables(setup.built.features) + [
-        Writable(name, size, units, apply) for name, (size, units, apply) in declared.items()
-    ]
+    """The allowlist the host applies for a scenario: its 6D tasks' ``position_des`` (the
+    signals its diagram declared on its command server are the server's)."""
+    return desired_position_writables(setup.built.features)
 
 
 def serve_run(
@@ -321,14 +427,20 @@ def serve_run(
     built with a Meshcat, its controls show the stack and the task errors. The requests that
     changed the context are in the result's ``events`` with the timed commands."""
     built = setup.built
+    if getattr(built, "remote", None) is None:
+        raise NotServable(
+            "the diagram has no RemoteCommandServer (a kinematic SoT built by HumanoidSoTBuilder "
+            "inside drake_sot.diagrams.humanoid.with_command_server() has one)"
+        )
     status = MeshcatStatus(built.meshcat, built.sot) if built.meshcat is not None else None
     serving = Serving(
         simulator,
+        built.remote,
         network,
-        period=built.sot.period,
         writable=writables(setup),
         realtime=realtime,
         on_tick=status.update if status is not None else None,
+        session=setup.extras.get("session"),
     )
 
     def hook(t: float, end: float, wall: float) -> None:

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.blas import limit_blas_threads
@@ -23,6 +25,49 @@ from drake_sot.systems.task import Task
 STACK_PORT = "stack"
 #: The solvers a ``StackOfTasks`` can use.
 SOLVERS = ("svd", "hqp")
+#: Name of the optional input port of stack commands (``commands_input=True``).
+COMMANDS_PORT = "commands"
+
+
+# --- stack commands sent by another system (a remote command server) -------------------------
+@dataclass(frozen=True)
+class StackCommand:
+    """One of the paper's stack commands, given at ``time`` [s]: ``command`` is push, pop,
+    rm, up, down or clear; ``args`` its task name (none for pop and clear)."""
+
+    time: float
+    command: str
+    args: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class StackCommands:
+    """The value of the ``commands`` input: the commands of ``batch`` (numbered from 1, in the
+    order the sender took them); the solver applies each batch once."""
+
+    batch: int = 0
+    commands: tuple[StackCommand, ...] = ()
+
+
+@dataclass(frozen=True)
+class StackCommandResults:
+    """The value of the ``command_results`` output: per command of ``batch``, ``(True, output)``
+    when it was applied (output: the task ``pop`` removed, else ""), ``(False, error)`` when it
+    was refused (the error names the task and lists the stack)."""
+
+    batch: int = 0
+    results: tuple[tuple[bool, str], ...] = ()
+
+
+STACK_COMMANDS = ("push", "pop", "rm", "up", "down", "clear")
+
+
+@dataclass(frozen=True)
+class _Remote:
+    """The last batch committed, and the ``stack`` input's value it acted on (None: not driven)."""
+
+    results: StackCommandResults = StackCommandResults()
+    base: tuple[str, ...] | None = None
 
 
 class StackOfTasks(LeafSystem):
@@ -99,6 +144,16 @@ class StackOfTasks(LeafSystem):
             priority first (the name "stack" is therefore not a valid task name).
             Validated when it changes: an unknown task name or a task listed twice
             raises a RuntimeError naming them and listing the known tasks.
+        commands: only with ``commands_input=True``; abstract :class:`StackCommands`, batches of
+            stack commands from another system (a
+            :class:`~drake_sot.remote.server.RemoteCommandServer`). A new batch acts at the
+            tick that sees it, after the stack held in the context, in its order; a command
+            that cannot act (an unknown task, a push of a task in the stack) is skipped and
+            reported on ``command_results``. A periodic unrestricted update commits the batch
+            into the held stack at the next tick (a context command commits it first), so that
+            the commands of the context and of the port act in the order they were given.
+            With the ``stack`` input connected too (a sequencer), the commands act on its
+            stack, and its next change replaces what they made: the newer decision wins.
     Output ports:
         qdot: joint velocity (nv,) computed at the last tick [rad/s, m/s] (v layout of the model).
         errors: every declared task's error (an inequality task's: how far it is outside
@@ -108,6 +163,8 @@ class StackOfTasks(LeafSystem):
         stack: abstract ``tuple[str, ...]``, the current active task names, highest
             priority first: the ``stack`` input's value when it is connected, else the
             context's stack.
+        command_results: only with ``commands_input=True``; abstract
+            :class:`StackCommandResults` of the last batch of the ``commands`` input.
 
     Args:
         nv: size of q̇ (the model's number of velocities), >= 1.
@@ -122,6 +179,7 @@ class StackOfTasks(LeafSystem):
         name: the system's name.
         solver: ``"svd"`` (:func:`~drake_sot.hierarchy.solve_strict`) or ``"hqp"``
             (:func:`~drake_sot.hierarchy.solve_hqp`, equalities and inequalities).
+        commands_input: declare the ``commands`` input and the ``command_results`` output.
 
     Raises:
         ValueError: at construction, naming the bad argument (a task name twice, a
@@ -146,6 +204,7 @@ class StackOfTasks(LeafSystem):
         stack: Sequence[str] = (),
         name: str = "sot",
         solver: str = "svd",
+        commands_input: bool = False,
     ) -> None:
         super().__init__()
         limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
@@ -174,6 +233,8 @@ class StackOfTasks(LeafSystem):
             raise type(error)(f"{where}: {error}") from None
         if STACK_PORT in empty.tasks:
             raise ValueError(f"{STACK_PORT!r} cannot be a task name: it is the name of the stack input port")
+        if commands_input and COMMANDS_PORT in empty.tasks:
+            raise ValueError(f"{COMMANDS_PORT!r} cannot be a task name with commands_input=True (its port)")
         dims = {
             task_name: validation.positive_int(f"{where}: dimension of task {task_name!r}", m)
             for task_name, m in pairs
@@ -214,6 +275,15 @@ class StackOfTasks(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         self.DeclareStateOutputPort("qdot", self._qdot)
         self.DeclareStateOutputPort("errors", self._errors)
+        self._commands_input = self._declare_commands_input() if commands_input else None
+        remote = (
+            set()
+            if self._commands_input is None
+            else {
+                self.abstract_state_ticket(self._committed),
+                self.input_port_ticket(self._commands_input.get_index()),
+            }
+        )
         self.DeclareAbstractOutputPort(
             "stack",
             lambda: AbstractValue.Make(()),
@@ -221,6 +291,7 @@ class StackOfTasks(LeafSystem):
             prerequisites_of_calc={
                 self.abstract_state_ticket(self._stack),
                 self.input_port_ticket(self._stack_input.get_index()),
+                *remote,
             },
         )
 
@@ -246,8 +317,14 @@ class StackOfTasks(LeafSystem):
 
     def _current_stack(self, context: Context) -> Stack:
         """The stack in force for this system's own context (the input's, validated, when driven)."""
+        if self._commands_input is not None:
+            return self._with_batch(context, self._before_batch(context))[0]
         if not self._stack_input.HasValue(context):
             return context.get_abstract_state(self._stack).get_value()
+        return self._driven_stack(context)
+
+    def _driven_stack(self, context: Context) -> Stack:
+        """The ``stack`` input's value, validated (when it changes)."""
         names = self._stack_input.Eval(context)
         if type(names) is tuple and names == self._driven[0]:
             return self._driven[1]  # checked when it changed (a tuple cannot change in place)
@@ -278,6 +355,8 @@ class StackOfTasks(LeafSystem):
         known tasks or the stack.
         """
         context = settable_context(self, context, self._stack_input, command=command, what="the stack")
+        if self._commands_input is not None:
+            self._commit(context, context.get_mutable_state())  # the port's commands came first
         before = context.get_abstract_state(self._stack).get_value()
         after = getattr(before, command)(*args).transition_from(
             before, start=context.get_time(), duration=transition
@@ -309,6 +388,70 @@ class StackOfTasks(LeafSystem):
     def clear(self, context: Context, *, transition: float = 0.0) -> None:
         """Empty the stack (q̇ becomes zero at the next tick, or over ``transition`` seconds)."""
         self._command(context, "clear", transition=transition)
+
+    # --- stack commands from the ``commands`` input (commands_input=True) ---------------------
+    def _declare_commands_input(self):
+        port = self.DeclareAbstractInputPort(COMMANDS_PORT, AbstractValue.Make(StackCommands()))
+        self._committed = self.DeclareAbstractState(AbstractValue.Make(_Remote()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(self._period, 0.0, self._commit)
+        self.DeclareAbstractOutputPort(
+            "command_results",
+            lambda: AbstractValue.Make(StackCommandResults()),
+            lambda context, value: value.set_value(self._with_batch(context, self._before_batch(context))[1]),
+            prerequisites_of_calc={
+                self.abstract_state_ticket(self._stack),
+                self.abstract_state_ticket(self._committed),
+                self.input_port_ticket(port.get_index()),
+                self.input_port_ticket(self._stack_input.get_index()),
+            },
+        )
+        return port
+
+    def _before_batch(self, context: Context) -> Stack:
+        """The stack the input's next batch acts on: the held one; when the ``stack`` input drives
+        the stack, its value, or the held one if the commands changed it since the input changed."""
+        held = context.get_abstract_state(self._stack).get_value()
+        if not self._stack_input.HasValue(context):
+            return held
+        driven = self._driven_stack(context)
+        return (
+            held if context.get_abstract_state(self._committed).get_value().base == driven.active else driven
+        )
+
+    def _with_batch(self, context: Context, before: Stack) -> tuple[Stack, StackCommandResults]:
+        """``before`` with the input's batch applied when it is not committed yet, and its results."""
+        committed = context.get_abstract_state(self._committed).get_value().results
+        if not self._commands_input.HasValue(context):
+            return before, committed
+        sent = self._commands_input.Eval(context)
+        if sent.batch <= committed.batch:
+            return before, committed
+        stack, results = before, []
+        for command in sent.commands:
+            try:
+                if command.command not in STACK_COMMANDS:
+                    raise ValueError(
+                        f"{command.command!r}: not a stack command ({', '.join(STACK_COMMANDS)})"
+                    )
+                after = getattr(stack, command.command)(*command.args)
+                output = stack.active[-1] if command.command == "pop" else ""
+                stack = after.transition_from(stack, start=command.time, duration=0.0)
+                results.append((True, output))
+            except (StackError, ValueError, TypeError) as error:
+                results.append((False, str(error)))
+        return stack, StackCommandResults(sent.batch, tuple(results))
+
+    def _commit(self, context: Context, state: DrakeState) -> None:
+        """Hold the stack with the input's batch applied (once per batch), and, when driven, the
+        input's value it was applied to; forget that value when the input changed since."""
+        remote = context.get_abstract_state(self._committed).get_value()
+        stack, results = self._with_batch(context, self._before_batch(context))
+        driven = self._driven_stack(context).active if self._stack_input.HasValue(context) else None
+        if results is not remote.results:
+            state.get_mutable_abstract_state(self._stack).set_value(stack)
+            state.get_mutable_abstract_state(self._committed).set_value(_Remote(results, driven))
+        elif remote.base is not None and remote.base != driven:  # the input's newer stack wins
+            state.get_mutable_abstract_state(self._committed).set_value(_Remote(results, None))
 
     # --- the control law -----------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:

@@ -192,7 +192,6 @@ def test_refusals_name_what_is_wrong():
         "plug f.errorIN f.sdes": "f.errorIN is an input signal; an output signal is needed here",
         "plug dyn.com dyn.q": "dyn.q is fed by the build: the reference configuration",
         "plug zzz.com f.errorIN": "unknown entity 'zzz'; entities: pool, dyn, f, t, p",
-        "plug a.qdot t.gain": "the solver's outputs cannot be plugged",
         "t.add dyn": "'dyn' (Dynamic) is not a feature",
         "t.add f": "t has f already",
         "t.fly 3": "'t' (Task) has no command 'fly'; commands: help, add, controlGain",
@@ -528,3 +527,51 @@ def test_a_script_can_plug_an_operational_point_as_one_value():
     np.testing.assert_array_equal(one.desired(context).GetAsMatrix4(), two.desired(context).GetAsMatrix4())
     with pytest.raises(SessionError, match=r"dyn already has a signal 'rh_frame'"):
         ScriptSession().run_script("dyn.createOpPoint rh right_hand\ndyn.createOpPoint rh_frame left_hand")
+
+
+def test_the_solvers_outputs_plug_into_other_entities():
+    """`plug sot.errors decision.errors`: a sequencer's guard on the solver's task errors. The CoM
+    error decays as e0·exp(-λt) (ė* = -λe, Mansard et al. 2009, eq. 3): with λ = 5 1/s and
+    e0 = 3 cm it crosses 2 mm at ln(15)/5 = 0.54 s, which is when the guard fires."""
+    session = ScriptSession()
+    session.run_script(
+        """
+        new FeatureCoM featureCom
+        set featureCom.selec 110
+        new Task taskCom
+        taskCom.add featureCom
+        taskCom.controlGain 5
+        new TaskSequencer decision
+        decision.addOutput reached 0
+        decision.addState settling
+        decision.addState moving
+        decision.addState arrived
+        decision.initialStack taskCom
+        decision.addTransition settling moving timeout 0.02
+        decision.addTransition moving arrived below errors 0.002 2
+        decision.addEntry arrived set reached 1
+        plug sot.errors decision.errors
+        plug decision.stack sot.stack
+        """
+    )
+    com0 = parse_value(session.execute("get dyn.com")).array
+    session.execute(f"set featureCom.sdes [3]({com0[0] + 0.03},{com0[1]},{com0[2]})")
+    crossing = np.log(0.03 / 0.002) / 5.0
+    session.execute(f"run {crossing - 0.1:.3f}")
+    assert session.execute("decision.current") == "moving"
+    session.execute("run 0.2")
+    assert session.execute("decision.current") == "arrived"
+    assert session.execute("get decision.reached") == "[1](1.0)"
+    error = parse_value(session.execute("get featureCom.error")).array
+    assert np.linalg.norm(error) < 0.002
+
+
+def test_a_solver_output_plugged_into_an_input_of_another_size_fails_at_the_build_naming_it():
+    session = ScriptSession()
+    session.run_script("new FeatureCoM f\nnew Task t\nt.add f\nplug sot.qdot f.sdes", source="s.sot")
+    with pytest.raises(SessionError, match=r"s.sot, line 4: plug sot.qdot f.sdes"):
+        session.execute("sot.push t")
+    other = ScriptSession()
+    other.run_script("new FeatureGeneric g\nplug sot.errors g.errorIN\nnew Task t\nt.add g")
+    with pytest.raises(SessionError, match="sot.errors: its size is known only once the diagram is built"):
+        other.execute("sot.push t")

@@ -1,0 +1,238 @@
+"""``RemoteCommandServer``: the command server's system in the diagram (the coshell of Mansard,
+Stasse, Evrard, Kheddar 2009, III-C).
+
+The network runs in a thread of its own (:class:`~drake_sot.remote.network.NetworkThread`),
+which never touches a context: it only queues the requests it accepted. This system takes
+them, in arrival order, in its own periodic event at the control tick, and applies in its
+own state what a Drake system may change — its own outputs:
+
+- **stack commands** (``SOT.push|rm|up|down TASK``, ``SOT.pop``, ``SOT.clear``, ``SOT`` being the
+  solver's name given here) go out as a batch on the ``commands`` output, which a
+  :class:`~drake_sot.systems.sot.StackOfTasks` made with ``commands_input=True`` applies at
+  the same tick (after its held stack; its ``command_results`` says, per command, if it acted);
+- **writable signals** declared with :meth:`declare_writable` when the diagram is built (the
+  explicit allowlist): each is a vector output port holding the last value written (finite and
+  of the declared size, else refused), wired by the diagram into what it drives.
+
+A Drake event can change only its own system's context. Everything else a request asks —
+reads, subscriptions, ``list``, script lines that set another system's parameter
+(``task.controlGain``, ``pg.parsecmd``, ``set``, a feature's desired pose) — is left, in
+order, in :meth:`taken` for the host that owns the simulator and the root context
+(:class:`~drake_sot.remote.serving.Serving`), which answers or applies it after the tick. The
+host's changes act at the following tick; so that every change acts in arrival order, the
+requests that come after one of them are held in the server's state and taken at that tick.
+Reads are therefore the values at the last tick, evaluated by that host on any output port
+of the diagram: declaring a readable input port per signal would copy every signal at every
+tick for the few a client reads, and could not reach the signals nobody wired.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import Context, LeafSystem, OutputPort
+from pydrake.systems.framework import State as DrakeState
+
+from drake_sot import validation
+from drake_sot.remote.protocol import Request
+from drake_sot.script import Call, Get, Name, ScriptError, parse_line
+from drake_sot.systems._context import own_context
+from drake_sot.systems.sot import STACK_COMMANDS, StackCommand, StackCommands
+
+#: How a taken request is answered: applied by the server, sent to the solver, or for the host.
+DONE, STACK, HOST = "done", "stack", "host"
+
+Inbox = Callable[[], list[tuple[int, Request | None]]]
+"""Returns the queued ``(connection, request)`` pairs (None: the connection closed), in order."""
+
+
+@dataclass(frozen=True)
+class Writable:
+    """A signal clients may write: its size and units (what ``list`` shows)."""
+
+    size: int
+    units: str
+
+
+@dataclass(frozen=True)
+class TakenRequest:
+    """A request the server took at a tick, and how it is answered.
+
+    ``kind``: :data:`DONE` (applied by the server: ``error`` is None, or says why it was refused),
+    :data:`STACK` (the ``index``-th command of the tick's batch to the solver) or :data:`HOST`.
+    """
+
+    connection: int
+    request: Request | None
+    kind: str
+    error: str | None = None
+    index: int = -1
+
+
+@dataclass(frozen=True)
+class Taken:
+    """The requests taken at the last tick that took any; ``serial`` counts those ticks."""
+
+    serial: int = 0
+    time: float = 0.0
+    requests: tuple[TakenRequest, ...] = ()
+
+
+class RemoteCommandServer(LeafSystem):
+    """Takes the queued remote requests at each control tick and applies the stack commands
+    and the writes of declared signals in its own state (see the module docstring).
+
+    Input ports: none.
+    Output ports:
+        commands: abstract :class:`~drake_sot.systems.sot.StackCommands`, the batch of stack
+            commands of the last tick that took some (plug into ``StackOfTasks.commands``).
+        <writable>: one per :meth:`declare_writable`, a vector of its size in its units, the
+            last value written (the initial value until then).
+
+    Args:
+        period: the control period [s], finite and > 0.
+        sot: the solver's name in script lines (``sot.push taskLH``).
+        name: the system's name.
+    """
+
+    def __init__(self, period: float, *, sot: str = "sot", name: str = "remote") -> None:
+        super().__init__()
+        self.set_name(name)
+        self.period = validation.positive(f"{name}: period", period, unit="s")
+        self.sot_name = sot
+        self._inbox: Inbox | None = None
+        self._writables: dict[str, tuple[Writable, int]] = {}
+        self._taken = self.DeclareAbstractState(AbstractValue.Make(Taken()))
+        self._commands = self.DeclareAbstractState(AbstractValue.Make(StackCommands()))
+        self._held = self.DeclareAbstractState(AbstractValue.Make(()))  # taken at the next tick
+        self.DeclareStateOutputPort("commands", self._commands)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(self.period, 0.0, self._tick)
+
+    def declare_writable(
+        self, name: str, size: int, units: str, initial: np.ndarray | None = None
+    ) -> OutputPort:
+        """Allow clients to write ``<system>.<name>``: a vector output port of ``size`` [``units``]
+        starting at ``initial`` (zeros by default). Call before the diagram is built.
+
+        Raises:
+            ValueError: a name taken by another port, a size < 1, an initial value of another
+                size or not finite.
+        """
+        if name in self._writables or name == "commands":
+            raise ValueError(f"{self.get_name()}: writable {name!r} is declared already")
+        size = validation.positive_int(f"writable {name!r}: size", size)
+        value = np.zeros(size) if initial is None else validation.vector(f"writable {name!r}", initial, size)
+        index = self.DeclareDiscreteState(value)
+        self._writables[name] = (Writable(size, units), index)
+        return self.DeclareStateOutputPort(name, index)
+
+    @property
+    def writables(self) -> dict[str, Writable]:
+        """Declared name (without the system's name) → its size and units."""
+        return {name: writable for name, (writable, _) in self._writables.items()}
+
+    def attach(self, inbox: Inbox | None) -> None:
+        """Take the requests from ``inbox`` (e.g. ``NetworkThread.drain``) from the next tick on;
+        None: take nothing (the diagram then runs as if the server were not there)."""
+        self._inbox = inbox
+
+    def taken(self, context: Context) -> Taken:
+        """The requests taken at the last tick that took any (own or root context)."""
+        return own_context(self, context).get_abstract_state(self._taken).get_value()
+
+    def held(self, context: Context) -> tuple[tuple[int, Request | None], ...]:
+        """The requests held for the next tick (they came after one the host applies)."""
+        return own_context(self, context).get_abstract_state(self._held).get_value()
+
+    def _tick(self, context: Context, state: DrakeState) -> None:
+        held = context.get_abstract_state(self._held).get_value()
+        requests = [*held, *(self._inbox() if self._inbox is not None else [])]
+        if not requests:
+            return
+        t = context.get_time()
+        commands: list[StackCommand] = []
+        taken = []
+        for connection, request in requests:
+            taken.append(self._take(connection, request, t, commands, state))
+            if taken[-1].kind == HOST and _host_changes_context(request):
+                break  # the host applies it after this tick: the next ones wait for the next tick
+        rest = tuple(requests[len(taken) :])
+        if rest or held:
+            state.get_mutable_abstract_state(self._held).set_value(rest)
+        previous = context.get_abstract_state(self._taken).get_value()
+        state.get_mutable_abstract_state(self._taken).set_value(Taken(previous.serial + 1, t, tuple(taken)))
+        if commands:
+            batch = context.get_abstract_state(self._commands).get_value().batch + 1
+            state.get_mutable_abstract_state(self._commands).set_value(StackCommands(batch, tuple(commands)))
+
+    def _take(
+        self,
+        connection: int,
+        request: Request | None,
+        t: float,
+        commands: list[StackCommand],
+        state: DrakeState,
+    ) -> TakenRequest:
+        if request is None:
+            return TakenRequest(connection, None, HOST)
+        if request.op == "write" and request.signal.startswith(f"{self.get_name()}."):
+            error = self._write(request.signal.partition(".")[2], request.value, state)
+            return TakenRequest(connection, request, DONE, error)
+        if request.op == "run":
+            command = _stack_command(request.cmd, self.sot_name, t)
+            if isinstance(command, str):
+                return TakenRequest(connection, request, DONE, command)
+            if command is not None:
+                commands.append(command)
+                return TakenRequest(connection, request, STACK, index=len(commands) - 1)
+        return TakenRequest(connection, request, HOST)
+
+    def _write(self, name: str, value: tuple[float, ...], state: DrakeState) -> str | None:
+        """Set a declared writable in ``state``; the reason it is refused, or None."""
+        if name not in self._writables:
+            allowed = ", ".join(f"{self.get_name()}.{n}" for n in self._writables) or "none"
+            return f"signal = {self.get_name()}.{name!r}: not writable (declared: {allowed})"
+        writable, index = self._writables[name]
+        if len(value) != writable.size:
+            return f"{self.get_name()}.{name}: {len(value)} values, expected {writable.size}"
+        bad = [i for i, x in enumerate(value) if not math.isfinite(x)]
+        if bad:
+            return f"{self.get_name()}.{name}: value[{bad[0]}] = {value[bad[0]]!r}: not finite"
+        state.get_mutable_discrete_state(index).SetFromVector(np.array(value))
+        return None
+
+
+def _host_changes_context(request: Request | None) -> bool:
+    """True for a request the host applies to the context (a parameter write, a script line other
+    than ``get``, ``list``, ``help``): what comes after it waits for the tick after."""
+    if request is None or request.op not in ("write", "run"):
+        return False
+    if request.op == "write":
+        return True
+    try:
+        command = parse_line(request.cmd, source="<remote>")
+    except ScriptError:
+        return False  # refused: changes nothing
+    if command is None or isinstance(command, Get) or request.cmd.strip() == "help":
+        return False
+    return not (isinstance(command, Call) and command.command in ("list", "help"))
+
+
+def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:
+    """The stack command of a script line for solver ``sot``; an error message when it is one
+    with the wrong arguments; None when the line is something else (for the host)."""
+    try:
+        command = parse_line(cmd, source="<remote>")
+    except ScriptError:
+        return None  # the host answers with the parser's error
+    if not (isinstance(command, Call) and command.entity == sot and command.command in STACK_COMMANDS):
+        return None
+    takes = int(command.command in ("push", "rm", "up", "down"))
+    names = tuple(a.text for a in command.args if isinstance(a, Name))
+    if len(command.args) != takes or len(names) != takes:
+        return f"{cmd.strip()!r}: {sot}.{command.command} takes {takes} task name(s)"
+    return StackCommand(t, command.command, names)
