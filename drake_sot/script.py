@@ -133,6 +133,14 @@ class Name:
 
     text: str
 
+    def __post_init__(self) -> None:
+        # What prints as ``text`` must parse back as this Name: a bare word, not a number.
+        if not isinstance(self.text, str) or not _WORD.match(self.text) or _NUMBER.match(self.text):
+            raise ValueError(
+                f"Name({self.text!r}): not a bare word (letters, digits, _ . / -, not a number; "
+                "quote other text as a string)"
+            )
+
     def __str__(self) -> str:
         return self.text
 

@@ -2,6 +2,7 @@
 nothing but ScriptError for any text."""
 
 import math
+import re
 
 import pytest
 from hypothesis import example, given, settings
@@ -233,7 +234,12 @@ values = st.one_of(
         st.characters(codec="utf-8", exclude_categories=("Cc", "Cs", "Zl", "Zp", "Cn", "Co", "Cf", "Zs")),
         max_size=8,
     ),
-    st.builds(Name, st.from_regex(r"[A-Za-z_./][A-Za-z0-9_./-]{0,8}", fullmatch=True)),
+    st.builds(
+        Name,
+        st.from_regex(r"[A-Za-z_./][A-Za-z0-9_./-]{0,8}", fullmatch=True).filter(
+            lambda text: not re.fullmatch(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", text)
+        ),
+    ),
     st.builds(Verb, names),
     st.builds(Vector, st.lists(finite, min_size=1, max_size=5).map(tuple)),
     st.integers(1, 3).flatmap(
@@ -253,6 +259,13 @@ commands = st.one_of(
     st.builds(RunFor, st.floats(min_value=1e-9, max_value=1e9)),
     st.builds(Run, st.from_regex(r"[A-Za-z_./][A-Za-z0-9_./-]{0,12}", fullmatch=True)),
 )
+
+
+@pytest.mark.parametrize("text", [".0", "1", ".5e3", "a b", "", "+x"])
+def test_a_name_that_would_not_parse_back_as_itself_is_refused(text):
+    """A Name prints as its text; a number or a text with spaces would read back as another value."""
+    with pytest.raises(ValueError, match="not a bare word"):
+        Name(text)
 
 
 @settings(max_examples=1000, deadline=None)
