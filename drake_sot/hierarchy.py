@@ -33,6 +33,7 @@ task i completely (alpha = 1), partially (0 < alpha < 1) or not at all
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -552,6 +553,16 @@ _INF = math.inf
 _EPS = float(np.finfo(float).eps)
 _GEQRF = scipy.linalg.lapack.dgeqrf
 _TRTRI = scipy.linalg.lapack.dtrtri
+_TRTRS = scipy.linalg.lapack.dtrtrs
+
+
+@functools.cache
+def _diagonal_blocks(sizes: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """``(starts, mask)``: where each block of the given sizes starts, and the (M, M) mask
+    (Fortran order) of the upper triangles of the diagonal blocks."""
+    level = np.repeat(np.arange(len(sizes)), sizes)
+    mask = np.asfortranarray(np.triu((level[:, None] == level[None, :]).astype(float)))
+    return np.cumsum([0, *sizes[:-1]]), mask
 
 
 @dataclass(frozen=True)
@@ -997,6 +1008,8 @@ class _ActiveSet:
         V = Q if Z is None else Z @ Q  # the levels' row spaces in order, then what they leave
         target = np.concatenate([level[1] for level in levels[:count]])
         c = target if self.x_zero else target - J_all @ self.x
+        if self._equality_run_at_once(levels[:count], qr, V, c, k, free_dims):
+            return count
         start = 0
         for i in range(count):
             end = start + levels[i][0].shape[0]
@@ -1020,6 +1033,67 @@ class _ActiveSet:
             start = end
         self.Z = V[:, total:]
         return count
+
+    def _equality_run_at_once(
+        self,
+        levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+        qr: np.ndarray,
+        V: np.ndarray,
+        c: np.ndarray,
+        k: int,
+        free_dims: list[int],
+    ) -> bool:
+        """:meth:`equality_run`'s steps for all of ``levels`` at once when every level is
+        certified and no hard row is within reach of their sum; return False (nothing
+        changed) otherwise, for the level-by-level loop.
+
+        The loop's ``y_i = L_ii⁻¹ c_i`` with ``c_j -= L_ji y_i`` for the later levels is the
+        forward substitution of ``L y = c``, ``L = Rᵀ``: one triangular solve; and the
+        diagonal blocks of ``R⁻¹`` are the ``R_ii⁻¹`` whose norms certify each level's rank.
+        The steps ``V_i y_i`` have norms ``||y_i||`` (V has orthonormal columns); when the sum
+        of their reaches stays below the hard rows' room, each of the loop's :meth:`_step`
+        would have been taken without a ratio test; otherwise the hard rows are evaluated
+        where each of the loop's steps would end, and when they all hold there, each of its
+        ratio tests would have let the step through. Either way their sum is taken in one
+        step (a step below rounding, which the loop skips, is taken: it changes nothing).
+        """
+        sizes = tuple(level[0].shape[0] for level in levels)
+        if 0 in sizes:  # a level without rows: left to the loop
+            return False
+        total = c.size
+        R = qr[:total, :total]
+        R_inv, info = _TRTRI(R)
+        if info:
+            return False
+        starts, diagonal = _diagonal_blocks(sizes)
+        R_inv *= diagonal  # only the diagonal blocks R_ii⁻¹ are needed below, for their norms
+        inv_norms = np.add.reduceat(np.einsum("ij,ij->i", R_inv, R_inv), starts)
+        norms = np.add.reduceat(np.einsum("ij,ij->i", R, R * diagonal), starts)
+        floors = np.maximum(self.rank_threshold, np.maximum(sizes, k - starts) * _EPS * np.sqrt(norms))
+        if not (inv_norms * floors * floors < 1.0).all():
+            return False
+        y, info = _TRTRS(R, c, lower=0, trans=1)  # Rᵀ y = c (the upper triangle of R only)
+        if info:
+            return False
+        reach = float(np.sqrt(np.add.reduceat(y * y, starts)).sum()) * self.c_norm_max
+        if reach < self.room:
+            self.room -= reach
+            x = self.x + V[:, :total] @ y
+        else:
+            # The hard rows hold along the loop's path iff they hold at its corners (they are
+            # convex): where each step would have ended, q̇ + d_1 + ... + d_i.
+            corners = np.cumsum(np.add.reduceat(V[:, :total] * y, starts, axis=1), axis=1)
+            corners += self.x[:, None]
+            after = self.C @ corners
+            if not ((after <= self.hi[:, None]) & (after >= self.lo[:, None])).all():
+                return False
+            x = corners[:, -1]
+            self.room = float(np.minimum(after[:, -1] - self.lo, self.hi - after[:, -1]).min())
+        self.x, self.x_zero = x, self.x_zero and not y.any()
+        self.iterations += len(levels)
+        free_dims.extend((k - starts - sizes).tolist())
+        self.Z = V[:, total:]
+        return True
 
     def _add_hard(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
         """Rows that hold at this level's optimum: the levels below must keep them holding."""
