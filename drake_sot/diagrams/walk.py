@@ -261,21 +261,29 @@ def analyse(built: HumanoidSoT, arrays: dict[str, np.ndarray]) -> WalkAnalysis:
     return WalkAnalysis(soles=soles, zmp_margin=margin, polygons=polygons, com=com)
 
 
-def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
-    """The walking plot: ZMP reference, measured ZMP, CoM and support polygon."""
-    analysis = analyse(setup.built, arrays)
-    path = Path(out_dir) / "walk_zmp.png"
-    plot_walk(
-        arrays["time"],
-        arrays["zmp_ref"],
-        arrays["zmp"],
-        arrays["com_ref"],
-        analysis.com,
-        analysis.polygons,
-        [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras["steps"]],
-        path,
-    )
-    return {"walk_zmp": path}
+def zmp_plot_writer(scenario: str) -> Callable[[ScenarioSetup, dict[str, np.ndarray], Path], dict[str, Path]]:
+    """A scenario's ``extra_plots``: the walking plot (ZMP reference, measured ZMP, CoM and
+    support polygon) as ``<scenario>_zmp.png``."""
+
+    def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
+        analysis = analyse(setup.built, arrays)
+        path = Path(out_dir) / f"{scenario}_zmp.png"
+        plot_walk(
+            arrays["time"],
+            arrays["zmp_ref"],
+            arrays["zmp"],
+            arrays["com_ref"],
+            analysis.com,
+            analysis.polygons,
+            [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras["steps"]],
+            path,
+        )
+        return {f"{scenario}_zmp": path}
+
+    return write_plots
+
+
+write_plots = zmp_plot_writer("walk")
 
 
 SCENARIO = Scenario(

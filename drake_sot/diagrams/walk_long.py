@@ -30,7 +30,7 @@ from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
-from drake_sot.diagrams.walk import build_walk, write_plots
+from drake_sot.diagrams.walk import build_walk, zmp_plot_writer
 from drake_sot.footsteps import Footstep, other_side, relative_steps, stance_width
 
 SIDEWAYS = 0.1  # [m] each sideways step of the left foot
@@ -79,5 +79,5 @@ SCENARIO = Scenario(
     name="walk_long",
     description="30 steps: forward, turning left and right, sideways, backward, stop (ZMP preview control)",
     build=build,
-    extra_plots=write_plots,
+    extra_plots=zmp_plot_writer("walk_long"),
 )

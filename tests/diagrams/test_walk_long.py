@@ -173,5 +173,5 @@ def test_measured_zmp_stays_in_the_support_polygon(walk_long_run):
 
 def test_walk_long_artefacts(walk_long_run):
     _, out_dir = walk_long_run
-    for name in ("walk_long.svg", "walk_long.png", "walk_long.npz", "walk_zmp.png"):
+    for name in ("walk_long.svg", "walk_long.png", "walk_long.npz", "walk_long_zmp.png"):
         assert (out_dir / name).stat().st_size > 1000, name
