@@ -22,8 +22,9 @@ from drake_sot.recovery import LeanProfile, lean_axis
 
 _LOG = logging.getLogger(__name__)
 
-#: Discrete state: [armed (1 waiting, 0 leaning), start time [s], direction (2)].
-_ARMED, _START, _DIRECTION = 0, 1, slice(2, 4)
+#: Discrete state: [armed (1 waiting, 0 leaning), start time [s], direction (2), lean angle
+#: [rad] and rate [rad/s] at the last tick].
+_ARMED, _START, _DIRECTION, _ANGLE, _RATE = 0, 1, slice(2, 4), 4, 5
 
 
 class HipStrategy(LeafSystem):
@@ -34,7 +35,7 @@ class HipStrategy(LeafSystem):
     excess) in the excess's direction d: the reference is the initial orientation rotated by
     ``profile.at(t − start)`` about z × d (the trunk's top moves along d), and it is armed
     again once upright, ``profile.duration`` later. Otherwise the reference is the initial
-    orientation.
+    orientation. The outputs hold the value of the last tick.
 
     Input ports:
         dcm_excess: (2,) [m] ``BalanceStabilizer.dcm_excess``.
@@ -70,9 +71,9 @@ class HipStrategy(LeafSystem):
         self._initial = initial
         self._period = validation.positive("period", period, unit="s")
         self._excess = self.DeclareVectorInputPort("dcm_excess", 2)
-        self._state = self.DeclareDiscreteState(np.array([1.0, 0.0, 0.0, 0.0]))
+        self._state = self.DeclareDiscreteState(np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]))
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
-        held = {self.discrete_state_ticket(self._state), self.time_ticket()}
+        held = {self.discrete_state_ticket(self._state)}
         self.DeclareAbstractOutputPort(
             "waist",
             lambda: AbstractValue.Make(RigidTransform()),
@@ -90,13 +91,9 @@ class HipStrategy(LeafSystem):
         return context.get_discrete_state(self._state).get_value()
 
     def _angle(self, context: Context) -> tuple[float, float, np.ndarray]:
-        """(angle [rad], rate [rad/s], direction (2,)) of the lean at the context's time."""
+        """(angle [rad], rate [rad/s], direction (2,)) of the lean at the last tick."""
         held = self._held(context)
-        direction = held[_DIRECTION]
-        if held[_ARMED]:
-            return 0.0, 0.0, direction
-        angle, rate = self.profile.at(context.get_time() - held[_START])
-        return angle, rate, direction
+        return held[_ANGLE], held[_RATE], held[_DIRECTION]
 
     def _pose(self, context: Context) -> RigidTransform:
         angle, _, direction = self._angle(context)
@@ -132,4 +129,5 @@ class HipStrategy(LeafSystem):
                 now,
                 self.profile.angle,
             )
+        held[_ANGLE], held[_RATE] = (0.0, 0.0) if held[_ARMED] else self.profile.at(now - held[_START])
         discrete.set_value(self._state, held)
