@@ -24,7 +24,9 @@ from it during the single support T as ξ(T) = p + (ξ₀ − p) e^{ωT}. The wi
 pattern generator accepts (``StepLimits.max_width`` = 0.35 m from the right foot) puts the
 left sole's outer edge at 0.32 m: :func:`longest_capturing_swing` gives
 T = ln((0.31 + 0.04) / (0.17 + 0.04)) / 3.49 ≈ 0.15 s, below the 0.2 s shortest single
-support that ``footsteps.WALKING_BOUNDS`` allows (a 50 m/s² foot). The trunk, in contrast,
+support that ``footsteps.WALKING_BOUNDS`` allows (a 50 m/s² foot). Tried in physics with a
+0.2 s and a 0.3 s swing, the loaded sole does not even lift: the robot rolls over its edge
+(benchmarks/README.md). The trunk, in contrast,
 can lean by 0.3 rad in 0.2 s with both feet on the ground: the hip strategy below. Measured
 in physics (README stack with the stabilizer, 0.1 s lateral torso push at 0.5 s, 4 s runs):
 with the default lean the robot survives 355 N towards +y and 350 N towards −y, and falls at
