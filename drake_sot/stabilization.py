@@ -57,8 +57,9 @@ natural frequency of 2.5 rad/s, overdamped).
 Limits, never silent: p_d is projected into the support polygon (shrunk by a margin) when
 (2) puts it outside, and Δc is bounded per axis; :class:`StabilizerStep` says when either
 happened. A DCM outside the polygon cannot be brought back through the ZMP: that needs
-angular momentum (rotating the trunk, the hip strategy) or a step, neither of which is done
-here (the waist and foot references pass through unchanged).
+angular momentum (rotating the trunk, the hip strategy: :mod:`drake_sot.recovery`, fed by
+the stabilizer's ``dcm_excess``) or a step; the stabilizer itself passes the waist and foot
+references through unchanged.
 """
 
 from __future__ import annotations

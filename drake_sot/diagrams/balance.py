@@ -3,7 +3,9 @@
 :func:`add_stabilizer` puts a :class:`~drake_sot.systems.stabilizer.BalanceStabilizer`
 between the CoM references (a pattern generator's, or those of a robot standing still) and
 a CoM task: the task's ``sdes`` and ``sdes_dot`` come from the stabilizer, which reads the
-simulated robot's state and the ZMP of its ankle force sensors.
+simulated robot's state and the ZMP of its ankle force sensors. :func:`add_hip_strategy`
+adds, beside it, a trunk orientation task whose reference leans when the stabilizer's DCM
+leaves the support polygon (:class:`~drake_sot.systems.hip_strategy.HipStrategy`).
 """
 
 from __future__ import annotations
@@ -14,7 +16,9 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.models.humanoid import SOLE
+from drake_sot.recovery import LeanProfile
 from drake_sot.stabilization import StabilizerGains
+from drake_sot.systems.hip_strategy import HipStrategy
 from drake_sot.systems.stabilizer import BalanceStabilizer
 from drake_sot.systems.zmp import ZmpEstimator
 
@@ -44,8 +48,8 @@ def add_stabilizer(
     gains: StabilizerGains = StabilizerGains(),
 ) -> BalanceStabilizer:
     """A ``BalanceStabilizer`` feeding the CoM task ``com_task`` (added before, without its own
-    ``sdes`` source), logged as ``stabilizer_offset``, ``zmp_desired``, ``dcm`` and
-    ``stabilizer_saturated``.
+    ``sdes`` source), logged as ``stabilizer_offset``, ``zmp_desired``, ``dcm``,
+    ``stabilizer_saturated`` and ``dcm_excess``.
 
     Args:
         b: the builder, with the CoM task ``com_task``.
@@ -87,9 +91,44 @@ def add_stabilizer(
         ("zmp_desired", "zmp_desired"),
         ("dcm", "dcm"),
         ("stabilizer_saturated", "saturated"),
+        ("dcm_excess", "dcm_excess"),
     ):
         b.log(log, stabilizer.GetOutputPort(port))
     return stabilizer
+
+
+def add_hip_strategy(
+    b: HumanoidTaskBuilder,
+    stabilizer: BalanceStabilizer,
+    task_name: str = "taskTrunk",
+    *,
+    frame_key: str = "pelvis",
+    gain: float = 10.0,
+    profile: LeanProfile = LeanProfile(),
+) -> HipStrategy:
+    """A ``HipStrategy`` on ``stabilizer``'s ``dcm_excess`` and an orientation task
+    ``task_name`` (``frame_key``'s orientation, selection ``"000111"``) that follows it; its
+    ``lean`` is logged as ``hip_lean``. Put the task in the stack below the CoM task (the CoM
+    is kept while the trunk leans) and above the posture task.
+
+    Args:
+        b: the builder.
+        stabilizer: the ``BalanceStabilizer`` added by :func:`add_stabilizer`.
+        task_name: name of the new orientation task.
+        frame_key: the trunk frame (logical name) whose orientation leans.
+        gain: the task's gain [1/s].
+        profile: the lean.
+    """
+    hip = b.builder.AddSystem(
+        HipStrategy(b.initial_pose(frame_key), profile=profile, period=b.control_period)
+    )
+    b.builder.Connect(stabilizer.GetOutputPort("dcm_excess"), hip.GetInputPort("dcm_excess"))
+    b.add_op_point_task(task_name, frame_key, selection="000111", gain=gain)
+    feature = b.features[task_name]
+    b.builder.Connect(hip.GetOutputPort("waist"), feature.GetInputPort("position_des"))
+    b.builder.Connect(hip.GetOutputPort("waist_vel"), feature.GetInputPort("velocity_des"))
+    b.log("hip_lean", hip.GetOutputPort("lean"))
+    return hip
 
 
 def _standing_references(b: HumanoidTaskBuilder) -> dict[str, OutputPort]:

@@ -15,12 +15,13 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot import validation
+from drake_sot.recovery import dcm_excess
 from drake_sot.stabilization import StabilizerGains, divergent_component, natural_frequency, stabilizer_step
 from drake_sot.support import sole_corners, support_polygon
 
 #: Layout of the discrete state: offset Δc (2), its rate Δċ (2), filtered measured ZMP (2),
-#: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset).
-_OFFSET, _RATE, _ZMP_F, _ZMP_D, _DCM, _FLAGS = (slice(i, i + 2) for i in range(0, 12, 2))
+#: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset), DCM excess (2).
+_OFFSET, _RATE, _ZMP_F, _ZMP_D, _DCM, _FLAGS, _EXCESS = (slice(i, i + 2) for i in range(0, 14, 2))
 
 
 class BalanceStabilizer(LeafSystem):
@@ -54,6 +55,12 @@ class BalanceStabilizer(LeafSystem):
         dcm: (2,) [m] the measured divergent component of motion ξ.
         saturated: (2,) [ZMP, offset] 1 when, at the last tick, the desired ZMP was projected
             into the support polygon, or the offset was held at ``gains.max_offset``.
+        dcm_excess: (2,) [m] ξ minus its nearest point of the convex hull of both soles where
+            they are (loaded or not: a robot standing on both feet and rocking from one to
+            the other keeps ξ inside it): zero while ξ is inside, else how far and which way
+            it left, what no ZMP of the standing robot can bring back (``HipStrategy`` reads
+            it). Meant for a robot standing on both feet: in a walk's single support the
+            swinging sole is counted too.
 
     Args:
         plant: a finalized model of the robot (e.g. the controller's model) whose positions and
@@ -97,7 +104,7 @@ class BalanceStabilizer(LeafSystem):
         self._foot_forces = self.DeclareVectorInputPort("foot_forces", 2)
         self._soles = [plant.GetFrameByName(name) for name in soles]
         self._contact_force = validation.positive("contact_force", contact_force, unit="N")
-        initial = np.zeros(12)
+        initial = np.zeros(14)
         initial[_ZMP_F] = np.nan  # no measurement yet
         self._state = self.DeclareDiscreteState(initial)
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
@@ -121,6 +128,7 @@ class BalanceStabilizer(LeafSystem):
             ("zmp_desired", _ZMP_D),
             ("dcm", _DCM),
             ("saturated", _FLAGS),
+            ("dcm_excess", _EXCESS),
         ):
             self.DeclareVectorOutputPort(
                 port,
@@ -136,10 +144,14 @@ class BalanceStabilizer(LeafSystem):
         """The support polygon (k, 2) of the soles at ``feet`` whose force is above
         ``contact_force`` (both when none is: the ZMP is then undefined)."""
         on = [X for X, f in zip(feet, foot_forces, strict=True) if f > self._contact_force] or feet
+        return self._hull(on)
+
+    def _hull(self, feet: list[RigidTransform]) -> np.ndarray:
+        """The convex hull (k, 2) of the soles at ``feet``."""
         return support_polygon(
             [
                 sole_corners(*X.translation()[:2], RollPitchYaw(X.rotation()).yaw_angle(), self._sole)
-                for X in on
+                for X in feet
             ]
         )
 
@@ -152,6 +164,7 @@ class BalanceStabilizer(LeafSystem):
         feet = [frame.CalcPoseInWorld(self._plant_context) for frame in self._soles]
         polygon = self.support_polygon(self._foot_forces.Eval(context), feet)
         held = self._held(context)
+        dcm = divergent_component(com[:2], com_vel[:2], omega)
         step = stabilizer_step(
             held[_OFFSET],
             held[_RATE],
@@ -175,8 +188,9 @@ class BalanceStabilizer(LeafSystem):
                     step.offset_rate,
                     step.zmp_filtered,
                     step.zmp_desired,
-                    divergent_component(com[:2], com_vel[:2], omega),
+                    dcm,
                     [float(step.zmp_saturated), float(step.offset_saturated)],
+                    dcm_excess(self._hull(feet), dcm),
                 )
             ),
         )

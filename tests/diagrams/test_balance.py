@@ -9,7 +9,7 @@ import pytest
 
 from drake_sot import cli
 from drake_sot.diagrams import walk, walk_then_interact
-from drake_sot.diagrams.balance import add_stabilizer
+from drake_sot.diagrams.balance import add_hip_strategy, add_stabilizer
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 
 
@@ -44,6 +44,29 @@ def test_standing_the_references_are_the_initial_com_at_rest():
     np.testing.assert_array_equal(stabilizer.GetInputPort("com_ref").Eval(context), b.initial_com())
     np.testing.assert_array_equal(stabilizer.GetInputPort("com_vel_ref").Eval(context), np.zeros(3))
     np.testing.assert_array_equal(stabilizer.GetInputPort("zmp_ref").Eval(context), b.initial_com()[:2])
+
+
+def test_the_hip_strategy_leans_the_pelvis_orientation_task_from_the_stabilizer():
+    """Standing at rest: the DCM inside, the trunk task's reference is the initial pelvis
+    orientation; the lean and the DCM's excess are logged."""
+    b = HumanoidSoTBuilder()
+    b.add_com_task("taskCom", selection="110")
+    b.add_posture_task("taskPosture")
+    hip = add_hip_strategy(b, add_stabilizer(b, "taskCom"))
+    built = b.build(stack=["taskCom", "taskTrunk", "taskPosture"])
+    assert {"hip_lean", "dcm_excess"} <= set(built.loggers)
+    feature = built.features["taskTrunk"]
+    simulator = built.create_simulator()
+    simulator.AdvanceTo(0.05)
+    context = feature.GetMyContextFromRoot(simulator.get_context())
+    desired = feature.GetInputPort("position_des").Eval(context)
+    np.testing.assert_allclose(
+        desired.rotation().matrix(), b.initial_pose("pelvis").rotation().matrix(), atol=1e-12
+    )
+    np.testing.assert_array_equal(feature.GetInputPort("velocity_des").Eval(context), np.zeros(6))
+    np.testing.assert_array_equal(
+        hip.GetOutputPort("lean").Eval(hip.GetMyContextFromRoot(simulator.get_context())), np.zeros(3)
+    )
 
 
 def test_add_stabilizer_refuses_an_unknown_task_and_missing_references():

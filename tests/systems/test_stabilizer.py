@@ -41,7 +41,8 @@ def _tick(foot_forces, base_velocity):
         stabilizer.GetInputPort(name).FixValue(sc, value)
     simulator.AdvanceTo(1e-4)
     out = {
-        name: stabilizer.GetOutputPort(name).Eval(sc) for name in ("com", "dcm", "zmp_desired", "saturated")
+        name: stabilizer.GetOutputPort(name).Eval(sc)
+        for name in ("com", "dcm", "zmp_desired", "saturated", "dcm_excess")
     }
     return out, com, feet
 
@@ -51,6 +52,7 @@ def test_at_rest_on_its_reference_the_reference_passes_through():
     np.testing.assert_allclose(out["com"], com, atol=1e-12)
     np.testing.assert_allclose(out["dcm"], com[:2], atol=1e-12)
     np.testing.assert_array_equal(out["saturated"], [0.0, 0.0])
+    np.testing.assert_array_equal(out["dcm_excess"], [0.0, 0.0])
 
 
 def test_a_sideways_velocity_moves_the_dcm_and_the_desired_zmp_to_the_loaded_sole_edge():
@@ -65,6 +67,19 @@ def test_a_sideways_velocity_moves_the_dcm_and_the_desired_zmp_to_the_loaded_sol
     # only the right foot carries the robot: the desired ZMP stays on the right sole
     out, _, _ = _tick([0.0, 560.0], [0.0, 0.4, 0.0])
     assert out["zmp_desired"][1] == pytest.approx(right[1] + SOLE[1] / 2 - margin, abs=1e-9)
+
+
+@pytest.mark.parametrize("foot_forces", [[280.0, 280.0], [0.0, 560.0]])
+def test_the_dcm_excess_is_measured_from_both_soles_loaded_or_not(foot_forces):
+    """ξ past the left sole's outer edge by the velocity over ω; with the robot on its right
+    foot alone (rocking), a ξ between the feet is not out."""
+    out, com, (left, _) = _tick(foot_forces, [0.0, 0.8, 0.0])
+    omega = math.sqrt(9.81 / com[2])
+    edge = left[1] + SOLE[1] / 2
+    np.testing.assert_allclose(out["dcm_excess"], [0.0, com[1] + 0.8 / omega - edge], atol=1e-9)
+    assert out["dcm_excess"][1] > 0.05
+    out, _, _ = _tick(foot_forces, [0.0, 0.2, 0.0])  # ξ 5.7 cm left of the middle: inside
+    np.testing.assert_array_equal(out["dcm_excess"], [0.0, 0.0])
 
 
 def test_refuses_bad_arguments_by_name():
