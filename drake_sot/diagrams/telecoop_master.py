@@ -13,12 +13,17 @@ slave's time, through the emulated delay of the other direction. The network run
 threads of a :class:`~drake_sot.remote.peer.Peer`.
 
 Clocks and pacing. The slave waits for this client before it starts, so both clocks start
-together (within the connection's set-up). This side runs at ``realtime`` × real time, and never
-ahead of the slave's stamps: after reaching ``t`` it waits for the slave's message of time
-``t``, so it follows the slave when the slave is slower than real time. The backward direction is
-then exact (stamped on the slave's clock); a forward write acts at the slave's first tick after it
-arrives, 0 or 1 control period after the one-diagram ``Channel`` delivers it (when the slave is
-already past its tick's input when the write arrives).
+together (within the connection's set-up; the subscription is sent first, so the slave's
+first ticks are streamed too). This side runs at ``realtime`` × real time, and never ahead of the
+slave's stamps: after reaching ``t`` it waits for the slave's message of time ``t``, so it follows
+the slave when the slave is slower than real time (0.3-0.4 × here). The backward direction is
+then exact to a tick (stamped on the slave's clock). A forward write acts at the slave's first
+tick after it arrives: it lands while the slave steps from the tick it was meant for, so it is
+mostly one period late, which the forward link's delay compensates (:data:`FORWARD_LATENCY`);
+the rest is jitter of the transport and of the two processes' scheduling (measured on loopback,
+2 busy cores: 73 % of the writes act at the one-diagram ``Channel``'s tick, 15 % a tick early,
+12 % 1-4 ticks late; ``tests/test_telecoop_two_process.py``). With ``delay`` below one period
+the forward link cannot compensate: the writes are then a tick late.
 """
 
 from __future__ import annotations
@@ -45,8 +50,8 @@ from drake_sot.systems.telecoop import MASTER_SIZE
 #: The control period of both sides [s] (the slave's, HumanoidSoTBuilder's default).
 PERIOD = 0.005
 #: [s] a write's latency on the slave's clock: it lands while the slave steps from the tick it
-#: was meant for, and acts at the next tick (measured: 87 % of writes one period late, 10 % two,
-#: when the writes waited for their replies; see tests/test_telecoop_two_process.py).
+#: was meant for, and acts at the next tick (measured: 73 % of the writes one period late, see
+#: the module docstring).
 FORWARD_LATENCY = PERIOD
 #: [s] of wall time to wait for the slave's next message before the run fails.
 SLAVE_TIMEOUT = 60.0
