@@ -40,28 +40,33 @@ DELAY = 0.14
 TIMEOUT = 900.0  # [s] of wall time for each process (the slave runs at ~0.3 x real time here)
 
 
+def _start(*args: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [*DRAKE_SOT, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO
+    )
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     out = tmp_path_factory.mktemp("two_process")
-    slave = subprocess.Popen(
-        [*DRAKE_SOT, "serve", "telecoop_slave", "--port", "0", "--duration", str(DURATION)]
-        + ["--out", str(out / "slave")],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=REPO,
+    slave = _start(
+        "serve", "telecoop_slave", "--port", "0", "--duration", str(DURATION), "--out", str(out / "slave")
     )
     try:
         first = slave.stdout.readline()
         match = re.fullmatch(r"serving on (\S+:\d+)\n", first)
         assert match is not None, (first, slave.stderr.read() if slave.poll() is not None else "")
-        master = subprocess.Popen(
-            [*DRAKE_SOT, "run", "telecoop_master", "--connect", match.group(1)]
-            + ["--duration", str(DURATION), "--delay", str(DELAY), "--out", str(out / "master")],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            cwd=REPO,
+        master = _start(
+            "run",
+            "telecoop_master",
+            "--connect",
+            match.group(1),
+            "--duration",
+            str(DURATION),
+            "--delay",
+            str(DELAY),
+            "--out",
+            str(out / "master"),
         )
         # the one-process run meanwhile, in this process
         one = run_scenario(

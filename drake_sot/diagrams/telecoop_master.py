@@ -29,6 +29,7 @@ the forward link cannot compensate: the writes are then a tick late.
 from __future__ import annotations
 
 import time as wallclock
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -160,7 +161,7 @@ class PeerScenario:
 
     name: str
     description: str
-    run: object
+    run: Callable[..., MasterOutput]
     parameters: tuple[str, ...] = ()
 
 
