@@ -57,7 +57,6 @@ class Peer:
         self._outgoing: tuple[float, ...] | None = None
         self._failure: str | None = None
         self._closing = False
-        self.writes = 0  # writes the server acknowledged
         self._reader_client = Client(host, port, token=token, timeout=timeout)
         self._reader_client.send_raw(
             encode({"id": "subscribe", "op": "subscribe", "signal": read, "period": period})
@@ -162,6 +161,5 @@ class Peer:
                 reply = self._writer_client.receive()
                 if not reply.get("ok", False):
                     raise RemoteError(reply.get("error", f"unexpected message {reply!r}"))
-                self.writes += 1
         except Exception as exc:  # noqa: BLE001 - kept, raised in the simulator's thread
             self._fail("writing", exc)
