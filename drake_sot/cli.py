@@ -34,6 +34,7 @@ from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
+from drake_sot.remote.peer import PeerError
 from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
@@ -176,11 +177,8 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser) -> int:
     def run_it() -> int:
         try:
             output = peer.run(*args.connect, args.out, token=token, progress=progress, **parameters)
-        except OSError as exc:  # could not connect: nothing simulated
-            print(
-                f"{args.scenario}: cannot connect to {args.connect[0]}:{args.connect[1]}: {exc}",
-                file=sys.stderr,
-            )
+        except PeerError as exc:  # could not connect: nothing simulated
+            print(f"{args.scenario}: {exc}", file=sys.stderr)
             return 1
         for path in output.files.values():
             print(f"wrote {path}")

@@ -36,7 +36,11 @@ class PeerError(RuntimeError):
 
 class Peer:
     """Connects twice to ``host:port``: subscribes to ``read`` every ``period`` [s] and writes
-    ``write``; :meth:`close` ends both threads. ``token``: the server's token, if it has one."""
+    ``write``; :meth:`close` ends the threads. ``token``: the server's token, if it has one.
+
+    Raises:
+        PeerError: the connection could not be made (the address and why).
+    """
 
     def __init__(
         self,
@@ -57,11 +61,14 @@ class Peer:
         self._outgoing: tuple[float, ...] | None = None
         self._failure: str | None = None
         self._closing = False
-        self._reader_client = Client(host, port, token=token, timeout=timeout)
-        self._reader_client.send_raw(
-            encode({"id": "subscribe", "op": "subscribe", "signal": read, "period": period})
-        )
-        self._writer_client = Client(host, port, token=token, timeout=timeout)
+        try:
+            self._reader_client = Client(host, port, token=token, timeout=timeout)
+            self._reader_client.send_raw(
+                encode({"id": "subscribe", "op": "subscribe", "signal": read, "period": period})
+            )
+            self._writer_client = Client(host, port, token=token, timeout=timeout)
+        except OSError as exc:
+            raise PeerError(f"cannot connect to {host}:{port}: {exc}") from exc
         self._threads = [
             threading.Thread(target=target, name=f"drake-sot-peer-{name}", daemon=True)
             for name, target in (("read", self._reader), ("write", self._writer), ("ack", self._acks))
