@@ -11,8 +11,9 @@ sends back is readable and subscribable: ``hand_positions.positions`` (6,) [m], 
 ``[right; left]`` in the world.
 
 The delay, jitter and loss of the link are emulated on the master's side (both directions), so
-this side takes no ``delay``. The run waits for its master's connection before it starts
-(``extras["wait_for_client"]``), so that both sides start their clocks together.
+this side takes no ``delay``. Served by ``drake-sot serve``, the run waits for its master's
+connection before it starts (``extras["wait_for_client"]``), so that both sides start their
+clocks together.
 """
 
 from __future__ import annotations
