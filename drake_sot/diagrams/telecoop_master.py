@@ -21,8 +21,8 @@ then exact to a tick (stamped on the slave's clock). A forward write acts at the
 tick after it arrives: it lands while the slave steps from the tick it was meant for, so it is
 mostly one period late, which the forward link's delay compensates (:data:`FORWARD_LATENCY`);
 the rest is jitter of the transport and of the two processes' scheduling (measured on loopback,
-2 busy cores: 73 % of the writes act at the one-diagram ``Channel``'s tick, 15 % a tick early,
-12 % 1-4 ticks late; ``tests/test_telecoop_two_process.py``). With ``delay`` below one period
+2 busy cores, two runs: 68-73 % of the writes act at the one-diagram ``Channel``'s tick,
+15-21 % a tick early, 10-12 % 1-6 ticks late; ``tests/test_telecoop_two_process.py``). With ``delay`` below one period
 the forward link cannot compensate: the writes are then a tick late.
 """
 
@@ -51,7 +51,7 @@ from drake_sot.systems.telecoop import MASTER_SIZE
 #: The control period of both sides [s] (the slave's, HumanoidSoTBuilder's default).
 PERIOD = 0.005
 #: [s] a write's latency on the slave's clock: it lands while the slave steps from the tick it
-#: was meant for, and acts at the next tick (measured: 73 % of the writes one period late, see
+#: was meant for, and acts at the next tick (measured: 68-73 % of the writes one period late, see
 #: the module docstring).
 FORWARD_LATENCY = PERIOD
 #: [s] of wall time to wait for the slave's next message before the run fails.
