@@ -24,7 +24,7 @@ from typing import NoReturn, TextIO
 
 from pydrake.systems.analysis import Simulator
 
-from drake_sot.diagrams import SCENARIOS, STUDIES
+from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.humanoid import with_command_server
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
@@ -34,6 +34,7 @@ from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
+from drake_sot.remote.peer import PeerError
 from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
@@ -142,6 +143,69 @@ def _push(text: str) -> ExternalPush:
     return ExternalPush(values["T"], body, (values["FX"], values["FY"], values["FZ"]), values["DURATION"])
 
 
+# --- two-process mode ---
+def _host_port(text: str) -> tuple[str, int]:
+    """An argparse ``type``: ``HOST:PORT`` (PORT in 1-65535)."""
+    host, colon, port = text.rpartition(":")
+    if not colon or not host or not port.isdigit() or not (1 <= int(port) <= 65535):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected HOST:PORT, PORT in 1-65535")
+    return host, int(port)
+
+
+def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser) -> int:
+    """``drake-sot run PEER --connect HOST:PORT``: a scenario run as the client of a served one."""
+    peer = PEERS[args.scenario]
+    takes = ("--connect", "--token", "--duration", "--out", *(f"--{name}" for name in peer.parameters))
+    given = {"--connect": args.connect is not None, "--token": args.token is not None}
+    for option in _RUN_FLAGS:
+        value = getattr(args, option[2:].replace("-", "_"))
+        given[option] = value is not None and value is not False and value != []
+    refused = [option for option, present in given.items() if present and option not in takes]
+    if refused:
+        run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
+    if args.connect is None:
+        run.error(f"{args.scenario} needs --connect HOST:PORT (the address of the served scenario)")
+    try:
+        output_directory(args.out)
+    except OSError as exc:
+        run.error(f"--out: {exc}")
+    parameters = {name: getattr(args, name) for name in peer.parameters if getattr(args, name) is not None}
+    parameters |= {"duration": args.duration} if args.duration is not None else {}
+    token = args.token if args.token is not None else os.environ.get(TOKEN_ENV) or None
+    progress = ProgressBar()
+
+    def run_it() -> int:
+        try:
+            output = peer.run(*args.connect, args.out, token=token, progress=progress, **parameters)
+        except PeerError as exc:  # could not connect: nothing simulated
+            print(f"{args.scenario}: {exc}", file=sys.stderr)
+            return 1
+        for path in output.files.values():
+            print(f"wrote {path}")
+        if output.result.failure is not None:
+            print(
+                f"the run failed at t = {output.result.end_time:.3f} s: {output.result.failure}",
+                file=sys.stderr,
+            )
+        return exit_status(output.result)
+
+    return _interruptible(run_it, progress, args.out)
+
+
+#: The options of ``run`` a peer scenario may refuse (their ``args`` attribute is None, False or
+#: empty when not given).
+_RUN_FLAGS = (
+    "--workers",
+    "--transition",
+    "--decision",
+    "--no-record",
+    "--push",
+    "--no-stabilizer",
+    "--robot",
+)
+# --- end two-process mode ---
+
+
 def _is_number(text: str) -> bool:
     try:
         float(text)
@@ -162,7 +226,7 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         epilog="exit status: 0 completed, 1 failed, 2 bad arguments, 3 the robot fell, "
         "130 interrupted (Ctrl-C), 143 SIGTERM",
     )
-    names = sorted(SCENARIOS) + sorted(STUDIES)
+    names = sorted(SCENARIOS) + sorted(STUDIES) + sorted(PEERS)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
     _simulation_options(run, "simulated seconds (of each run of a study), finite and > 0")
     run.add_argument(
@@ -201,6 +265,21 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         help="telecooperation: one-way delay of the link [s], 0-0.3 (default 0.14)",
     )
     # --- end telecooperation ---
+    # --- two-process mode: a scenario run as the client of a served one ---
+    run.add_argument(
+        "--connect",
+        type=_host_port,
+        default=None,
+        metavar="HOST:PORT",
+        help=f"{', '.join(sorted(PEERS))}: the address of the served scenario to connect to (required)",
+    )
+    run.add_argument(
+        "--token",
+        default=None,
+        metavar="T",
+        help=f"with --connect: the server's shared secret (default: ${TOKEN_ENV})",
+    )
+    # --- end two-process mode ---
     run.add_argument(
         "--no-stabilizer",
         action="store_true",
@@ -264,6 +343,14 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg)",
     )
     _robot_option(serve)
+    # --- two-process mode ---
+    serve.add_argument(
+        "--leader",
+        choices=("operator", "cooperator"),
+        default=None,
+        help="telecoop_slave: who leads the walk (default operator)",
+    )
+    # --- end two-process mode ---
     _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
     shell = sub.add_parser("shell", help="the interactive coshell of a 'drake-sot serve' server")
     _address_options(shell, "server address (default 127.0.0.1)")
@@ -350,7 +437,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{name:20s} {SCENARIOS[name].description}")
         for name in sorted(STUDIES):
             print(f"{name:20s} {STUDIES[name].description}")
+        for name in sorted(PEERS):  # two-process mode
+            print(f"{name:20s} {PEERS[name].description}")
         return 0
+    # --- two-process mode ---
+    if args.scenario in PEERS:
+        return _run_peer(args, run)
+    if args.connect is not None or args.token is not None:
+        run.error(
+            f"{args.scenario} takes no {'--connect' if args.connect is not None else '--token'} "
+            f"(only {', '.join(sorted(PEERS))} takes it)"
+        )
+    # --- end two-process mode ---
     study = args.scenario in STUDIES
     takes = ("--duration", "--out")
     takes += ("--workers",) if study else ("--no-record", "--push")
@@ -426,6 +524,12 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     parameters = {"robot": args.robot} if args.robot is not None and args.target in SCENARIOS else {}
     if parameters and "robot" not in scenario.parameters:
         parser.error(f"serve: {args.target} takes no --robot")
+    # --- two-process mode ---
+    if args.leader is not None:
+        if "leader" not in scenario.parameters:
+            parser.error(f"serve: {args.target} takes no --leader")
+        parameters["leader"] = args.leader
+    # --- end two-process mode ---
     if args.out is not None:
         try:
             output_directory(args.out)
@@ -441,6 +545,11 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"serving on {address[0]}:{address[1]}", flush=True)
             view = setup.built.meshcat.web_url()
             print(f"live view (stack and task errors in the controls): {view}", flush=True)
+            # --- two-process mode: one half of a run starts with its peer ---
+            if setup.extras.get("wait_for_client"):
+                print("waiting for the first client before the run starts", flush=True)
+                network.connected.wait()
+            # --- end two-process mode ---
 
         result = serve_run(
             setup, simulator, network, duration, realtime=args.realtime, on_ready=ready, **kwargs

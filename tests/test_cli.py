@@ -28,11 +28,13 @@ def test_list_names_the_scenarios():
         "priority_switching",
         "reach",
         "table_pounding",
+        "telecoop_slave",
         "telecooperation",
         "walk",
         "walk_long",
         "walk_then_interact",
         "alpha_sweep",
+        "telecoop_master",
     ]
 
 

@@ -26,3 +26,51 @@ def test_a_delay_beyond_300_ms_is_refused_by_the_scenario():
         SCENARIOS["telecooperation"].build(None, delay=0.31)
     with pytest.raises(ValueError, match="leader"):
         SCENARIOS["telecooperation"].build(None, leader="nobody")
+
+
+# --- two-process mode: serve telecoop_slave, run telecoop_master --connect HOST:PORT ---
+
+
+def test_connect_is_telecoop_masters_and_it_needs_it(capsys):
+    for argv, named in (
+        (["run", "reach", "--connect", "127.0.0.1:7777"], "reach takes no --connect"),
+        (["run", "telecoop_master"], "needs --connect HOST:PORT"),
+        (
+            ["run", "telecoop_master", "--connect", "127.0.0.1:7777", "--no-stabilizer"],
+            "takes no --no-stabilizer",
+        ),
+        (["run", "telecoop_master", "--connect", "nowhere"], "expected HOST:PORT"),
+        (["run", "telecoop_master", "--connect", "127.0.0.1:70000"], "expected HOST:PORT"),
+        (["serve", "reach", "--leader", "cooperator", "--port", "0"], "reach takes no --leader"),
+    ):
+        with pytest.raises(SystemExit) as exit_:
+            cli.main(argv)
+        assert exit_.value.code == 2, argv
+        assert named in capsys.readouterr().err, argv
+
+
+def test_the_two_halves_are_listed(capsys):
+    assert cli.main(["list"]) == 0
+    listed = capsys.readouterr().out
+    assert "telecoop_slave" in listed and "telecoop_master" in listed
+
+
+def test_a_master_without_its_slave_fails_to_connect_and_says_where(tmp_path, capsys):
+    import socket
+
+    with socket.socket() as probe:  # a loopback port nobody listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    assert cli.main(["run", "telecoop_master", "--connect", f"127.0.0.1:{port}", "--out", str(tmp_path)]) == 1
+    assert f"cannot connect to 127.0.0.1:{port}" in capsys.readouterr().err
+
+
+def test_the_slave_declares_what_the_master_writes_and_nothing_of_the_master():
+    setup = SCENARIOS["telecoop_slave"].build(None)
+    remote = setup.built.remote
+    assert remote is not None and remote.get_name() == "remote"
+    assert {name: w.size for name, w in remote.writables.items()} == {"master": 9}
+    assert setup.extras["wait_for_client"] is True
+    assert not {"channel", "master", "operator"} & set(setup.extras)
+    names = {s.get_name() for s in setup.built.diagram.GetSystems()}
+    assert "hand_positions" in names and "master" not in names and "channel" not in names

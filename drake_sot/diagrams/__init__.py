@@ -6,6 +6,8 @@ from drake_sot.diagrams import (
     priority_switching,
     reach,
     table_pounding,
+    telecoop_master,
+    telecoop_slave,
     telecooperation,
     walk,
     walk_long,
@@ -24,10 +26,14 @@ SCENARIOS: dict[str, Scenario] = {
         priority_switching.SCENARIO,
         table_pounding.SCENARIO,
         telecooperation.SCENARIO,
+        telecoop_slave.SCENARIO,
     )
 }
+
+#: Scenarios run as the client of a served one (``drake-sot run NAME --connect HOST:PORT``).
+PEERS: dict[str, telecoop_master.PeerScenario] = {s.name: s for s in (telecoop_master.SCENARIO,)}
 
 #: Batches of simulations (the ``drake-sot run`` command accepts them like scenarios).
 STUDIES: dict[str, alpha_sweep.Study] = {s.name: s for s in (alpha_sweep.STUDY,)}
 
-__all__ = ["SCENARIOS", "STUDIES", "Scenario"]
+__all__ = ["PEERS", "SCENARIOS", "STUDIES", "Scenario"]

@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -64,6 +65,7 @@ from pydrake.geometry import Box, Meshcat
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FixedOffsetFrame, LinearBushingRollPitchYaw, SpatialInertia
+from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Multiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
@@ -104,6 +106,9 @@ STACK = (
     "taskPosture",
 )
 GRIPPERS = ("r_gripper", "l_gripper")
+#: The two-process mode: the signal the master writes on the slave's server, and its units.
+MASTER_WRITABLE = "master"
+MASTER_UNITS = "N (forces right, left), rad (head yaw, pitch), rad (aperture)"
 
 INTERACT_AT = 1.0  # [s] the leader lifts the board by LIFT, then sets it back, standing
 LIFT = 0.05  # [m]
@@ -175,16 +180,92 @@ def _references() -> TrajectorySource:
     return TrajectorySource(PiecewisePolynomial.FirstOrderHold(times, values))
 
 
+# --- the master site, shared with the two-process mode (telecoop_master) -----------------------
+@dataclass(frozen=True)
+class MasterSide:
+    """The master site's systems in a diagram: ``sent`` outputs what goes to the slave,
+    ``[forces (6,) [N]; head yaw, pitch (2,) [rad]; aperture (1,) [rad]]`` (:data:`MASTER_LAYOUT`);
+    ``master.slave_hands`` is left for the link to feed."""
+
+    master: MasterSite
+    operator: Operator
+    head_grip: TrajectorySource
+    sent: Multiplexer
+
+
+def initial_link_values() -> tuple[np.ndarray, np.ndarray]:
+    """What each side holds before the first packet: the master's vector (no force, head level,
+    the grippers at half-sitting) and the slave's hands ``[right; left]`` [m] at half-sitting."""
+    hands = _initial_hands()
+    plant, info = make_control_model()
+    q0 = half_sitting_configuration(plant, info)
+    forward = np.zeros(MASTER_SIZE)
+    forward[MASTER_LAYOUT["grip"]] = q0[plant.GetJointByName(GRIPPERS[0]).position_start()]
+    return forward, np.concatenate([hands[side].translation() for side in SIDES])
+
+
+def add_master_site(
+    builder: DiagramBuilder, x_s0: np.ndarray, leader: str, walk: bool, period: float
+) -> MasterSide:
+    """The master site (IV): the arms and base, the operator (leading or following the
+    co-operator), the head and gripper references, wired together; ``x_s0`` the slave's hands."""
+    operator_lag = 0.0 if leader == "operator" else LAG
+    waypoints = _waypoints(walk)
+    path = piecewise_linear_path([0.0, 0.0, 0.0], waypoints, SPEED, t0=INTERACT_AT + operator_lag)
+    body0 = np.array([0.0, 0.0, 0.9])
+    k_op, b_op = LEADER_IMPEDANCE if leader == "operator" else FOLLOWER_IMPEDANCE
+
+    def intention(t: float) -> tuple[np.ndarray, np.ndarray]:
+        p, v = path(t)
+        return x_s0 + np.tile(p, 2), np.tile(v, 2)
+
+    def body(t: float) -> tuple[np.ndarray, np.ndarray]:
+        p, v = path(t)
+        return body0 + p, v
+
+    master = builder.AddSystem(MasterSite(x_s0, period=period, **MASTER_ADMITTANCE))
+    operator = builder.AddSystem(Operator(intention, body, stiffness=k_op, damping=b_op, period=period))
+    builder.Connect(operator.GetOutputPort("forces"), master.GetInputPort("handle_forces"))
+    builder.Connect(master.GetOutputPort("hands"), operator.GetInputPort("hands"))
+    builder.Connect(master.GetOutputPort("hand_velocities"), operator.GetInputPort("hand_velocities"))
+    head_grip = builder.AddSystem(_references())
+    head_grip.set_name("head_and_grip")
+    sent = builder.AddSystem(Multiplexer([6, 3]))
+    builder.Connect(master.GetOutputPort("forces"), sent.get_input_port(0))
+    builder.Connect(head_grip.get_output_port(), sent.get_input_port(1))
+
+    return MasterSide(master, operator, head_grip, sent)
+
+
+def master_logs(side: MasterSide) -> tuple[tuple[str, OutputPort], ...]:
+    """The master site's logs, by name."""
+    return (
+        ("operator_forces", side.operator.GetOutputPort("forces")),
+        ("operator_hands", side.master.GetOutputPort("hands")),
+        ("operator_intention", side.operator.GetOutputPort("intention")),
+        ("operator_body", side.operator.GetOutputPort("body")),
+        ("master_base", side.master.GetOutputPort("base")),
+        ("master_offsets", side.master.GetOutputPort("offsets")),
+        ("head_grip_ref", side.head_grip.get_output_port()),
+    )
+
+
+# --- end of the master site ---
+
+
 def build(
     meshcat: Meshcat | None = None,
     leader: str = "operator",
     delay: float = DEFAULT_DELAY,
     pushes: Sequence[ExternalPush] = (),
     walk: bool = True,
+    remote: bool = False,
 ) -> ScenarioSetup:
     """Build the ``telecooperation`` diagram; ``leader`` is ``"operator"`` or ``"cooperator"``,
     ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot;
-    ``walk=False``: the leader only lifts and sets back the board (standing interaction)."""
+    ``walk=False``: the leader only lifts and sets back the board (standing interaction);
+    ``remote=True``: the slave side only, what the master sends written to the command server's
+    ``remote.master`` (see ``telecoop_slave``; ``delay`` is then the master process's)."""
     if leader not in LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
     delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
@@ -260,58 +341,46 @@ def build(
     builder.Connect(pg.GetOutputPort("planned_feet"), decider.GetInputPort("planned_feet"))
     builder.Connect(decider.GetOutputPort("next_footprint"), pg.GetInputPort("next_footprint"))
 
-    # --- the link ----------------------------------------------------------------------------
-    grip0 = b.q0[b.control_plant.GetJointByName(GRIPPERS[0]).position_start()]
-    initial = np.zeros(MASTER_SIZE)
-    initial[MASTER_LAYOUT["grip"]] = grip0
-    channel = builder.AddSystem(
-        Channel(
-            MASTER_SIZE,
-            6,
-            forward=LinkConfig(delay=delay, seed=0),
-            backward=LinkConfig(delay=delay, seed=1),
-            period=b.control_period,
-            forward_initial=initial,
-            backward_initial=x_s0,
+    # --- the link: a Channel and the master site here, or (remote) the server's writable -----
+    initial, _ = initial_link_values()
+    link_logs: tuple[tuple[str, OutputPort], ...]
+    if remote:  # the master site is another process (telecoop_master): it writes, and delays
+        received = b.declare_writable(MASTER_WRITABLE, MASTER_SIZE, MASTER_UNITS, initial)
+        builder.Connect(received, references.GetInputPort("master"))
+        link_logs = (("received_by_slave", received),)
+        extras: dict = {"wait_for_client": True}
+    else:
+        channel = builder.AddSystem(
+            Channel(
+                MASTER_SIZE,
+                6,
+                forward=LinkConfig(delay=delay, seed=0),
+                backward=LinkConfig(delay=delay, seed=1),
+                period=b.control_period,
+                forward_initial=initial,
+                backward_initial=x_s0,
+            )
         )
-    )
-    builder.Connect(channel.GetOutputPort("forward_out"), references.GetInputPort("master"))
-    builder.Connect(hand_positions.GetOutputPort("positions"), channel.GetInputPort("backward_in"))
-
-    # --- master side -------------------------------------------------------------------------
-    operator_lag = 0.0 if leader == "operator" else LAG
-    waypoints = _waypoints(walk)
-    path = piecewise_linear_path([0.0, 0.0, 0.0], waypoints, SPEED, t0=INTERACT_AT + operator_lag)
-    body0 = np.array([0.0, 0.0, 0.9])
-    k_op, b_op = LEADER_IMPEDANCE if leader == "operator" else FOLLOWER_IMPEDANCE
-
-    def intention(t: float) -> tuple[np.ndarray, np.ndarray]:
-        p, v = path(t)
-        return x_s0 + np.tile(p, 2), np.tile(v, 2)
-
-    def body(t: float) -> tuple[np.ndarray, np.ndarray]:
-        p, v = path(t)
-        return body0 + p, v
-
-    master = builder.AddSystem(MasterSite(x_s0, period=b.control_period, **MASTER_ADMITTANCE))
-    operator = builder.AddSystem(
-        Operator(intention, body, stiffness=k_op, damping=b_op, period=b.control_period)
-    )
-    builder.Connect(channel.GetOutputPort("backward_out"), master.GetInputPort("slave_hands"))
-    builder.Connect(operator.GetOutputPort("forces"), master.GetInputPort("handle_forces"))
-    builder.Connect(master.GetOutputPort("hands"), operator.GetInputPort("hands"))
-    builder.Connect(master.GetOutputPort("hand_velocities"), operator.GetInputPort("hand_velocities"))
-    head_grip = builder.AddSystem(_references())
-    head_grip.set_name("head_and_grip")
-    sent = builder.AddSystem(Multiplexer([6, 3]))
-    builder.Connect(master.GetOutputPort("forces"), sent.get_input_port(0))
-    builder.Connect(head_grip.get_output_port(), sent.get_input_port(1))
-    builder.Connect(sent.get_output_port(), channel.GetInputPort("forward_in"))
+        builder.Connect(channel.GetOutputPort("forward_out"), references.GetInputPort("master"))
+        builder.Connect(hand_positions.GetOutputPort("positions"), channel.GetInputPort("backward_in"))
+        side = add_master_site(builder, x_s0, leader, walk, b.control_period)
+        builder.Connect(channel.GetOutputPort("backward_out"), side.master.GetInputPort("slave_hands"))
+        builder.Connect(side.sent.get_output_port(), channel.GetInputPort("forward_in"))
+        link_logs = (
+            *master_logs(side),
+            ("received_by_slave", channel.GetOutputPort("forward_out")),
+            ("received_by_master", channel.GetOutputPort("backward_out")),
+            ("delay_forward", channel.GetOutputPort("forward_age")),
+            ("delay_backward", channel.GetOutputPort("backward_age")),
+        )
+        extras = {"channel": channel, "master": side.master, "operator": side.operator}
+    # --- end of the link ---
 
     # --- remote site: the co-operator holds the board's far end ----------------------------
     cooperator_lag = LAG if leader == "operator" else 0.0
     k_co, b_co = FOLLOWER_IMPEDANCE if leader == "operator" else LEADER_IMPEDANCE
     t = INTERACT_AT + cooperator_lag
+    waypoints = _waypoints(walk)
     keyframes = [(0.0, (0.0, 0.0, 0.0)), (t, (0.0, 0.0, 0.0))]
     previous = np.zeros(3)
     for point in waypoints:
@@ -338,22 +407,12 @@ def build(
     for name, port in (
         ("board_state", b.plant.get_state_output_port(board_instance)),
         ("cooperator_force", cooperator.GetOutputPort("forces")),
-        ("operator_forces", operator.GetOutputPort("forces")),
-        ("operator_hands", master.GetOutputPort("hands")),
-        ("operator_intention", operator.GetOutputPort("intention")),
-        ("operator_body", operator.GetOutputPort("body")),
-        ("master_base", master.GetOutputPort("base")),
-        ("master_offsets", master.GetOutputPort("offsets")),
+        *link_logs,  # (two-process mode: the master's logs are the master's)
         ("robot_hands", hand_positions.GetOutputPort("positions")),
-        ("received_by_slave", channel.GetOutputPort("forward_out")),
-        ("received_by_master", channel.GetOutputPort("backward_out")),
-        ("delay_forward", channel.GetOutputPort("forward_age")),
-        ("delay_backward", channel.GetOutputPort("backward_age")),
         ("step_error", decider.GetOutputPort("error")),
         ("planned_stance", decider.GetOutputPort("stance")),
         ("in_process", pg.GetOutputPort("in_process")),
         ("phase", pg.GetOutputPort("phase")),
-        ("head_grip_ref", head_grip.get_output_port()),
     ):
         b.log(name, port)
     for task_name, admittance in admittances.items():
@@ -371,9 +430,7 @@ def build(
         duration=DURATION,
         extras={
             "pattern_generator": pg,
-            "channel": channel,
-            "master": master,
-            "operator": operator,
+            **extras,  # the link's
             "decider": decider,
             "rule": rule,
             "sequencer": sequencer,
