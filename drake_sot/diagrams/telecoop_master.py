@@ -22,8 +22,8 @@ tick after it arrives: it lands while the slave steps from the tick it was meant
 mostly one period late, which the forward link's delay compensates (:data:`FORWARD_LATENCY`);
 the rest is jitter of the transport and of the two processes' scheduling (measured on loopback,
 2 busy cores, two runs: 68-73 % of the writes act at the one-diagram ``Channel``'s tick,
-15-21 % a tick early, 10-12 % 1-6 ticks late; ``tests/test_telecoop_two_process.py``). With ``delay`` below one period
-the forward link cannot compensate: the writes are then a tick late.
+15-21 % a tick early, 10-12 % 1-6 ticks late; ``tests/test_telecoop_two_process.py``). With
+``delay`` below one period the forward link cannot compensate: the writes are then a tick late.
 """
 
 from __future__ import annotations
