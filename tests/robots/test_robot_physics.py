@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from robot_data import robot_or_skip
 
+from drake_sot.diagrams import alpha_sweep, reach, walk
 from drake_sot.diagrams import priority_switching as ps
-from drake_sot.diagrams import reach, walk
 from drake_sot.diagrams import table_pounding as tp
 from drake_sot.diagrams import walk_then_interact as wti
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
@@ -208,3 +208,19 @@ def test_table_pounding_presses_30_newtons_without_foot_slip(name, tmp_path):
     since_phase = np.min([np.where(t >= p.start, t - p.start, np.inf) for p in tp.PHASES], axis=0)
     assert np.all(status[since_phase > 0.02 + 1e-9] == 0), f"{name}: status {np.unique(status)}"
     assert np.all(status <= 1)
+
+
+def test_alpha_sweep_on_talos_gives_the_task_with_priority_the_smaller_steady_error(tmp_path):
+    """The sweep's corners on TALOS, through its worker processes: with the left hand over the
+    head (α_lh,head = 0, α_head,lh = 1) the left hand's steady error is the smaller, with
+    the head over the left hand the head's; with both restricting each other neither wins
+    outright, and the sweep ran on TALOS, not on the embedded robot."""
+    robot_or_skip("talos")
+    files = alpha_sweep.run(tmp_path, grid=(0.0, 1.0), duration=3.0, workers=2, robot="talos")
+    sweep = np.load(files["npz"])
+    head, lh = sweep["head_error"], sweep["lh_error"]
+    assert sweep["done"].all()
+    assert lh[0, 1] < 0.5 * head[0, 1], (lh[0, 1], head[0, 1])  # the left hand has priority
+    assert head[1, 0] < 0.5 * lh[1, 0], (head[1, 0], lh[1, 0])  # the head has priority
+    embedded = alpha_sweep.steady_errors(0.0, 1.0, duration=3.0)
+    assert not np.allclose(embedded, (head[0, 1], lh[0, 1]), rtol=0.05)
