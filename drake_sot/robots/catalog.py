@@ -229,12 +229,14 @@ def talos() -> RobotDescription:
             *_limbs(
                 # the joint origins along each link: hip 0.38 m above the knee, knee 0.325 m
                 # above the ankle, shoulder 0.273 m above the elbow, elbow 0.264 m above the
-                # wrist; the thigh and the shank carry their actuators on the outer side
-                thigh=CollisionShape("leg_{side}_3_link", "capsule", (0.075, 0.35), (0.005, 0.0, -0.19)),
+                # wrist; the thigh and the shank carry their actuators on the outer side; their
+                # inner sides are 5 cm from the hip's axis (the meshes' 7-8 cm would leave the
+                # two legs 1 cm apart: they knocked together in the walk's turn)
+                thigh=CollisionShape("leg_{side}_3_link", "capsule", (0.06, 0.35), (0.005, 0.01, -0.19)),
                 thigh_motor=CollisionShape(
                     "leg_{side}_3_link", "box", (0.13, 0.16, 0.40), (0.005, 0.115, -0.19)
                 ),
-                shank=CollisionShape("leg_{side}_4_link", "capsule", (0.065, 0.28), (0.007, 0.0, -0.15)),
+                shank=CollisionShape("leg_{side}_4_link", "capsule", (0.055, 0.28), (0.007, 0.01, -0.15)),
                 shank_motor=CollisionShape(
                     "leg_{side}_4_link", "box", (0.12, 0.13, 0.36), (0.007, 0.10, -0.15)
                 ),
