@@ -85,21 +85,8 @@ def test_the_standing_robot_touches_only_the_ground_and_only_with_its_soles(name
 @pytest.mark.parametrize("name", ROBOTS)
 def test_a_3000_N_shove_knocks_the_robot_down_onto_its_limbs_and_the_command_exits_3(name, tmp_path, capsys):
     robot_or_skip(name)
-    code = cli.main(
-        [
-            "run",
-            "reach",
-            "--robot",
-            name,
-            "--duration",
-            "5",
-            "--no-record",
-            "--out",
-            str(tmp_path),
-            "--push",
-            "0.5,pelvis,0,3000,0,0.1",
-        ]
-    )
+    argv = ["run", "reach", "--robot", name, "--duration", "5", "--no-record", "--out", str(tmp_path)]
+    code = cli.main([*argv, "--push", "0.5,pelvis,0,3000,0,0.1"])
     err = capsys.readouterr().err
     assert code == 3, err
     assert "the robot fell at t = " in err
