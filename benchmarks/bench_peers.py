@@ -5,25 +5,27 @@
 PlaCo (Rhoban, PyPI ``placo`` 0.10.2) pins ``pin`` 3.8 and ``numpy`` 2.3, so it lives in its own
 virtual environment and is no dependency of the package; this file needs ``placo``, ``pinocchio``
 (installed with placo) and ``example-robot-data`` (6.0.0), and finds ``drake_sot`` on the path. It
-imports no pydrake: the hierarchy module is pure.
+imports no pydrake: the hierarchy module is pure, and TALOS comes from the pure catalog of
+``drake_sot.robots`` (the robot the scenarios and ``bench_robots.py`` simulate).
 
-The problem (TALOS ``talos_reduced.urdf`` from example-robot-data, the half-sitting of its SRDF,
-nv = 38, 32 actuated joints), the same for both sides and solved call by call in one process:
+The problem (TALOS as ``drake_sot.robots.catalog.talos()`` describes it: ``talos_full_v2.urdf``
+from example-robot-data with the robot layer's in-memory fixes (package map, ``package:///``
+typos, the gripper linkage frozen, no geometry), the half-sitting of its SRDF by joint name;
+nv = 36, 30 actuated joints), the same for both sides and solved call by call in one process:
 
     left foot 6D, right foot 6D, CoM 3D, right hand 6D, left hand 3D, head orientation 3D,
-    posture 32D                                         (7 levels, 59 rows)
+    posture 30D                                         (7 levels, 57 rows)
 
 under the joint position limits (``q + dt q̇`` inside them) and velocity limits of the URDF
-(64 inequality rows on the 32 actuated joints), for a 2 s trajectory at dt = 5 ms: the CoM sways
-3 cm sideways, the right hand reaches 0.40 m forward and 0.20 m up (the right wrist and the torso
-reach a limit; the grippers start at theirs), the left hand moves 0.15 m, the head turns 0.4 rad.
-Each side integrates its own q.
+(60 inequality rows on the 30 actuated joints), for a 2 s trajectory at dt = 5 ms: the CoM sways
+3 cm sideways, the right hand reaches 0.40 m forward and 0.20 m up, the left hand moves 0.15 m,
+the head turns 0.4 rad. Each side integrates its own q.
 
 - **drake_sot**: the Jacobians and task errors from Pinocchio (the same library and the same
   URDF text PlaCo loads, so the two sides start from the same task matrices to rounding, checked;
-  Drake would need the package map and mesh fixes of issue 14 to load this URDF, and the
-  comparison would then also measure two kinematics libraries), each level ``J q̇ = e / dt``,
-  under a top level of the 32 joint-limit rows ``velocity_bounds(q, q_min, q_max, 1/dt, ±v_max)``,
+  Drake kinematics would make the comparison also measure two kinematics libraries), each level
+  ``J q̇ = e / dt``,
+  under a top level of the 30 joint-limit rows ``velocity_bounds(q, q_min, q_max, 1/dt, ±v_max)``,
   solved by ``solve_hqp`` (strict priorities). Timed separately: "kinematics" (Pinocchio's
   Jacobians, frame placements, CoM Jacobian, errors, and the integration of q) and "solve".
 - **PlaCo**: the same tasks in one weighted QP (PlaCo has no strict hierarchy): feet "hard"
@@ -58,17 +60,18 @@ import sys
 import time
 from collections.abc import Callable
 from functools import partial
-from importlib.metadata import PackageNotFoundError, distribution, version
+from importlib.metadata import version
 
 import numpy as np
 
 from drake_sot.hierarchy import HqpResult, solve_hqp, solve_strict
 from drake_sot.inequalities import velocity_bounds
+from drake_sot.robots.catalog import RobotDataMissing
+from drake_sot.robots.catalog import talos as talos_description
+from drake_sot.robots.urdf import prepare_urdf
 
 DT = 0.005  #: control period [s]
 DURATION = 2.0  #: trajectory length [s]
-URDF = "robots/talos_data/robots/talos_reduced.urdf"
-SRDF = "robots/talos_data/srdf/talos.srdf"
 FRAMES = {
     "left_foot": "left_sole_link",
     "right_foot": "right_sole_link",
@@ -105,20 +108,22 @@ PLACO_WEIGHTED = {
 PLACO_STRICT = {name: ("hard", 1.0) for name, _ in STACK} | {"posture": ("soft", 1.0)}
 
 
-def example_robot_data() -> pathlib.Path:
-    """The ``share/example-robot-data`` directory of the installed wheel (it has no Python module)."""
+def talos_model() -> tuple[pathlib.Path, str, dict[str, float]]:
+    """TALOS as ``drake_sot.robots`` describes it (its pure catalog: no pydrake): the model file,
+    the URDF text with the robot layer's fixes and without geometry, and the half-sitting angle
+    [rad] of every moving joint (from the SRDF)."""
     try:
-        share = distribution("example-robot-data").locate_file("cmeel.prefix/share/example-robot-data")
-    except PackageNotFoundError as error:
-        raise SystemExit("example-robot-data is not installed: run `make bench-peers`") from error
-    return pathlib.Path(str(share))
-
-
-def talos_urdf_text(share: pathlib.Path) -> str:
-    """The URDF with its ``package://example-robot-data/`` URIs made absolute (the package.xml of
-    the wheel names another package, so neither loader resolves them unaided)."""
-    text = (share / URDF).read_text()
-    return text.replace("package://example-robot-data/", f"{share}/")
+        robot = talos_description()
+    except RobotDataMissing as error:
+        raise SystemExit(f"{error}; or run `make bench-peers`") from error
+    text, _ = prepare_urdf(
+        robot.model_file.read_text(),
+        packages=robot.packages,
+        mesh_file=None,
+        frozen_joints=robot.frozen_joints,
+        added_welds=robot.added_welds,
+    )
+    return robot.model_file, text, dict(robot.half_sitting)
 
 
 @dataclasses.dataclass
@@ -129,7 +134,7 @@ class Targets:
     left_hand: np.ndarray  # (3,)
     head: np.ndarray  # 3x3
     com: np.ndarray  # (3,)
-    posture: np.ndarray  # (32,) actuated joint positions
+    posture: np.ndarray  # (30,) actuated joint positions
 
 
 def trajectory(start: Targets, t: float) -> Targets:
@@ -151,12 +156,13 @@ def trajectory(start: Targets, t: float) -> Targets:
 class Talos:
     """TALOS in Pinocchio, for the drake_sot side: task Jacobians and errors at q."""
 
-    def __init__(self, pin, urdf_text: str, srdf: pathlib.Path):
+    def __init__(self, pin, urdf_text: str, half_sitting: dict[str, float]):
         self.pin = pin
         self.model = pin.buildModelFromXML(urdf_text, pin.JointModelFreeFlyer())
         self.data = self.model.createData()
-        pin.loadReferenceConfigurations(self.model, str(srdf), False)
-        self.q0 = self.model.referenceConfigurations["half_sitting"].copy()
+        self.q0 = pin.neutral(self.model)  # the base at the origin, upright
+        for name, angle in half_sitting.items():
+            self.q0[self.model.joints[self.model.getJointId(name)].idx_q] = angle
         self.frame_ids = {name: self.model.getFrameId(frame) for name, frame in FRAMES.items()}
         self.nv = self.model.nv
         self.joint_names = [self.model.names[i] for i in range(2, self.model.njoints)]
@@ -326,14 +332,14 @@ def run(passes: int) -> dict:
     import pinocchio as pin
     import placo
 
-    share = example_robot_data()
-    urdf_text = talos_urdf_text(share)
-    talos = Talos(pin, urdf_text, share / SRDF)
+    urdf, urdf_text, half_sitting = talos_model()
+    talos = Talos(pin, urdf_text, half_sitting)
+    assert sorted(talos.joint_names) == sorted(half_sitting), "the description and Pinocchio differ"
     steps = round(DURATION / DT)
     start = talos.targets_at(talos.q0)
     targets = [trajectory(start, k * DT) for k in range(steps)]
-    peer = Placo(placo, share / URDF, urdf_text, talos.q0, PLACO_WEIGHTED, limits=True)
-    checker = Placo(placo, share / URDF, urdf_text, talos.q0, PLACO_STRICT, limits=False)
+    peer = Placo(placo, urdf, urdf_text, talos.q0, PLACO_WEIGHTED, limits=True)
+    checker = Placo(placo, urdf, urdf_text, talos.q0, PLACO_STRICT, limits=False)
     assert peer.joint_names == talos.joint_names, "PlaCo and Pinocchio order the joints differently"
 
     # (1) The same task matrices at the start.
@@ -413,6 +419,8 @@ def run(passes: int) -> dict:
         "limited_joints": limited_joints,
         "steps": steps,
         "passes": passes,
+        "nv": talos.nv,
+        "rows": sum(J.shape[0] for J, _ in talos.tasks(talos.q0, targets[0])),
     }
 
 
@@ -434,20 +442,22 @@ def report(out: dict) -> str:
         return f"| {label} | {median:.0f} µs | {_median_ratio(samples, placo_step):.2f} | {ratio} |"
 
     iterations = out["iterations"]
+    actuated = out["nv"] - 6
     lines = [
-        f"TALOS talos_reduced (nv = 38), {len(STACK)} task levels (59 rows) + 32 joint-limit rows, "
+        f"TALOS talos_full_v2, grippers frozen (drake_sot.robots; nv = {out['nv']}), {len(STACK)} task "
+        f"levels ({out['rows']} rows) + {actuated} joint-limit rows, "
         f"{out['steps']} steps of {1e3 * DT:g} ms x {out['passes']} passes = {pairs} interleaved pairs; "
         f"placo {version('placo')}, pin {version('pin')}, numpy {np.__version__}, Python "
         f"{platform.python_version()}, {datetime.date.today()}",
         "",
         "| measurement | median | ÷ PlaCo step | ÷ PlaCo's part |",
         "|---|---|---|---|",
-        f"| PlaCo step: update_kinematics + solve(True), 64 limit rows | {step:.0f} µs | 1 | - |",
+        f"| PlaCo step: update_kinematics + solve(True), {2 * actuated} limit rows | {step:.0f} µs | 1 | - |",
         f"| - update_kinematics (frames, joint Jacobians) | {us['placo_kin']:.0f} µs | - | 1 |",
         f"| - solve(True) (task Jacobians, errors, QP, integration) | {us['placo_solve']:.0f} µs | - | 1 |",
         row("drake_sot step: kinematics + solve_hqp with limits", ours, None),
         row("- kinematics (Pinocchio, task errors, limit bounds, integration)", t["kin"], t["placo_kin"]),
-        row("- solve_hqp, 32 limit rows above the 7 levels", t["hqp"], t["placo_solve"]),
+        row(f"- solve_hqp, {actuated} limit rows above the 7 levels", t["hqp"], t["placo_solve"]),
         row("solve_hqp, the 7 levels without limits", t["hqp_free"], t["placo_solve"]),
         row("solve_strict, the 7 levels", t["strict"], t["placo_solve"]),
         "",

@@ -20,6 +20,7 @@ from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams.alpha_sweep_plots import plot_alpha_sweep
 from drake_sot.diagrams.artifacts import output_directory, write_npz
 from drake_sot.diagrams.run import Interrupted, SignalGuard, simulate
+from drake_sot.robots import get_robot
 from drake_sot.transitions import AlphaSchedule
 from drake_sot.validation import positive, positive_int
 
@@ -28,11 +29,14 @@ SETTLE = 4.0  # [s] simulated per point; errors averaged over the last second
 
 
 def steady_errors(
-    alpha_lh_head: float, alpha_head_lh: float, duration: float = SETTLE
+    alpha_lh_head: float, alpha_head_lh: float, duration: float = SETTLE, robot: str = "embedded"
 ) -> tuple[float, float]:
-    """(head, left-hand) mean error norm [m] over the last second of a run with constant α."""
+    """(head, left-hand) mean error norm [m] over the last second of a run with constant α on
+    ``robot`` (a name of ``drake_sot.robots.ROBOTS``)."""
     setup = ps.build_with(
-        AlphaSchedule(list(ps.TASKS), ps.initial_alpha(alpha_lh_head, alpha_head_lh)), duration=duration
+        AlphaSchedule(list(ps.TASKS), ps.initial_alpha(alpha_lh_head, alpha_head_lh)),
+        duration=duration,
+        robot=robot,
     )
     simulator = setup.built.create_simulator()
     result = simulate(simulator, duration)
@@ -47,9 +51,9 @@ def steady_errors(
     )
 
 
-def _point(args: tuple[float, float, float]) -> tuple[float, float, float, float]:
-    a, b, duration = args
-    return (a, b, *steady_errors(a, b, duration))
+def _point(args: tuple[float, float, float, str]) -> tuple[float, float, float, float]:
+    a, b, duration, robot = args
+    return (a, b, *steady_errors(a, b, duration, robot))
 
 
 @dataclass(frozen=True)
@@ -68,8 +72,11 @@ def run(
     duration: float = SETTLE,
     workers: int = 2,
     progress: Callable[[float, float, float], None] | None = None,
+    robot: str = "embedded",
 ) -> dict[str, Path]:
-    """Run the sweep in ``workers`` processes; write ``alpha_sweep.npz`` and ``alpha_sweep.png``.
+    """Run the sweep on ``robot`` in ``workers`` processes; write ``alpha_sweep.npz`` and
+    ``alpha_sweep.png``. An unknown robot, or one whose models are missing, is refused
+    before any worker starts.
 
     Ctrl-C or SIGTERM stops the sweep: the points not yet done are cancelled (their errors
     stay NaN, and ``done`` in the npz says which were), the workers are terminated, both
@@ -78,8 +85,9 @@ def run(
     """
     duration = positive("duration", duration, unit="s")
     workers = positive_int("workers", workers)
+    get_robot(robot)
     out = output_directory(out_dir)
-    points = [(a, b, duration) for a in grid for b in grid]
+    points = [(a, b, duration, robot) for a in grid for b in grid]
     head = np.full((len(grid), len(grid)), np.nan)
     lh = np.full_like(head, np.nan)
     index = {value: k for k, value in enumerate(grid)}

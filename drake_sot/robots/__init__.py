@@ -3,16 +3,19 @@
 ``get_robot("talos")`` gives a :class:`RobotDescription`; the builders take ``robot=`` (a
 name or a description) and load it with :func:`load_robot`. The embedded humanoid is the
 robot "embedded"; TALOS and the Unitree G1 need the optional extra ``drake_sot[robots]``.
+
+The descriptions (:mod:`~drake_sot.robots.catalog`, :mod:`~drake_sot.robots.description`,
+:mod:`~drake_sot.robots.urdf`) import no pydrake, nor does this package until one of the
+loading functions is asked for: the peer benchmark reads TALOS from here without Drake.
 """
 
-from drake_sot.robots.catalog import EMBEDDED, ROBOTS, RobotDataMissing, get_robot
+from typing import Any
+
+from drake_sot.robots.catalog import ROBOTS, RobotDataMissing, get_robot
 from drake_sot.robots.description import CollisionShape, Drive, FrameSpec, RobotDescription
-from drake_sot.robots.loading import (
-    add_robot_collision,
-    load_robot,
-    make_robot_control_model,
-    weld_robot_base,
-)
+
+#: The names this package gives from :mod:`drake_sot.robots.loading` (pydrake), on first use.
+_LOADING = ("add_robot_collision", "load_robot", "make_robot_control_model", "weld_robot_base")
 
 __all__ = [
     "EMBEDDED",
@@ -28,3 +31,16 @@ __all__ = [
     "make_robot_control_model",
     "weld_robot_base",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """The loading functions (importing pydrake) and ``EMBEDDED``, on first use."""
+    if name in _LOADING:
+        from drake_sot.robots import loading
+
+        return getattr(loading, name)
+    if name == "EMBEDDED":
+        from drake_sot.robots import catalog
+
+        return catalog.EMBEDDED
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -17,7 +17,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 from drake_sot.footsteps import StepTiming
-from drake_sot.models.humanoid import CONTACT_RADIUS, DRIVES, FRAMES, JOINTS, SENSORS, SOLE
 from drake_sot.robots.description import (
     CollisionShape,
     Drive,
@@ -62,8 +61,13 @@ def data_root(robot: str = "this robot") -> Path:
     return root
 
 
+@functools.cache
 def _embedded() -> RobotDescription:
-    """The embedded primitive-shape humanoid (built in code by ``models.humanoid.load_humanoid``)."""
+    """The embedded primitive-shape humanoid (built in code by ``models.humanoid.load_humanoid``;
+    imported here, not at module level: the catalog imports no pydrake, so that the peer
+    benchmark, in a virtual environment without Drake, reads TALOS from it)."""
+    from drake_sot.models.humanoid import CONTACT_RADIUS, DRIVES, FRAMES, JOINTS, SENSORS, SOLE
+
     frames = {key: FrameSpec(name) for key, name in FRAMES.items()}
     frames |= {
         "waist": FrameSpec("pelvis"),
@@ -99,8 +103,12 @@ def _embedded() -> RobotDescription:
     )
 
 
-#: The embedded humanoid's description.
-EMBEDDED = _embedded()
+def __getattr__(name: str) -> RobotDescription:
+    """``EMBEDDED``, the embedded humanoid's description, built on first use."""
+    if name == "EMBEDDED":
+        return _embedded()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 _OPTICAL = (-math.pi / 2, 0.0, -math.pi / 2)  # camera axes (z forward, x right, y down) on a link (x forward)
 
@@ -131,6 +139,27 @@ def _frames(
         frames[f"{side}_wrist"] = FrameSpec(wrist.format(side=side))
         frames[f"{side}_hand"] = FrameSpec(hand.parent.format(side=side), hand.xyz, hand.rpy)
     return frames
+
+
+def _limbs(**shapes: CollisionShape) -> tuple[CollisionShape, ...]:
+    """The limb shapes of both sides: each of ``shapes`` (a body name with ``{side}``, its
+    position mirrored in y for the right side) on the left and on the right."""
+    limbs = []
+    for side in ("left", "right"):
+        for shape in shapes.values():
+            x, y, z = shape.xyz
+            roll, pitch, yaw = shape.rpy
+            mirrored = side == "right"
+            limbs.append(
+                CollisionShape(
+                    shape.body.format(side=side),
+                    shape.kind,
+                    shape.dims,
+                    (x, -y if mirrored else y, z),
+                    (-roll if mirrored else roll, pitch, -yaw if mirrored else yaw),
+                )
+            )
+    return tuple(limbs)
 
 
 @functools.cache
@@ -181,7 +210,7 @@ def talos() -> RobotDescription:
             hand=FrameSpec("gripper_{side}_base_link", (0.0, 0.0, -0.10)),
         ),
         sole_size=(0.21, 0.13),
-        contact_radius=CONTACT_RADIUS,
+        contact_radius=0.01,  # the embedded robot's
         force_sensors={
             "left_ankle": "leg_left_sole_fix_joint",
             "right_ankle": "leg_right_sole_fix_joint",
@@ -193,9 +222,28 @@ def talos() -> RobotDescription:
         joint_limits={name: (j.lower, j.upper) for name, j in joints.items()},
         frozen_joints=frozen,
         collision=(
-            CollisionShape("base_link", "box", (0.20, 0.30, 0.20), (-0.02, 0.0, -0.05)),
-            CollisionShape("torso_2_link", "box", (0.25, 0.40, 0.35), (-0.05, 0.0, 0.20)),
-            CollisionShape("head_2_link", "sphere", (0.12,), (0.0, 0.0, 0.12)),
+            # fitted to the bounding boxes of the visual meshes (in each link's frame)
+            CollisionShape("base_link", "box", (0.30, 0.44, 0.19), (-0.045, 0.0, -0.085)),
+            CollisionShape("torso_2_link", "box", (0.30, 0.45, 0.44), (-0.06, 0.0, 0.175)),
+            CollisionShape("head_2_link", "sphere", (0.12,), (0.006, 0.0, 0.184)),
+            *_limbs(
+                # the joint origins along each link: hip 0.38 m above the knee, knee 0.325 m
+                # above the ankle, shoulder 0.273 m above the elbow, elbow 0.264 m above the
+                # wrist; the thigh and the shank carry their actuators on the outer side; their
+                # inner sides are 5 cm from the hip's axis (the meshes' 7-8 cm would leave the
+                # two legs 1 cm apart: they knocked together in the walk's turn)
+                thigh=CollisionShape("leg_{side}_3_link", "capsule", (0.06, 0.35), (0.005, 0.01, -0.19)),
+                thigh_motor=CollisionShape(
+                    "leg_{side}_3_link", "box", (0.13, 0.16, 0.40), (0.005, 0.115, -0.19)
+                ),
+                shank=CollisionShape("leg_{side}_4_link", "capsule", (0.055, 0.28), (0.007, 0.01, -0.15)),
+                shank_motor=CollisionShape(
+                    "leg_{side}_4_link", "box", (0.12, 0.13, 0.36), (0.007, 0.10, -0.15)
+                ),
+                upper_arm=CollisionShape("arm_{side}_3_link", "capsule", (0.07, 0.22), (0.01, 0.01, -0.17)),
+                forearm=CollisionShape("arm_{side}_4_link", "capsule", (0.075, 0.16), (-0.02, 0.0, -0.17)),
+                hand=CollisionShape("gripper_{side}_base_link", "sphere", (0.08,), (0.0, 0.0, -0.08)),
+            ),
         ),
     )
 
@@ -270,8 +318,31 @@ def g1() -> RobotDescription:
         drives=drives_by_pattern(joints, gains),
         joint_limits={name: (j.lower, j.upper) for name, j in joints.items()},
         collision=(
-            CollisionShape("pelvis", "box", (0.12, 0.20, 0.12)),
+            # fitted to the bounding boxes of the visual meshes (in each link's frame)
+            CollisionShape("pelvis", "box", (0.12, 0.20, 0.16), (0.0, 0.0, -0.07)),
             CollisionShape("torso_link", "box", (0.14, 0.22, 0.25), (0.0, 0.0, 0.20)),
+            CollisionShape("head_link", "sphere", (0.10,), (0.005, 0.0, 0.43)),
+            *_limbs(
+                hip=CollisionShape("{side}_hip_pitch_link", "box", (0.082, 0.10, 0.117), (0.0, 0.05, -0.02)),
+                # the thigh's axis runs from the hip-yaw link's origin to the knee, 0.194 m
+                # away along (-0.078, 0, -0.177); the knee is 0.30 m above the ankle; the elbow
+                # 0.08 m below the shoulder-yaw link; the wrist 0.10 m along the forearm's x
+                thigh=CollisionShape(
+                    "{side}_hip_yaw_link", "capsule", (0.055, 0.15), (-0.039, 0.0, -0.089), (0.0, 0.415, 0.0)
+                ),
+                shank=CollisionShape("{side}_knee_link", "capsule", (0.05, 0.22), (0.01, 0.0, -0.15)),
+                upper_arm=CollisionShape(
+                    "{side}_shoulder_yaw_link", "capsule", (0.04, 0.12), (0.008, 0.0, -0.04)
+                ),
+                forearm=CollisionShape(
+                    "{side}_elbow_link",
+                    "capsule",
+                    (0.035, 0.18),
+                    (0.09, 0.0, -0.005),
+                    (0.0, math.pi / 2, 0.0),
+                ),
+                hand=CollisionShape("{side}_rubber_hand", "box", (0.13, 0.066, 0.106), (0.066, -0.015, 0.01)),
+            ),
         ),
         step_timing=StepTiming(single_support=0.8, double_support=0.2, step_height=0.05),
     )
@@ -279,7 +350,7 @@ def g1() -> RobotDescription:
 
 #: The robots by name, each a function that returns its description.
 ROBOTS: dict[str, Callable[[], RobotDescription]] = {
-    "embedded": lambda: EMBEDDED,
+    "embedded": _embedded,
     "talos": talos,
     "g1": g1,
 }

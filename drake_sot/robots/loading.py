@@ -174,8 +174,13 @@ def add_robot_collision(
 ) -> None:
     """Whole-body collision shapes, so that a fallen robot lies on the ground: the embedded
     humanoid's :func:`~drake_sot.models.humanoid.add_body_collision`, or the description's
-    simple shapes (``RobotDescription.collision``), which collide with the world but not
-    with each other nor with the soles (they lie far apart on a standing robot)."""
+    simple shapes (``RobotDescription.collision``: trunk, head, thighs, shanks, upper arms,
+    forearms, hands). As on the embedded humanoid, the collisions between *neighbouring*
+    colliding bodies are excluded: each body with shapes (the soles' spheres included) and
+    its nearest ancestor with shapes in the kinematic tree (a thigh and the pelvis across
+    the hip's shape-less links, a shank and its sole), whose shapes overlap or touch as
+    the joints between them move. Every other pair collides: an arm with the torso, one
+    leg with the other. Call after :func:`load_robot` (the soles' spheres) and before ``Finalize``."""
     robot = get_robot(robot)
     if robot.model_file is None:
         add_body_collision(plant, scene_graph, info)
@@ -191,12 +196,24 @@ def add_robot_collision(
             f"{shape.body}_collision_{i}",
             FRICTION,
         )
-    ids = [
-        g
+    parent = {}  # body -> its parent body in the tree (the base has none)
+    for index in plant.GetJointIndices(info.model_instance):
+        joint = plant.get_joint(index)
+        parent[joint.child_body().index()] = joint.parent_body().index()
+    shapes = {
+        body: plant.GetCollisionGeometriesForBody(plant.get_body(body))
         for body in plant.GetBodyIndices(info.model_instance)
-        for g in plant.GetCollisionGeometriesForBody(plant.get_body(body))
-    ]
-    scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(ids)))
+    }
+    declaration = CollisionFilterDeclaration()
+    for body, ids in shapes.items():
+        if not ids:
+            continue
+        ancestor = parent.get(body)
+        while ancestor is not None and not shapes.get(ancestor):
+            ancestor = parent.get(ancestor)
+        if ancestor is not None:
+            declaration.ExcludeBetween(GeometrySet(ids), GeometrySet(shapes[ancestor]))
+    scene_graph.collision_filter_manager().Apply(declaration)
 
 
 def weld_robot_base(plant: MultibodyPlant, info: HumanoidInfo, robot: str | RobotDescription) -> None:
