@@ -18,7 +18,7 @@ FRAME_SUFFIX = "_frame"
 _ORIGIN = np.zeros(3)
 
 
-def _momentum_rows(plant: MultibodyPlant) -> slice | None:
+def momentum_rows(plant: MultibodyPlant) -> slice | None:
     """The rows of the mass matrix that are ``m J_com`` (m the total mass), or None.
 
     With a quaternion floating base whose translational velocity ``v_WB`` (world frame) moves
@@ -79,7 +79,7 @@ class RobotKinematics(LeafSystem):
         self._plant_context = plant.CreateDefaultContext()
         self._world = plant.world_frame()
         self._operational_points: dict[str, str] = {}
-        self._com_rows = _momentum_rows(plant)
+        self._com_rows = momentum_rows(plant)
         self._mass = plant.CalcTotalMass(self._plant_context)
         nq, nv = plant.num_positions(), plant.num_velocities()
         self._q_port = self.DeclareVectorInputPort("q", nq)
@@ -197,7 +197,7 @@ class RobotKinematics(LeafSystem):
 
     def _calc_jcom(self, context, value) -> None:
         self._update(context)
-        if self._com_rows is not None and self._mass > 0.0:  # see _momentum_rows
+        if self._com_rows is not None and self._mass > 0.0:  # see momentum_rows
             value.set_value(self._plant.CalcMassMatrix(self._plant_context)[self._com_rows] / self._mass)
             return
         value.set_value(
