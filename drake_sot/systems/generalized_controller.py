@@ -708,11 +708,11 @@ class GeneralizedHierarchyController(LeafSystem):
             ("errors", errors),
             ("shortfall", shortfall),
             ("contact_forces", contact),
-            ("status", [status]),
+            ("status", np.array([status])),
             ("saturation", saturation),
         ):
-            discrete_state.get_mutable_vector(self._x[port_name]).SetFromVector(value)
-        discrete_state.get_mutable_vector(self._x_integral).SetFromVector(integral)
+            discrete_state.set_value(self._x[port_name], value)  # one binding call, not two
+        discrete_state.set_value(self._x_integral, integral)
 
     def _calc_stack(self, context: Context, value: AbstractValue) -> None:
         alpha = self._alpha(context)

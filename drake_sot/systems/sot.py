@@ -483,10 +483,8 @@ class StackOfTasks(LeafSystem):
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
                 )
             qdot = weight * result.qdot if qdot is None else qdot + weight * result.qdot
-        discrete_state.get_mutable_vector(self._qdot).SetFromVector(
-            np.zeros(self._nv) if qdot is None else qdot
-        )
-        discrete_state.get_mutable_vector(self._errors).SetFromVector(errors)
+        discrete_state.set_value(self._qdot, np.zeros(self._nv) if qdot is None else qdot)  # one binding call
+        discrete_state.set_value(self._errors, errors)
 
     def _level(
         self, task_name: str, signal: TaskSignal | BoundedTaskSignal, context: Context, errors: np.ndarray
