@@ -50,7 +50,7 @@ import numpy as np
 import scipy.linalg
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot.blas import limit_blas_threads
@@ -59,6 +59,7 @@ from drake_sot.linalg import pinv
 from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, static_capacity
 from drake_sot.signals import TaskSignal
 from drake_sot.statics import contact_torques
+from drake_sot.systems.kinematics import momentum_rows
 from drake_sot.systems.task import Task
 from drake_sot.task_wrenches import pd_wrench, pi_force_wrench
 from drake_sot.transitions import Priorities
@@ -232,6 +233,25 @@ class ControllerReport:
         return self.status
 
 
+def _gravity_rows(plant: MultibodyPlant) -> tuple[slice, np.ndarray] | None:
+    """``(rows, w)`` with ``-τ_g(q) = w M(q)[rows]`` (the generalized force gravity exerts, on the
+    left of eq. 1), or None (then Drake's gravity forces are used).
+
+    Gravity is uniform, so ``τ_g = Σ m_i J_iᵀ g = (m J_com)ᵀ g`` (J_i the Jacobian of body i's
+    centre of mass), and ``m J_com`` is three rows of M on a floating base that carries every
+    moving body (:func:`~drake_sot.systems.kinematics.momentum_rows`): with M computed anyway
+    for the task-space inertias, one (3,)·(3, nv) product instead of Drake's gravity forces.
+    None when those rows do not exist or gravity is switched off for some model instance.
+    """
+    rows = momentum_rows(plant)
+    field = plant.gravity_field()
+    if rows is None or not all(
+        field.is_enabled(ModelInstanceIndex(i)) for i in range(plant.num_model_instances())
+    ):
+        return None
+    return rows, -np.asarray(field.gravity_vector(), dtype=float)
+
+
 def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np.ndarray:
     """Λ = (J M⁻¹ Jᵀ)⁺ (m, m) by the pseudo-inverse; rows of J that are zero (an inactive
     joint-limit row) get zero."""
@@ -383,6 +403,7 @@ class GeneralizedHierarchyController(LeafSystem):
         self.set_name(name)
         self._plant = plant
         self._plant_context = plant.CreateDefaultContext()
+        self._gravity_rows = _gravity_rows(plant)
         nq, nv, na = plant.num_positions(), plant.num_velocities(), len(actuated_joints)
         self._nq, self._nv, self._na = nq, nv, na
         self._n_base = nv - na
@@ -595,9 +616,14 @@ class GeneralizedHierarchyController(LeafSystem):
         x = self._state.Eval(context)
         q, v = x[: self._nq], x[self._nq :]
         plant, pc = self._plant, self._plant_context
-        plant.SetPositions(pc, q)
-        plant.SetVelocities(pc, v)
-        g = -plant.CalcGravityGeneralizedForces(pc)  # gravity as on the left of eq. 1
+        plant.SetPositionsAndVelocities(pc, x)
+        M = None
+        if self._gravity_rows is None:
+            g = -plant.CalcGravityGeneralizedForces(pc)  # gravity as on the left of eq. 1
+        else:  # the same from the mass matrix, needed anyway (_gravity_rows)
+            momentum, weight = self._gravity_rows
+            M = plant.CalcMassMatrix(pc)
+            g = weight @ M[momentum]
         alpha = self._alpha(context)
         signals = [port.Eval(context) for port in self._task_ports]
         jacobians = [s.jacobian for s in signals]
@@ -608,7 +634,8 @@ class GeneralizedHierarchyController(LeafSystem):
             J_motion = np.concatenate(jacobians[: len(self._motion)])
             rows = self._motion_rows
             a = pd_wrench(errors[:rows], J_motion @ v, self._kp_rows, self._kd_rows, validate=False)
-            M = plant.CalcMassMatrix(pc)
+            if M is None:
+                M = plant.CalcMassMatrix(pc)
             desired[:rows] = _inertia_weighted(
                 J_motion, self._motion_slices, M, a, self._motion_blocks, self._rank_threshold
             )
@@ -681,11 +708,11 @@ class GeneralizedHierarchyController(LeafSystem):
             ("errors", errors),
             ("shortfall", shortfall),
             ("contact_forces", contact),
-            ("status", [status]),
+            ("status", np.array([status])),
             ("saturation", saturation),
         ):
-            discrete_state.get_mutable_vector(self._x[port_name]).SetFromVector(value)
-        discrete_state.get_mutable_vector(self._x_integral).SetFromVector(integral)
+            discrete_state.set_value(self._x[port_name], value)  # one binding call, not two
+        discrete_state.set_value(self._x_integral, integral)
 
     def _calc_stack(self, context: Context, value: AbstractValue) -> None:
         alpha = self._alpha(context)

@@ -8,7 +8,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import FrameIndex, JacobianWrtVariable
+from pydrake.multibody.tree import FrameIndex, JacobianWrtVariable, JointIndex, QuaternionFloatingJoint
 from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
 
 from drake_sot.signals import OperationalPoint
@@ -16,6 +16,32 @@ from drake_sot.signals import OperationalPoint
 #: Suffix of the output that carries an operational point's pose and Jacobian in one value.
 FRAME_SUFFIX = "_frame"
 _ORIGIN = np.zeros(3)
+
+
+def momentum_rows(plant: MultibodyPlant) -> slice | None:
+    """The rows of the mass matrix that are ``m J_com`` (m the total mass), or None.
+
+    With a quaternion floating base whose translational velocity ``v_WB`` (world frame) moves
+    every moving body rigidly, the kinetic energy's derivative with respect to ``v_WB`` is the
+    total linear momentum ``Σ m_i v_i = m v_com``: the mass matrix's three rows of ``v_WB`` are
+    ``m J_com`` (bodies welded to the world add mass but no velocity). Drake's mass matrix
+    (composite bodies) costs about half its CoM Jacobian. None when the model has no unique
+    floating base or some moving body does not hang below it.
+    """
+    floating = plant.GetFloatingBaseBodies()
+    if len(floating) != 1:
+        return None
+    body = plant.get_body(next(iter(floating)))
+    joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
+    base = [joint for joint in joints if joint.child_body().index() == body.index()]
+    if len(base) != 1 or not isinstance(base[0], QuaternionFloatingJoint):
+        return None
+    moving = [joint.index() for joint in joints if joint.num_velocities() > 0]
+    below = plant.GetBodiesKinematicallyAffectedBy([base[0].index()])
+    if set(plant.GetBodiesKinematicallyAffectedBy(moving)) != set(below):
+        return None
+    start = base[0].velocity_start() + 3  # v = [ω_WB; v_WB]
+    return slice(start, start + 3)
 
 
 class RobotKinematics(LeafSystem):
@@ -53,6 +79,8 @@ class RobotKinematics(LeafSystem):
         self._plant_context = plant.CreateDefaultContext()
         self._world = plant.world_frame()
         self._operational_points: dict[str, str] = {}
+        self._com_rows = momentum_rows(plant)
+        self._mass = plant.CalcTotalMass(self._plant_context)
         nq, nv = plant.num_positions(), plant.num_velocities()
         self._q_port = self.DeclareVectorInputPort("q", nq)
         q_ticket = {self.input_port_ticket(self._q_port.get_index())}
@@ -169,6 +197,9 @@ class RobotKinematics(LeafSystem):
 
     def _calc_jcom(self, context, value) -> None:
         self._update(context)
+        if self._com_rows is not None and self._mass > 0.0:  # see momentum_rows
+            value.set_value(self._plant.CalcMassMatrix(self._plant_context)[self._com_rows] / self._mass)
+            return
         value.set_value(
             self._plant.CalcJacobianCenterOfMassTranslationalVelocity(
                 self._plant_context, JacobianWrtVariable.kV, self._world, self._world

@@ -483,10 +483,8 @@ class StackOfTasks(LeafSystem):
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
                 )
             qdot = weight * result.qdot if qdot is None else qdot + weight * result.qdot
-        discrete_state.get_mutable_vector(self._qdot).SetFromVector(
-            np.zeros(self._nv) if qdot is None else qdot
-        )
-        discrete_state.get_mutable_vector(self._errors).SetFromVector(errors)
+        discrete_state.set_value(self._qdot, np.zeros(self._nv) if qdot is None else qdot)  # one binding call
+        discrete_state.set_value(self._errors, errors)
 
     def _level(
         self, task_name: str, signal: TaskSignal | BoundedTaskSignal, context: Context, errors: np.ndarray
@@ -510,9 +508,10 @@ class StackOfTasks(LeafSystem):
                 f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, "
                 f"ė* (edot_des) {shapes[2]}; expected ({m},), ({m}, {self._nv}), ({m},)"
             )
-        # One sum is finite when every entry is (a cheap test per tick); only if it is not
-        # (NaN, Inf, or an overflow of large finite values) look entry by entry.
-        if not math.isfinite(J.sum() + edot.sum()) and not (  # overflow: see the caller's errstate
+        # A sum of squares (two BLAS dots, cheaper than two sums) is finite when every entry is;
+        # only if it is not (NaN, Inf, or an overflow of large finite values) look entry by entry.
+        flat = J.ravel("K")  # a view unless J is not contiguous
+        if not math.isfinite(flat @ flat + edot @ edot) and not (  # overflow: see the caller's errstate
             np.isfinite(J).all() and np.isfinite(edot).all()
         ):
             raise RuntimeError(
@@ -537,8 +536,8 @@ class StackOfTasks(LeafSystem):
                 f"task {task_name!r}: error {shapes[0]}, Jacobian {shapes[1]}, lower {shapes[2]}, "
                 f"upper {shapes[3]}; expected ({m},), ({m}, {self._nv}), ({m},), ({m},)"
             )
-        total = J.sum()  # under _level's errstate: an overflow is handled just below
-        if not math.isfinite(total) and not np.isfinite(J).all():
+        flat = J.ravel("K")  # a sum of squares, as in _level; under its errstate
+        if not math.isfinite(flat @ flat) and not np.isfinite(J).all():
             raise RuntimeError(
                 f"task {task_name!r}: NaN or Inf in its Jacobian at t = {context.get_time():.4f} s"
             )

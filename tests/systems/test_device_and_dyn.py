@@ -80,6 +80,70 @@ def test_dyn_operational_points_match_the_plant(control_model):
     )
 
 
+def _com_jacobian_by_finite_differences(plant, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """(3, nv): central differences of Drake's CoM position along each generalized velocity."""
+    pc = plant.CreateDefaultContext()
+    columns = []
+    for k in range(plant.num_velocities()):
+        v = np.zeros(plant.num_velocities())
+        v[k] = 1.0
+        ends = []
+        for step in (h, -h):
+            plant.SetPositions(pc, integrate(q, v, step))
+            ends.append(plant.CalcCenterOfMassPositionInWorld(pc))
+        columns.append((ends[0] - ends[1]) / (2 * h))
+    return np.column_stack(columns)
+
+
+def test_dyn_com_jacobian_matches_drakes_and_finite_differences(control_model):
+    """Jcom (from the mass matrix's base-translation rows on a floating humanoid) against Drake's
+    CoM Jacobian and against finite differences of the CoM, at random configurations."""
+    plant, _, q0 = control_model
+    dyn = RobotKinematics(plant)
+    assert dyn._com_rows is not None  # the humanoid takes the mass-matrix path
+    context = dyn.CreateDefaultContext()
+    pc = plant.CreateDefaultContext()
+    world = plant.world_frame()
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        q = random_configuration(plant, q0, rng)
+        dyn.GetInputPort("q").FixValue(context, q)
+        plant.SetPositions(pc, q)
+        J = dyn.GetOutputPort("Jcom").Eval(context)
+        drake_J = plant.CalcJacobianCenterOfMassTranslationalVelocity(
+            pc, JacobianWrtVariable.kV, world, world
+        )
+        np.testing.assert_allclose(J, drake_J, atol=1e-13)
+        np.testing.assert_allclose(J, _com_jacobian_by_finite_differences(plant, q), atol=1e-8)
+
+
+def test_dyn_com_jacobian_with_a_second_free_body_is_drakes():
+    """A free box beside the floating robot moves without its base: the mass-matrix rows are not
+    m J_com there, so Jcom is Drake's CoM Jacobian (which includes the box)."""
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import SpatialInertia, UnitInertia
+
+    plant = MultibodyPlant(0.0)
+    for name, mass in (("base", 3.0), ("box", 2.0)):
+        plant.AddRigidBody(name, SpatialInertia(mass, np.zeros(3), UnitInertia.SolidBox(0.1, 0.2, 0.3)))
+    plant.Finalize()
+    dyn = RobotKinematics(plant)
+    assert dyn._com_rows is None
+    context = dyn.CreateDefaultContext()
+    q = np.array([1.0, 0, 0, 0, 0.1, 0.2, 0.3, 0.6, 0.0, 0.8, 0.0, -0.4, 0.5, 0.6])
+    dyn.GetInputPort("q").FixValue(context, q)
+    pc = plant.CreateDefaultContext()
+    plant.SetPositions(pc, q)
+    world = plant.world_frame()
+    np.testing.assert_allclose(
+        dyn.GetOutputPort("Jcom").Eval(context),
+        plant.CalcJacobianCenterOfMassTranslationalVelocity(pc, JacobianWrtVariable.kV, world, world),
+        atol=1e-14,
+    )
+    # The box's velocity moves the CoM by its share of the mass: 2/5 of its translational columns.
+    np.testing.assert_allclose(dyn.GetOutputPort("Jcom").Eval(context)[:, 9:12], 0.4 * np.eye(3), atol=1e-14)
+
+
 def test_contact_torques_at_rest_balance_the_robot_by_inverse_dynamics(control_model):
     """Drake's inverse dynamics at rest, with the computed sole wrenches applied, needs
     no base force and exactly the feed-forward joint torques."""

@@ -18,6 +18,7 @@ from drake_sot.systems.generalized_controller import (
     ForceTask,
     GeneralizedHierarchyController,
     MotionTask,
+    _gravity_rows,
     _inertia_weighted,
 )
 from drake_sot.systems.kinematics import RobotKinematics
@@ -443,3 +444,45 @@ def test_a_nan_force_reading_is_refused_with_the_port_name():
     diagram.GetInputPort("taskLHF_measured").FixValue(context, [np.nan])
     with pytest.raises(ValueError, match=r"input 'taskLHF_measured' contains NaN or Inf"):
         _tick(controller, diagram, context)
+
+
+def test_gravity_from_the_mass_matrix_rows_is_drakes():
+    """``-τ_g = w M[rows]`` (Σ m_i J_iᵀ g through the momentum rows of M) against Drake's
+    gravity forces at random configurations of the floating humanoid; no such rows on the
+    fixed-base model, nor with gravity switched off for a model instance."""
+    plant, info = make_control_model(fixed_base=False)
+    rows, weight = _gravity_rows(plant)
+    pc = plant.CreateDefaultContext()
+    q0 = half_sitting_configuration(plant, info)
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        q = q0.copy()
+        q[:4] = rng.normal(size=4)
+        q[:4] /= np.linalg.norm(q[:4])
+        q[4:7] += rng.normal(size=3)
+        q[7:] += rng.uniform(-0.3, 0.3, size=q.size - 7)
+        plant.SetPositions(pc, q)
+        np.testing.assert_allclose(
+            weight @ plant.CalcMassMatrix(pc)[rows],
+            -plant.CalcGravityGeneralizedForces(pc),
+            atol=1e-10 * np.abs(plant.CalcGravityGeneralizedForces(pc)).max(),
+        )
+    assert _gravity_rows(make_control_model(fixed_base=True)[0]) is None
+    assert _gravity_rows(_free_pendulum(gravity=True)) is not None
+    assert _gravity_rows(_free_pendulum(gravity=False)) is None
+
+
+def _free_pendulum(gravity: bool):
+    """A free base with a link on a revolute joint, its own model instance, gravity on or off."""
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import RevoluteJoint, SpatialInertia, UnitInertia
+
+    plant = MultibodyPlant(0.0)
+    instance = plant.AddModelInstance("pendulum")
+    inertia = SpatialInertia(1.0, np.zeros(3), UnitInertia.SolidBox(0.1, 0.1, 0.1))
+    base = plant.AddRigidBody("base", instance, inertia)
+    link = plant.AddRigidBody("link", instance, inertia)
+    plant.AddJoint(RevoluteJoint("hinge", base.body_frame(), link.body_frame(), [0.0, 1.0, 0.0]))
+    plant.gravity_field().set_enabled(instance, gravity)
+    plant.Finalize()
+    return plant
