@@ -56,7 +56,7 @@ test: $(VENV)/.installed-test
 	$(call apt_need,dot:graphviz chromium:chromium)
 	$(BIN)/ruff format --check .
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_sot.py
