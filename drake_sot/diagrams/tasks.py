@@ -51,7 +51,7 @@ from drake_sot.systems.inequalities import (
 from drake_sot.systems.kinematics import FRAME_SUFFIX, RobotKinematics
 from drake_sot.systems.partner import ConstantForce, Partner
 from drake_sot.systems.task import Task
-from drake_sot.validation import positive
+from drake_sot.validation import positive, vector
 
 #: Names of the logs the builders write (the plant state, the kinematic SoT's reference
 #: and errors, the torque controller's outputs, the fall monitor's flag, the pushes'
@@ -84,6 +84,9 @@ class HumanoidTaskBuilder:
             the run and reports the fall); None for none. Ignored on a fixed base.
         robot: the robot, a name of ``drake_sot.robots.ROBOTS`` ("embedded", "talos", "g1")
             or a :class:`~drake_sot.robots.RobotDescription`.
+        q0: (nq,) the initial and reference configuration of the control model (the
+            simulated robot starts there, at rest; the posture task's default goal); None:
+            the robot's half-sitting configuration.
 
     Raises:
         ValueError: a period or step that is NaN, infinite or not > 0 (checked before
@@ -106,6 +109,7 @@ class HumanoidTaskBuilder:
         pushes: Sequence[ExternalPush] = (),
         fall_criteria: FallCriteria | None = FALL_CRITERIA,
         robot: str | RobotDescription = "embedded",
+        q0: np.ndarray | None = None,
     ) -> None:
         control_period = positive("control_period", control_period, unit="s")
         if fall_criteria is not None and not isinstance(fall_criteria, FallCriteria):
@@ -126,7 +130,11 @@ class HumanoidTaskBuilder:
         self.fall_monitor: FallMonitor | None = None  # added by _finish
         self._spatial_forces: list[OutputPort] = []
         self.control_plant, self.control_info = make_robot_control_model(self.robot, fixed_base=fixed_base)
-        self.q0 = half_sitting_configuration(self.control_plant, self.control_info)
+        self.q0 = (
+            half_sitting_configuration(self.control_plant, self.control_info)
+            if q0 is None
+            else vector("q0", q0, self.control_plant.num_positions()).copy()
+        )
         self.control_period = control_period
         self.meshcat = meshcat
         self.dyn = self.builder.AddSystem(RobotKinematics(self.control_plant))
@@ -417,6 +425,7 @@ class HumanoidTaskBuilder:
         stiffness: float | Sequence[float] = 0.0,
         gain: Gain = 5.0,
         max_velocity=(0.5, 1.0),
+        selection: SelectionLike = None,
     ) -> AdmittanceController:
         """A force-based hand task (Mansard et al. 2009, IV-C): the hand's wrist sensor drives an
         ``AdmittanceController`` (:meth:`add_admittance_controller`, named
@@ -426,6 +435,7 @@ class HumanoidTaskBuilder:
             task_name: the task (e.g. the paper's ``taskForce``).
             side, mass, damping, stiffness, max_velocity: as :meth:`add_admittance_controller`.
             gain: the hand task's gain [1/s].
+            selection: the components of the hand task (as :meth:`add_op_point_task`; None: all 6).
         Returns:
             the controller, whose ``active``, ``wrench_ref`` inputs are left for the
             scenario to drive (active and zero when unconnected).
@@ -438,7 +448,7 @@ class HumanoidTaskBuilder:
             stiffness=stiffness,
             max_velocity=max_velocity,
         )
-        self.add_op_point_task(task_name, f"{side}_hand", gain=gain)
+        self.add_op_point_task(task_name, f"{side}_hand", gain=gain, selection=selection)
         feature = self.features[task_name]
         self.builder.Connect(admittance.GetOutputPort("pose_des"), feature.GetInputPort("position_des"))
         self.builder.Connect(admittance.GetOutputPort("velocity_des"), feature.GetInputPort("velocity_des"))

@@ -28,6 +28,7 @@ from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, alternating_steps
 from drake_sot.robots import EMBEDDED
+from drake_sot.stabilization import StabilizerGains
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.stance_anchor import StanceAnchor
@@ -100,19 +101,21 @@ def add_walking(
     *,
     anchored: bool = False,
     stabilizer: bool = True,
+    stabilizer_gains: StabilizerGains = StabilizerGains(),
 ) -> tuple[PatternGenerator, Footstep, Footstep]:
     """The pattern generator and the walking tasks: joint position and velocity limits
     (an inequality task: the stack needs ``solver="hqp"``), left and right foot 6D
     and CoM xy (references and velocity feed-forward from the generator, through the
     balance stabilizer unless ``stabilizer`` is False), waist orientation, both hands held
     relative to the waist. Returns the generator (step ``limits``, None: the robot's) and the
-    initial footprints.
+    initial footprints; ``stabilizer_gains``: the stabilizer's gains and limits.
 
     ``anchored``: the feet, CoM and waist references pass through a ``StanceAnchor``
     (re-anchored on the measured stance foot at each lift-off, so that landing errors
     do not add up; :mod:`drake_sot.anchoring`). The stabilizer then takes the anchored CoM
     and the generator's ZMP, which the anchor does not move: the two differ by the
-    anchor's drift, one step's landing error (millimetres).
+    anchor's drift (the accumulated difference between the reference's world and the
+    robot's: 2-3 cm over the tele-cooperation walk under the board's forces).
     """
     pg, left, right = add_pattern_generator(b, limits=limits)
     refs = add_stance_anchor(b, pg) if anchored else pg
@@ -127,7 +130,7 @@ def add_walking(
     if stabilizer:  # issue 10: DCM feedback between the generator and the CoM task
         references = {name: refs.GetOutputPort(name) for name in ("com", "com_vel")}
         references["zmp"] = pg.GetOutputPort("zmp")
-        add_stabilizer(b, "taskCom", references)
+        add_stabilizer(b, "taskCom", references, gains=stabilizer_gains)
     else:
         b.builder.Connect(refs.GetOutputPort("com"), b.features["taskCom"].GetInputPort("sdes"))
         b.builder.Connect(refs.GetOutputPort("com_vel"), b.features["taskCom"].GetInputPort("sdes_dot"))

@@ -140,3 +140,27 @@ def test_the_torque_builder_refuses_inequality_tasks():
     b.add_posture_task("taskPosture")
     with pytest.raises(ValueError, match=r"inequality task\(s\) \['taskVL'\]: they belong to the kinematic"):
         b.build(motion=[("taskVL", 10, 1), ("taskPosture", 16, 8)], priorities=None)  # refused before
+
+
+def test_a_given_initial_configuration_is_where_the_robot_starts_and_a_bad_one_is_refused():
+    """The simulated robot and the reference start at the given q0: the right hand sits where
+    the control model puts it in that configuration (computed on a fresh model)."""
+    from drake_sot.models import half_sitting_configuration, make_control_model
+
+    plant, info = make_control_model()
+    q0 = half_sitting_configuration(plant, info)
+    q0[plant.GetJointByName("r_elbow").position_start()] = -1.3
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q0)
+    hand = plant.GetFrameByName(info.frames["right_hand"]).CalcPoseInWorld(context).translation()
+
+    b = HumanoidSoTBuilder(q0=q0)
+    np.testing.assert_allclose(b.initial_pose("right_hand").translation(), hand, atol=1e-12)
+    b.add_posture_task("taskPosture")
+    built = b.build(stack=["taskPosture"])
+    simulator = built.create_simulator()
+    np.testing.assert_allclose(
+        built.frame_pose(simulator.get_context(), "right_hand").translation(), hand, atol=1e-9
+    )
+    with pytest.raises(ValueError, match="q0"):
+        HumanoidSoTBuilder(q0=np.zeros(3))
