@@ -220,15 +220,9 @@ def test_walking_the_board_is_never_dropped(walking):
     assert a["board_state"][before, 6].min() > 0.4
 
 
-def test_walking_the_robot_stays_upright_to_the_end(walking, request):
-    if walking.setup.extras["leader"] == "cooperator":
-        request.applymarker(
-            pytest.mark.xfail(
-                strict=True,
-                reason="with the co-operator leading (pulling the board forward with 12-15 N) the "
-                "robot does not finish the walk (see the scenario's docstring)",
-            )
-        )
+def test_walking_the_robot_stays_upright_to_the_end(walking):
+    """With either leader. With the co-operator leading the balance is marginal (see the
+    scenario's docstring): a fall here says the margin went."""
     assert walking.result.fell is None
     a = walking.arrays
     assert a["q"][:, 6].min() > 0.55  # pelvis height [m]
