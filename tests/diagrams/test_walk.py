@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 from joint_limits import limit_excess
+from landings import landing_errors
 
 from drake_sot.diagrams import walk
 from drake_sot.diagrams.scenario import run_scenario
@@ -42,17 +43,10 @@ def test_measured_zmp_stays_in_the_support_polygon(walk_run):
 def test_each_foot_lands_on_its_footprint(walk_run):
     output, analysis, _ = walk_run
     steps = output.setup.extras["steps"]
-    phase = output.arrays["phase"][:, 0]
-    # A landing ends a single-support phase (the generator's phase switches to double support).
-    landings = [k for k in range(1, len(phase)) if phase[k - 1] != 0 and phase[k] == 0]
-    assert len(landings) == len(steps) == 13
-    settle = 10  # 50 ms after touch-down
-    for k, step in zip(landings, steps, strict=True):
-        x, y, yaw = analysis.soles[step.side][k + settle]
-        assert math.hypot(x - step.x, y - step.y) < 0.02, (
-            f"{step.side} foot landed {math.hypot(x - step.x, y - step.y):.3f} m off"
-        )
-        assert abs(math.degrees(math.remainder(yaw - step.yaw, 2 * math.pi))) < 3.0
+    assert len(steps) == 13
+    for side, off, yaw_error in landing_errors(output.arrays, analysis.soles, steps):
+        assert off < 0.02, f"{side} foot landed {off:.3f} m off"
+        assert yaw_error < 3.0
 
 
 def test_final_pose_matches_the_plan(walk_run):

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from landings import landing_errors
 from robot_data import robot_or_skip
 
 from drake_sot.diagrams import alpha_sweep, reach, walk
@@ -95,15 +96,10 @@ def walk_run(request, tmp_path_factory):
 def test_walk_lands_every_step_within_2cm_of_its_footprint(walk_run):
     name, output, analysis = walk_run
     steps = output.setup.extras["steps"]
-    phase = output.arrays["phase"][:, 0]
-    landings = [k for k in range(1, len(phase)) if phase[k - 1] != 0 and phase[k] == 0]
-    assert len(landings) == len(steps) == 13
-    settle = 10  # 50 ms after touch-down
-    for k, step in zip(landings, steps, strict=True):
-        x, y, yaw = analysis.soles[step.side][k + settle]
-        off = math.hypot(x - step.x, y - step.y)
-        assert off < 0.02, f"{name}: {step.side} foot landed {off:.3f} m off"
-        assert abs(math.degrees(math.remainder(yaw - step.yaw, 2 * math.pi))) < 3.0
+    assert len(steps) == 13
+    for side, off, yaw_error in landing_errors(output.arrays, analysis.soles, steps):
+        assert off < 0.02, f"{name}: {side} foot landed {off:.3f} m off"
+        assert yaw_error < 3.0
 
 
 def test_walk_keeps_the_zmp_in_the_support_polygon_99_percent(walk_run):
