@@ -12,6 +12,12 @@ direction of such a link, sampled at the control period:
   a packet overtaken by a newer one is discarded when it arrives late, and a lost packet
   leaves the last value held (zero-order hold, as a UDP receiver does).
 
+A link whose sender and receiver are in two processes (the two-process tele-cooperation) splits
+this in two: the sender's :meth:`Link.send` draws each packet's arrival time (on the sender's
+clock, which both processes share: simulated time), and the receiver's link takes the packet
+with that arrival time decided (:meth:`Link.carry`), so it delivers at the same ticks as one
+link in one process would, whatever the order and the wall time in which packets reach it.
+
 Randomness is reproducible and independent of when the link is read: the jitter and the
 loss of packet ``k`` are drawn from ``numpy.random.default_rng((seed, k))``, so two links
 with the same seed (e.g. the one-process and the two-process runs) lose the same packets
@@ -75,6 +81,11 @@ class LinkConfig:
         delay = max(self.delay + self.jitter * (2.0 * u_jitter - 1.0), 0.0)
         return delay, bool(u_loss < self.loss)
 
+    @property
+    def min_delay(self) -> float:
+        """[s] the shortest delay a packet can have: ``delay - jitter`` (>= 0)."""
+        return self.delay - self.jitter
+
 
 #: Arrival times within this of "now" count as arrived [s] (sampled times are sums of floats).
 _EPS = 1e-9
@@ -85,25 +96,30 @@ class Link:
     """One direction of a link: packets in flight and the value the receiver holds.
 
     Make one with :meth:`start`. Attributes:
-        config: delay, jitter, loss, seed.
+        config: delay, jitter, loss, seed; None for a receiving end whose packets come with
+            their arrival time decided by the sender's link (:meth:`carry` only).
         value: (n,) the value the receiver holds.
         sent_at: [s] sending time of the held value (``-inf`` for the initial value).
         sent: number of packets sent so far (the index of the next one).
         in_flight: ``(arrival time, sending time, value)`` of the packets not yet arrived,
             in sending order.
+        last_arrival: [s] the arrival time of the last packet sent (``inf``: it was lost;
+            NaN before the first).
     """
 
-    config: LinkConfig
+    config: LinkConfig | None
     value: np.ndarray
     sent_at: float = -math.inf
     sent: int = 0
     in_flight: tuple[tuple[float, float, np.ndarray], ...] = field(default=())
+    last_arrival: float = math.nan
 
     @classmethod
-    def start(cls, config: LinkConfig, initial) -> Link:
-        """A link whose receiver holds ``initial`` (n,) until a first packet arrives."""
-        if not isinstance(config, LinkConfig):
-            raise TypeError(f"config must be a LinkConfig, got {type(config).__name__}")
+    def start(cls, config: LinkConfig | None, initial) -> Link:
+        """A link whose receiver holds ``initial`` (n,) until a first packet arrives (``config``
+        None: a receiving end, see :meth:`carry`)."""
+        if not (config is None or isinstance(config, LinkConfig)):
+            raise TypeError(f"config must be a LinkConfig or None, got {type(config).__name__}")
         value = validation.vector("initial", initial)
         value.setflags(write=False)
         return cls(config=config, value=value)
@@ -121,13 +137,25 @@ class Link:
         return now - self.sent_at
 
     def send(self, now: float, value) -> Link:
-        """The link after sending ``value`` (n,) at time ``now`` [s] (one packet)."""
+        """The link after sending ``value`` (n,) at time ``now`` [s] (one packet, its delay and
+        loss drawn from the config; the packet's arrival is :attr:`last_arrival`)."""
+        if self.config is None:
+            raise ValueError("send: a receiving end (config None) only carries packets: see carry()")
         now = validation.finite("now", now)
+        delay, lost = self.config.packet(self.sent)
+        return self.carry(now, math.inf if lost else now + delay, value)
+
+    def carry(self, sent_at: float, arrival: float, value) -> Link:
+        """The link after a packet sent at ``sent_at`` [s] whose arrival time [s] another link
+        drew (``inf``: it was lost): the receiving end of a link split across processes."""
+        sent_at = validation.finite("sent_at", sent_at)
+        if math.isnan(arrival) or arrival < sent_at:
+            raise ValueError(f"arrival = {arrival!r}: a time [s] >= sent_at = {sent_at!r} (inf: lost)")
         v = validation.vector("value", value, self.size).copy()
         v.setflags(write=False)
-        delay, lost = self.config.packet(self.sent)
-        flying = self.in_flight if lost else (*self.in_flight, (now + delay, now, v))
-        return replace(self, sent=self.sent + 1, in_flight=flying)
+        lost = math.isinf(arrival)
+        flying = self.in_flight if lost else (*self.in_flight, (float(arrival), sent_at, v))
+        return replace(self, sent=self.sent + 1, in_flight=flying, last_arrival=float(arrival))
 
     def receive(self, now: float) -> Link:
         """The link at time ``now`` [s]: every packet due by then has arrived; the receiver

@@ -180,6 +180,8 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser) -> int:
         except PeerError as exc:  # could not connect: nothing simulated
             print(f"{args.scenario}: {exc}", file=sys.stderr)
             return 1
+        except ValueError as exc:  # a parameter refused (e.g. a delay under one period): nothing simulated
+            run.error(f"{args.scenario}: {exc}")
         for path in output.files.values():
             print(f"wrote {path}")
         if output.result.failure is not None:

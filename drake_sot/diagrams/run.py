@@ -11,6 +11,7 @@ the artefacts of the simulated part are written.
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
 import time as wallclock
@@ -184,7 +185,8 @@ def simulate(
         duration: the simulated time to reach [s], finite and > 0.
         commands: applied when the simulation reaches their time; those after ``duration``
             are listed in ``not_reached``.
-        progress: called after each step of at most ``chunk`` [s] (finite, > 0).
+        progress: called after each step of at most ``chunk`` [s] (finite, > 0), at the multiples
+            of ``chunk`` (and at the commands' times).
 
     Raises:
         ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0 (checked before Drake
@@ -207,7 +209,10 @@ def simulate(
                 command = pending.pop(0)
                 command.apply(context)
                 result.events.append((t, command.label))
-            target = min(duration, t + chunk, pending[0].time if pending else duration)
+            # steps end at multiples of chunk (not at sums of them, which drift past a periodic
+            # event's time k * period by a rounding, so that a step would sometimes handle it)
+            boundary = (math.floor(t / chunk + 1e-9) + 1) * chunk
+            target = min(duration, boundary, pending[0].time if pending else duration)
             status = simulator.AdvanceTo(target)
             t = context.get_time()
             if progress:

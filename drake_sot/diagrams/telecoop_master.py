@@ -6,24 +6,21 @@ The diagram: :class:`~drake_sot.systems.master.MasterSite` and
 :class:`~drake_sot.systems.master.Operator` wired as in ``telecooperation``
 (:func:`~drake_sot.diagrams.telecooperation.add_master_site`), and a
 :class:`~drake_sot.systems.remote_link.RemoteLink` where the one-diagram version has its
-``Channel``: at each control tick it sends the master's vector through the emulated delay and
-writes what is delivered to the slave's ``remote.master``; it receives the slave's hands from a
-subscription to ``hand_positions.positions`` (every control period), each stamped with the
-slave's time, through the emulated delay of the other direction. The network runs in the
-threads of a :class:`~drake_sot.remote.peer.Peer`.
+``Channel``, with the same delay, jitter, loss and seeds: at each control tick it draws the
+arrival time of the master's packet and writes it at once, by name, to the slave's signals
+(``telecoop_slave.WRITTEN``), a timed write the slave applies at that arrival; it receives the
+slave's hands by name (``telecoop_slave.HANDS``, subscribed every control period, stamped with
+the slave's time) and delivers them through the emulated delay of the other direction. The
+network runs in the threads of a :class:`~drake_sot.remote.peer.Peer`.
 
-Clocks and pacing. The slave waits for this client before it starts, so both clocks start
-together (within the connection's set-up; the subscription is sent first, so the slave's
-first ticks are streamed too). This side runs at ``realtime`` × real time, and never ahead of the
-slave's stamps: after reaching ``t`` it waits for the slave's message of time ``t``, so it follows
-the slave when the slave is slower than real time (0.3-0.4 × here). The backward direction is
-then exact to a tick (stamped on the slave's clock). A forward write acts at the slave's first
-tick after it arrives: it lands while the slave steps from the tick it was meant for, so it is
-mostly one period late, which the forward link's delay compensates (:data:`FORWARD_LATENCY`);
-the rest is jitter of the transport and of the two processes' scheduling (measured on loopback,
-2 busy cores, two runs: 68-73 % of the writes act at the one-diagram ``Channel``'s tick,
-15-21 % a tick early, 10-12 % 1-6 ticks late; ``tests/test_telecoop_two_process.py``). With
-``delay`` below one period the forward link cannot compensate: the writes are then a tick late.
+Clocks and pacing (conservative lookahead). Both sides tick at the same simulated times from 0.
+Before its tick ``t`` this side waits until it has every slave packet that can arrive by ``t``
+(:meth:`~drake_sot.systems.remote_link.RemoteLink.await_peer`); the slave waits likewise for the
+master's horizon. Each runs up to the one-way delay ahead of the other, and what each receives,
+and at which tick, is exactly what a ``Channel`` delivers in one diagram: the two processes
+compute the one-process run (``tests/test_telecoop_two_process.py``). The delay (less the
+jitter) must be at least one control period (refused otherwise, naming it). ``realtime`` paces
+this side besides (the slave holds its own ``--realtime``).
 """
 
 from __future__ import annotations
@@ -46,14 +43,9 @@ from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.telecoop_slave import HANDS, WRITTEN
 from drake_sot.remote.peer import Peer
 from drake_sot.systems.remote_link import RemoteLink
-from drake_sot.systems.telecoop import MASTER_SIZE
 
 #: The control period of both sides [s] (the slave's, HumanoidSoTBuilder's default).
 PERIOD = 0.005
-#: [s] a write's latency on the slave's clock: it lands while the slave steps from the tick it
-#: was meant for, and acts at the next tick (measured: 68-73 % of the writes one period late, see
-#: the module docstring).
-FORWARD_LATENCY = PERIOD
 #: [s] of wall time to wait for the slave's next message before the run fails.
 SLAVE_TIMEOUT = 60.0
 
@@ -71,7 +63,7 @@ def build_master(
     leader: str = "operator", delay: float = DEFAULT_DELAY
 ) -> tuple[Diagram, RemoteLink, dict[str, VectorLogSink]]:
     """The master's diagram, its link (unattached: see :meth:`RemoteLink.attach`) and its loggers
-    by name; ``delay`` [s] one way, both directions (0-0.3)."""
+    by name; ``delay`` [s] one way, both directions (one control period to 0.3)."""
     if leader not in telecooperation.LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(telecooperation.LEADERS)}")
     delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
@@ -81,10 +73,10 @@ def build_master(
     link = builder.AddSystem(
         RemoteLink(
             None,
-            MASTER_SIZE,
-            6,
-            # telecooperation's Channel's seeds; the forward delay less the transport's latency
-            forward=LinkConfig(delay=max(delay - FORWARD_LATENCY, 0.0), seed=0),
+            WRITTEN,
+            HANDS,
+            # telecooperation's Channel's configurations and seeds
+            forward=LinkConfig(delay=delay, seed=0),
             backward=LinkConfig(delay=delay, seed=1),
             period=PERIOD,
             forward_initial=forward0,
@@ -127,14 +119,13 @@ def run_master(
     simulator = Simulator(diagram)
     simulator.Initialize()
     # Connected last: the slave starts its clock at this connection.
-    with Peer(host, port, read=HANDS, write=WRITTEN, period=PERIOD, token=token) as peer:
+    read = [signal for signal, _ in HANDS]
+    with Peer(host, port, read=read, period=PERIOD, token=token, timeout=SLAVE_TIMEOUT) as peer:
         link.attach(peer)
 
         def paced(t: float, end: float, wall: float) -> None:
-            if t < end - 1e-9 and not peer.wait_until(t - 1e-9, SLAVE_TIMEOUT):
-                raise TimeoutError(
-                    f"no message from the slave for {SLAVE_TIMEOUT:g} s (master at t = {t:.3f} s)"
-                )
+            if t < end - 1e-9:
+                link.await_peer(t, SLAVE_TIMEOUT)
             ahead = t / realtime - wall
             if ahead > 0:
                 wallclock.sleep(ahead)

@@ -3,17 +3,19 @@ served (``drake-sot serve telecoop_slave``) for a master in another process
 (``drake-sot run telecoop_master --connect HOST:PORT``, :mod:`drake_sot.diagrams.telecoop_master`).
 
 The diagram is ``telecooperation``'s without its master site and channel: the humanoid, its
-seven tasks, the board and the co-operator. What the master sends is the command server's
-writable signal ``remote.master`` (9,): ``[forces right (3,), left (3,) [N]; head yaw, pitch
-(2,) [rad]; gripper aperture (1,) [rad]]`` (:data:`~drake_sot.systems.telecoop.MASTER_LAYOUT`),
-applied at the control tick after it arrives and held until the next write. What the slave
-sends back is readable and subscribable: ``hand_positions.positions`` (6,) [m], the hands
-``[right; left]`` in the world.
+seven tasks, the board and the co-operator. What the master sends are the command server's
+writable signals, one per quantity (:data:`~drake_sot.systems.telecoop.MASTER_SIGNALS`):
+``remote.right_hand_force``, ``remote.left_hand_force`` (3,) [N, world axes], ``remote.head``
+(2,) [rad, yaw then pitch], ``remote.gripper`` (1,) [rad, the gripper joints' angle]; a write
+of another name or size is refused, naming it. What the slave sends back is readable and
+subscribable by name: ``hand_positions.right`` and ``hand_positions.left`` (3,) [m, world].
 
-The delay, jitter and loss of the link are emulated on the master's side (both directions), so
-this side takes no ``delay``. Served by ``drake-sot serve``, the run waits for its master's
-connection before it starts (``extras["wait_for_client"]``), so that both sides start their
-clocks together.
+The delay, jitter and loss of the link are drawn on the master's side (both directions), so
+this side takes no ``delay``: each write is timed (applied at the tick the master's emulated
+link makes it arrive at) and the run is paced by its master (``extras["paced_by_client"]``):
+it starts with the master's first write and never simulates a tick before it holds every
+write due at it (:mod:`drake_sot.remote.serving`). The two processes then compute what one
+``telecooperation`` diagram computes, whatever their pace.
 """
 
 from __future__ import annotations
@@ -25,10 +27,13 @@ from pydrake.geometry import Meshcat
 from drake_sot.diagrams import telecooperation
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.systems.telecoop import MASTER_SIGNALS
 
-#: What the master writes (``<server>.<name>``) and subscribes to, on the slave's server.
-WRITTEN = f"remote.{telecooperation.MASTER_WRITABLE}"
-HANDS = "hand_positions.positions"
+#: What the master writes on the slave's server (``<server>.<name>``, size), in the order of
+#: the master's vector.
+WRITTEN = tuple((f"remote.{name}", size) for name, (size, _) in MASTER_SIGNALS.items())
+#: What the master subscribes to (size), the hands ``[right; left]`` it receives.
+HANDS = (("hand_positions.right", 3), ("hand_positions.left", 3))
 
 
 def build(

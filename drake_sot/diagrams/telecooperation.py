@@ -100,7 +100,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FixedOffsetFrame, LinearBushingRollPitchYaw, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder, OutputPort
-from pydrake.systems.primitives import Multiplexer, TrajectorySource
+from pydrake.systems.primitives import Demultiplexer, Multiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from drake_sot import validation
@@ -122,7 +122,7 @@ from drake_sot.systems.hand_steps import StepDecider
 from drake_sot.systems.master import MasterSite, Operator
 from drake_sot.systems.partner import Hold, Partner
 from drake_sot.systems.sequencer import TaskSequencer
-from drake_sot.systems.telecoop import MASTER_LAYOUT, MASTER_SIZE, HandPositions, SlaveReferences
+from drake_sot.systems.telecoop import MASTER_SIGNALS, MASTER_SIZE, HandPositions, SlaveReferences
 
 LEADERS = ("operator", "cooperator")
 SIDES = ("right", "left")
@@ -141,9 +141,6 @@ STACK = (
     "taskPosture",
 )
 GRIPPERS = ("r_gripper", "l_gripper")
-#: The two-process mode: the signal the master writes on the slave's server, and its units.
-MASTER_WRITABLE = "master"
-MASTER_UNITS = "N (forces right, left), rad (head yaw, pitch), rad (aperture)"
 
 INTERACT_AT = 1.0  # [s] the leader lifts the board by LIFT, then sets it back, standing
 LIFT = 0.05  # [m]
@@ -238,9 +235,10 @@ def _references() -> TrajectorySource:
 # --- the master site, shared with the two-process mode (telecoop_master) -----------------------
 @dataclass(frozen=True)
 class MasterSide:
-    """The master site's systems in a diagram: ``sent`` outputs what goes to the slave,
-    ``[forces (6,) [N]; head yaw, pitch (2,) [rad]; aperture (1,) [rad]]`` (:data:`MASTER_LAYOUT`);
-    ``master.slave_hands`` is left for the link to feed."""
+    """The master site's systems in a diagram: ``sent`` outputs what goes to the slave, the
+    signals of :data:`~drake_sot.systems.telecoop.MASTER_SIGNALS` in their order (forces right,
+    left (3, 3) [N]; head yaw, pitch (2,) [rad]; aperture (1,) [rad]); ``master.slave_hands``
+    is left for the link to feed."""
 
     master: MasterSite
     operator: Operator
@@ -248,14 +246,22 @@ class MasterSide:
     sent: Multiplexer
 
 
-def initial_link_values() -> tuple[np.ndarray, np.ndarray]:
-    """What each side holds before the first packet: the master's vector (no force, head level,
-    the grippers at half-sitting) and the slave's hands ``[right; left]`` [m] at half-sitting."""
-    hands = _initial_hands()
+def initial_master_values() -> dict[str, np.ndarray]:
+    """What the slave holds of the master's signals before the first packet, by name: no force,
+    the head level, the grippers at half-sitting."""
     plant, info = make_control_model()
     q0 = half_sitting_configuration(plant, info)
-    forward = np.zeros(MASTER_SIZE)
-    forward[MASTER_LAYOUT["grip"]] = q0[plant.GetJointByName(GRIPPERS[0]).position_start()]
+    values = {name: np.zeros(size) for name, (size, _) in MASTER_SIGNALS.items()}
+    values["gripper"][0] = q0[plant.GetJointByName(GRIPPERS[0]).position_start()]
+    return values
+
+
+def initial_link_values() -> tuple[np.ndarray, np.ndarray]:
+    """What each side holds before the first packet: the master's signals as one vector (in the
+    order of ``MASTER_SIGNALS``, :func:`initial_master_values`) and the slave's hands
+    ``[right; left]`` [m] at their initial position."""
+    hands = _initial_hands()
+    forward = np.concatenate(list(initial_master_values().values()))
     return forward, np.concatenate([hands[side].translation() for side in SIDES])
 
 
@@ -320,7 +326,8 @@ def build(
     ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot;
     ``walk=False``: the leader only lifts and sets back the board (standing interaction);
     ``remote=True``: the slave side only, what the master sends written to the command server's
-    ``remote.master`` (see ``telecoop_slave``; ``delay`` is then the master process's)."""
+    signals ``remote.<name>`` of ``MASTER_SIGNALS`` (see ``telecoop_slave``; ``delay`` is then
+    the master process's)."""
     if leader not in LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
     delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
@@ -402,11 +409,13 @@ def build(
     # --- the link: a Channel and the master site here, or (remote) the server's writable -----
     initial, _ = initial_link_values()
     link_logs: tuple[tuple[str, OutputPort], ...]
+    received: dict[str, OutputPort] = {}
     if remote:  # the master site is another process (telecoop_master): it writes, and delays
-        received = b.declare_writable(MASTER_WRITABLE, MASTER_SIZE, MASTER_UNITS, initial)
-        builder.Connect(received, references.GetInputPort("master"))
-        link_logs = (("received_by_slave", received),)
-        extras: dict = {"wait_for_client": True}
+        for name, value in initial_master_values().items():
+            size, units = MASTER_SIGNALS[name]
+            received[name] = b.declare_writable(name, size, units, value)
+        link_logs = ()
+        extras: dict = {"wait_for_client": True, "paced_by_client": True}
     else:
         channel = builder.AddSystem(
             Channel(
@@ -419,19 +428,23 @@ def build(
                 backward_initial=x_s0,
             )
         )
-        builder.Connect(channel.GetOutputPort("forward_out"), references.GetInputPort("master"))
+        split = builder.AddSystem(Demultiplexer([size for size, _ in MASTER_SIGNALS.values()]))
+        builder.Connect(channel.GetOutputPort("forward_out"), split.get_input_port())
+        received = {name: split.get_output_port(i) for i, name in enumerate(MASTER_SIGNALS)}
         builder.Connect(hand_positions.GetOutputPort("positions"), channel.GetInputPort("backward_in"))
         side = add_master_site(builder, x_s0, leader, walk, b.control_period)
         builder.Connect(channel.GetOutputPort("backward_out"), side.master.GetInputPort("slave_hands"))
         builder.Connect(side.sent.get_output_port(), channel.GetInputPort("forward_in"))
         link_logs = (
             *master_logs(side),
-            ("received_by_slave", channel.GetOutputPort("forward_out")),
             ("received_by_master", channel.GetOutputPort("backward_out")),
             ("delay_forward", channel.GetOutputPort("forward_age")),
             ("delay_backward", channel.GetOutputPort("backward_age")),
         )
         extras = {"channel": channel, "master": side.master, "operator": side.operator}
+    for name, port in received.items():
+        builder.Connect(port, references.GetInputPort(name))
+    link_logs = (*link_logs, *((f"received_by_slave/{name}", port) for name, port in received.items()))
     # --- end of the link ---
 
     # --- remote site: the co-operator holds the board's far end ----------------------------

@@ -12,11 +12,17 @@ reply); a client that leaves more than :data:`MAX_OUTBOX` bytes of replies unrea
 disconnected; a partial line left when the client disconnects is dropped, so it changes nothing.
 With a token, nothing but ``{"op": "auth"}`` is accepted until it matches (compared with
 ``hmac.compare_digest``, in constant time).
+
+The ``horizon`` of the writes (a client that paces the served run, see
+:mod:`~drake_sot.remote.protocol`) is kept as they are queued: :meth:`NetworkThread.wait_horizon`
+tells the serving loop when it may simulate a tick, which happens only after the writes due by
+then are in the queue.
 """
 
 from __future__ import annotations
 
 import hmac
+import math
 import queue
 import selectors
 import socket
@@ -85,6 +91,9 @@ class NetworkThread:
         self.connected = threading.Event()  # set at the first connection
         self._batch = threading.Lock()  # held while the lines of one read are queued
         self._thread = threading.Thread(target=self._loop, name="drake-sot-remote", daemon=True)
+        self._paced = threading.Condition()  # guards the two below
+        self._horizons: dict[int, float] = {}  # connection -> the largest horizon it wrote [s]
+        self._pacer_left: int | None = None  # a connection that wrote a horizon, then closed
 
     def start(self) -> None:
         self._selector.register(self._listener, selectors.EVENT_READ, "listen")
@@ -155,6 +164,10 @@ class NetworkThread:
         self._selector.unregister(conn.sock)
         conn.sock.close()
         self.requests.put((cid, None))  # the serving loop forgets its subscriptions
+        with self._paced:
+            if cid in self._horizons and self._pacer_left is None:
+                self._pacer_left = cid
+            self._paced.notify_all()
 
     def _read(self, cid: int) -> None:
         conn = self._connections[cid]
@@ -230,6 +243,21 @@ class NetworkThread:
             self._reply(cid, error(None, 'not authenticated: send {"op": "auth", "token": ...} first'))
             return
         self.requests.put((cid, request))
+        if request.horizon is not None:
+            with self._paced:
+                self._horizons[cid] = max(self._horizons.get(cid, -math.inf), request.horizon)
+                self._paced.notify_all()
+
+    def wait_horizon(self, t: float, timeout: float) -> tuple[float, bool]:
+        """Wait at most ``timeout`` [s] until a client's ``horizon`` is beyond ``t`` [s] (the
+        writes due by ``t`` are then queued) or a client that sent one disconnected; the largest
+        horizon (``-inf``: none yet) and whether such a client disconnected."""
+        with self._paced:
+            self._paced.wait_for(
+                lambda: max(self._horizons.values(), default=-math.inf) > t or self._pacer_left is not None,
+                timeout,
+            )
+            return max(self._horizons.values(), default=-math.inf), self._pacer_left is not None
 
     def _reply(self, cid: int, message: dict[str, Any]) -> None:
         conn = self._connections.get(cid)

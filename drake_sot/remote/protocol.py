@@ -7,12 +7,21 @@ with its newline. Requests (the coshell of Mansard et al. 2009, III-C: ``run``/`
     {"id": ID, "op": "run", "cmd": "<one script line>"}
     {"id": ID, "op": "read", "signal": "<system>.<port>"}
     {"id": ID, "op": "write", "signal": "<system>.<port>", "value": [numbers]}
+    {"id": ID, "op": "write", "signal": ..., "value": [...], "t": S, "at": A, "horizon": H}
     {"id": ID, "op": "subscribe", "signal": "<system>.<port>", "period": S}
     {"id": ID, "op": "unsubscribe", "signal": "<system>.<port>"}
     {"id": ID, "op": "list"}
     {"op": "auth", "token": "..."}
 
 ``ID`` is any JSON string, number or null, echoed in the reply (null when absent).
+
+A *timed* write (a client simulating in step with the served diagram, as the two-process
+tele-cooperation's master does) carries ``t``, the client's simulated time when it sent the value
+[s], and ``at``, the served diagram's simulated time at which it is applied (at the first tick at
+or after it; null: never — a packet the client's emulated link lost), instead of at the next
+tick. ``horizon`` [s] (optional, on any write): no timed write this client sends later has an
+``at`` before it; a served run paced by its client simulates no tick at or after it until a later
+write moves it on.
 Replies::
 
     {"id": ID, "ok": true, "result": ..., "t": <simulated time [s]>}
@@ -64,6 +73,14 @@ class Request:
     value: tuple[float, ...] | None = None
     period: float | None = None
     token: str | None = None
+    sent_at: float | None = None
+    at: float | None = None
+    horizon: float | None = None
+
+    @property
+    def timed(self) -> bool:
+        """A write applied at its ``at`` (``inf``: never) rather than at the next tick."""
+        return self.at is not None
 
 
 def parse_request(line: bytes) -> Request:
@@ -116,7 +133,29 @@ def parse_request(line: bytes) -> Request:
         if not _is_number(message["period"]):
             raise ProtocolError(f"period: a number [s], got {message['period']!r}", request_id)
         fields["period"] = float(message["period"])
+    if op == "write":
+        fields.update(_timing(message, request_id))
     return Request(op=op, id=request_id, **fields)
+
+
+def _timing(message: dict[str, Any], request_id: Any) -> dict[str, float]:
+    """The optional ``t``, ``at`` (null: inf, never) and ``horizon`` of a write."""
+    fields: dict[str, float] = {}
+    if ("t" in message) != ("at" in message):
+        raise ProtocolError("a timed write has both 't' (sent at) and 'at' (applied at)", request_id)
+    for name, key in (("t", "sent_at"), ("at", "at"), ("horizon", "horizon")):
+        if name not in message:
+            continue
+        x = message[name]
+        if name == "at" and x is None:
+            fields[key] = math.inf
+        elif not _is_number(x) or not math.isfinite(x):
+            raise ProtocolError(f"{name}: a finite number [s], got {json.dumps(x)}", request_id)
+        else:
+            fields[key] = float(x)
+    if "at" in fields and fields["at"] < fields["sent_at"]:
+        raise ProtocolError(f"at = {fields['at']!r}: before t = {fields['sent_at']!r}", request_id)
+    return fields
 
 
 def _is_number(x: Any) -> bool:

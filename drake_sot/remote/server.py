@@ -12,7 +12,11 @@ own state what a Drake system may change — its own outputs:
   the same tick (after its held stack; its ``command_results`` says, per command, if it acted);
 - **writable signals** declared with :meth:`declare_writable` when the diagram is built (the
   explicit allowlist): each is a vector output port holding the last value written (finite and
-  of the declared size, else refused), wired by the diagram into what it drives.
+  of the declared size, else refused), wired by the diagram into what it drives. A *timed* write
+  (``at``, see :mod:`~drake_sot.remote.protocol`) is applied at the first tick at or after its
+  ``at`` instead, the newest by its sending time ``t`` winning (a
+  :class:`~drake_sot.channel.Link`'s receiving end per signal); one that comes after the tick it
+  was due at is refused, naming both times.
 
 A Drake event can change only its own system's context. Everything else a request asks —
 reads, subscriptions, ``list``, script lines that set another system's parameter
@@ -38,10 +42,14 @@ from pydrake.systems.framework import Context, LeafSystem, OutputPort
 from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
+from drake_sot.channel import Link
 from drake_sot.remote.protocol import Request
 from drake_sot.script import Call, Get, Name, ScriptError, parse_line
 from drake_sot.systems._context import own_context
 from drake_sot.systems.sot import STACK_COMMANDS, StackCommand, StackCommands
+
+#: Times within this of a tick count as that tick [s] (sampled times are sums of floats).
+_EPS = 1e-9
 
 #: How a taken request is answered: applied by the server, sent to the solver, or for the host.
 DONE, STACK, HOST = "done", "stack", "host"
@@ -109,6 +117,7 @@ class RemoteCommandServer(LeafSystem):
         self._taken = self.DeclareAbstractState(AbstractValue.Make(Taken()))
         self._commands = self.DeclareAbstractState(AbstractValue.Make(StackCommands()))
         self._held = self.DeclareAbstractState(AbstractValue.Make(()))  # taken at the next tick
+        self._timed = self.DeclareAbstractState(AbstractValue.Make({}))  # name -> Link (timed writes)
         self.DeclareStateOutputPort("commands", self._commands)
         self.DeclarePeriodicUnrestrictedUpdateEvent(self.period, 0.0, self._tick)
 
@@ -151,15 +160,20 @@ class RemoteCommandServer(LeafSystem):
     def _tick(self, context: Context, state: DrakeState) -> None:
         held = context.get_abstract_state(self._held).get_value()
         requests = [*held, *(self._inbox() if self._inbox is not None else [])]
-        if not requests:
+        timed = context.get_abstract_state(self._timed).get_value()
+        if not requests and not timed:
             return
         t = context.get_time()
         commands: list[StackCommand] = []
         taken = []
+        timed = dict(timed)
         for connection, request in requests:
-            taken.append(self._take(connection, request, t, commands, state))
+            taken.append(self._take(connection, request, t, commands, state, timed))
             if taken[-1].kind == HOST and _host_changes_context(request):
                 break  # the host applies it after this tick: the next ones wait for the next tick
+        self._deliver(timed, t, state)
+        if not requests:
+            return
         rest = tuple(requests[len(taken) :])
         if rest or held:
             state.get_mutable_abstract_state(self._held).set_value(rest)
@@ -176,11 +190,19 @@ class RemoteCommandServer(LeafSystem):
         t: float,
         commands: list[StackCommand],
         state: DrakeState,
+        timed: dict[str, Link],
     ) -> TakenRequest:
         if request is None:
             return TakenRequest(connection, None, HOST)
         if request.op == "write" and request.signal.startswith(f"{self.get_name()}."):
-            error = self._write(request.signal.partition(".")[2], request.value, state)
+            name = request.signal.partition(".")[2]
+            error = self._check(name, request.value)
+            if error is None and request.timed:
+                error = self._schedule(name, request, t, state, timed)
+            elif error is None:
+                state.get_mutable_discrete_state(self._writables[name][1]).SetFromVector(
+                    np.array(request.value)
+                )
             return TakenRequest(connection, request, DONE, error)
         if request.op == "run":
             command = _stack_command(request.cmd, self.sot_name, t)
@@ -191,18 +213,42 @@ class RemoteCommandServer(LeafSystem):
                 return TakenRequest(connection, request, STACK, index=len(commands) - 1)
         return TakenRequest(connection, request, HOST)
 
-    def _write(self, name: str, value: tuple[float, ...], state: DrakeState) -> str | None:
-        """Set a declared writable in ``state``; the reason it is refused, or None."""
+    def _schedule(
+        self, name: str, request: Request, t: float, state: DrakeState, timed: dict[str, Link]
+    ) -> str | None:
+        """Put a timed write in flight on ``name``'s receiving end; why it is refused, or None."""
+        if request.at <= t - self.period + _EPS:  # due at a tick already simulated
+            return (
+                f"{self.get_name()}.{name}: a write due at t = {request.at:.6f} s (sent at "
+                f"{request.sent_at:.6f} s) came at the tick of t = {t:.6f} s, after it"
+            )
+        link = timed.get(name)
+        if link is None:
+            value = state.get_discrete_state().get_vector(self._writables[name][1]).get_value()
+            link = Link.start(None, value)
+        timed[name] = link.carry(request.sent_at, request.at, request.value)
+        return None
+
+    def _deliver(self, timed: dict[str, Link], t: float, state: DrakeState) -> None:
+        """Apply the timed writes due by ``t`` (the newest of each signal by sending time)."""
+        for name, link in timed.items():
+            delivered = link.receive(t)
+            if delivered.sent_at != link.sent_at:
+                state.get_mutable_discrete_state(self._writables[name][1]).SetFromVector(delivered.value)
+            timed[name] = delivered
+        state.get_mutable_abstract_state(self._timed).set_value(timed)
+
+    def _check(self, name: str, value: tuple[float, ...]) -> str | None:
+        """Why a write of ``value`` to the declared writable ``name`` is refused, or None."""
         if name not in self._writables:
             allowed = ", ".join(f"{self.get_name()}.{n}" for n in self._writables) or "none"
             return f"signal = {self.get_name()}.{name!r}: not writable (declared: {allowed})"
-        writable, index = self._writables[name]
+        writable, _ = self._writables[name]
         if len(value) != writable.size:
             return f"{self.get_name()}.{name}: {len(value)} values, expected {writable.size}"
         bad = [i for i, x in enumerate(value) if not math.isfinite(x)]
         if bad:
             return f"{self.get_name()}.{name}: value[{bad[0]}] = {value[bad[0]]!r}: not finite"
-        state.get_mutable_discrete_state(index).SetFromVector(np.array(value))
         return None
 
 

@@ -24,6 +24,17 @@ so that the changes act in arrival order). Then it sleeps to hold ``realtime`` Ã
 
 A written value must be finite and of the declared size; only the declared signals and the
 6D tasks' ``position_des`` can be written.
+
+**Paced by its client** (``paced=True``; the two-process tele-cooperation's slave). A client
+that simulates too (the master site) writes timed values (``at``, applied at that simulated time
+by the server) with a ``horizon`` (:mod:`~drake_sot.remote.protocol`). The run then starts when
+the first horizon arrived and, before each tick, waits until the client's horizon is beyond it,
+so that every write due at the tick is in the queue when the server takes it: what the run
+receives, and when, no longer depends on the two processes' pace (conservative lookahead, as in
+parallel discrete-event simulation: each side simulates ahead of the other by up to the link's
+delay). The wait fails the run, naming the tick and the horizon, after :data:`CLIENT_TIMEOUT` s of
+wall time without progress or at once when that client disconnects; it waits in slices, so a
+signal (Ctrl-C, SIGTERM) stops it.
 """
 
 from __future__ import annotations
@@ -41,7 +52,7 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
-from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
+from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.scenario import Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
 from drake_sot.diagrams.script_session import ScriptSession
@@ -58,6 +69,10 @@ from drake_sot.validation import positive
 
 #: Subscriptions a connection may hold at once.
 MAX_SUBSCRIPTIONS = 16
+#: [s] of wall time a run paced by its client waits for the client's horizon before it fails.
+CLIENT_TIMEOUT = 60.0
+#: Times within this of a tick count as that tick [s].
+_EPS = 1e-9
 
 
 @dataclass(frozen=True)
@@ -105,6 +120,8 @@ class Serving:
             :class:`~drake_sot.remote.status.MeshcatStatus` update).
         session: the script session of a served script: ``run`` lines it executes (set, get,
             task.controlGain, pg.parsecmd...); None: a scenario (stack commands, get, help).
+        paced: simulate no tick before the client's horizon is beyond it (see the module
+            docstring; :meth:`await_client`).
     """
 
     def __init__(
@@ -117,8 +134,10 @@ class Serving:
         realtime: float = 1.0,
         on_tick: Callable[[Context], None] | None = None,
         session: ScriptSession | None = None,
+        paced: bool = False,
     ) -> None:
         self._simulator = simulator
+        self._paced = paced
         self._server = server
         self._on_tick = on_tick
         self._network = network
@@ -168,6 +187,29 @@ class Serving:
         ahead = now / self._realtime - wall
         if ahead > 0:  # paced: wait first, so that what arrives meanwhile is taken at the next tick
             wallclock.sleep(ahead)
+        if self._paced and now < duration - _EPS:
+            self.await_client(now)
+
+    def await_client(self, t: float) -> None:
+        """Return once the client's horizon is beyond the tick ``t`` [s] (every write due at it is
+        queued); raise TimeoutError after :data:`CLIENT_TIMEOUT` s of wall time, or
+        ConnectionError when the client that sent horizons disconnected before."""
+        deadline = wallclock.monotonic() + CLIENT_TIMEOUT
+        while True:
+            remaining = deadline - wallclock.monotonic()
+            horizon, left = self._network.wait_horizon(t + _EPS, min(0.5, max(remaining, 0.0)))
+            if horizon > t + _EPS:
+                return
+            if left:
+                raise ConnectionError(
+                    f"the client pacing the run disconnected with its horizon at {horizon:.6f} s, "
+                    f"before the tick of t = {t:.6f} s"
+                )
+            if remaining <= 0:
+                raise TimeoutError(
+                    f"paced by its client: no write moved its horizon ({horizon:.6f} s) beyond the "
+                    f"tick of t = {t:.6f} s within {CLIENT_TIMEOUT:g} s"
+                )
 
     def finish(self) -> None:
         """Answer the requests the run ended before applying in a tick: an error saying so; and
@@ -441,6 +483,13 @@ def serve_run(
         realtime=realtime,
         on_tick=status.update if status is not None else None,
         session=setup.extras.get("session"),
+        paced=bool(setup.extras.get("paced_by_client")),
+    )
+    start = simulator.get_context().get_time()
+    first = (  # the run starts when the client's first horizon is beyond its first tick
+        [Command(start, "paced by its client: its first write came", lambda _: serving.await_client(start))]
+        if setup.extras.get("paced_by_client")
+        else []
     )
 
     def hook(t: float, end: float, wall: float) -> None:
@@ -453,7 +502,7 @@ def serve_run(
         if on_ready is not None:
             on_ready(network.address)
         result = simulate(
-            simulator, duration, setup.commands, progress=hook, chunk=serving.period, guard=guard
+            simulator, duration, [*first, *setup.commands], progress=hook, chunk=serving.period, guard=guard
         )
         serving.finish()
     finally:

@@ -15,14 +15,15 @@ from pydrake.systems.framework import Context, LeafSystem
 
 from drake_sot import validation
 
-#: The layout of the vector the master sends (forward link), by name.
-MASTER_LAYOUT = {
-    "force_right": slice(0, 3),
-    "force_left": slice(3, 6),
-    "head": slice(6, 8),
-    "grip": slice(8, 9),
+#: What the master sends (forward link), by name: size and units (:class:`SlaveReferences`'s
+#: inputs). A vector that carries them all (a ``Channel``'s) has them in this order.
+MASTER_SIGNALS: dict[str, tuple[int, str]] = {
+    "right_hand_force": (3, "N, world axes"),
+    "left_hand_force": (3, "N, world axes"),
+    "head": (2, "rad, yaw then pitch"),
+    "gripper": (1, "rad, the gripper joints' angle"),
 }
-MASTER_SIZE = 9
+MASTER_SIZE = sum(size for size, _ in MASTER_SIGNALS.values())
 
 
 class HandPositions(LeafSystem):
@@ -32,6 +33,7 @@ class HandPositions(LeafSystem):
         right_hand, left_hand: abstract ``RigidTransform``, the hand frames' poses in world.
     Output ports:
         positions: (6,) [m] ``[right; left]`` translations.
+        right, left: (3,) [m] each hand's translation (what the slave sends back, by name).
     """
 
     def __init__(self, *, name: str = "hand_positions") -> None:
@@ -42,6 +44,10 @@ class HandPositions(LeafSystem):
             for side in ("right", "left")
         ]
         self.DeclareVectorOutputPort("positions", 6, self._calc)
+        for side, port in zip(("right", "left"), self._poses, strict=True):
+            self.DeclareVectorOutputPort(
+                side, 3, lambda c, out, port=port: out.SetFromVector(port.Eval(c).translation())
+            )
 
     def _calc(self, context: Context, out) -> None:
         out.SetFromVector(np.concatenate([port.Eval(context).translation() for port in self._poses]))
@@ -50,13 +56,11 @@ class HandPositions(LeafSystem):
 class SlaveReferences(LeafSystem):
     """What the master sends, split into the slave's task references.
 
-    The master's vector (``master``, (9,), :data:`MASTER_LAYOUT`): ``force_right`` (3,) and
-    ``force_left`` (3,) [N], the operator's forces on the handles, world axes; ``head`` (2,)
-    ``[yaw, pitch]`` [rad] of the operator's head in the world; ``grip`` (1,) the gripper
-    aperture [rad] (the gripper joints' angle).
-
-    Input ports:
-        master: (9,) as above (the forward link's output).
+    Input ports (:data:`MASTER_SIGNALS`, what the forward link delivers):
+        right_hand_force, left_hand_force: (3,) [N] the operator's forces on the handles, world
+            axes.
+        head: (2,) ``[yaw, pitch]`` [rad] of the operator's head in the world.
+        gripper: (1,) the gripper aperture [rad] (the gripper joints' angle).
     Output ports:
         wrench_ref_right, wrench_ref_left: (6,) ``[τ = 0 [N m]; f [N]]`` the reference wrench of
             each hand's admittance (``AdmittanceController.wrench_ref``).
@@ -82,7 +86,9 @@ class SlaveReferences(LeafSystem):
         self.set_name(name)
         self._q0 = validation.vector("q0", q0, plant.num_positions()).copy()
         self._grip_indices = [plant.GetJointByName(j).position_start() for j in grippers]
-        self._master = self.DeclareVectorInputPort("master", MASTER_SIZE)
+        self._master = {
+            name: self.DeclareVectorInputPort(name, size) for name, (size, _) in MASTER_SIGNALS.items()
+        }
         for side in ("right", "left"):
             self.DeclareVectorOutputPort(
                 f"wrench_ref_{side}", 6, lambda c, out, s=side: out.SetFromVector(self._wrench(c, s))
@@ -92,11 +98,11 @@ class SlaveReferences(LeafSystem):
         )
         self.DeclareVectorOutputPort("posture", self._q0.size, self._calc_posture)
 
-    def _part(self, context: Context, key: str) -> np.ndarray:
-        return self._master.Eval(context)[MASTER_LAYOUT[key]]
+    def _part(self, context: Context, name: str) -> np.ndarray:
+        return self._master[name].Eval(context)
 
     def _wrench(self, context: Context, side: str) -> np.ndarray:
-        return np.concatenate([np.zeros(3), self._part(context, f"force_{side}")])
+        return np.concatenate([np.zeros(3), self._part(context, f"{side}_hand_force")])
 
     def _calc_head(self, context: Context, value) -> None:
         yaw, pitch = self._part(context, "head")
@@ -104,5 +110,5 @@ class SlaveReferences(LeafSystem):
 
     def _calc_posture(self, context: Context, out) -> None:
         q = self._q0.copy()
-        q[self._grip_indices] = self._part(context, "grip")[0]
+        q[self._grip_indices] = self._part(context, "gripper")[0]
         out.SetFromVector(q)
