@@ -103,3 +103,46 @@ def test_a_bad_sample_is_refused_by_name():
         link.send(0.0, [1.0, float("nan")])
     with pytest.raises(ValueError, match="value"):
         link.send(0.0, [1.0])
+
+
+@pytest.mark.parametrize(
+    "config", [LinkConfig(delay=0.14), LinkConfig(delay=0.05, jitter=0.03, loss=0.25, seed=5)]
+)
+def test_a_receiving_end_fed_the_senders_arrivals_delivers_at_the_ticks_of_one_link(config):
+    # The two-process mode: the sender draws each packet's arrival (send), the receiver in the
+    # other process carries the packets with it (carry) in batches of its own, each packet known
+    # before the first tick it can be due at (sent at most delay - jitter before it). It must
+    # hold, tick by tick, what one link (send then receive each tick, the Channel) holds.
+    n = 600
+    rng = np.random.default_rng(0)
+    one = Link.start(config, np.zeros(1))
+    sender = Link.start(config, np.zeros(1))
+    receiver = Link.start(None, np.zeros(1))
+    packets, carried = [], 0
+    lost = 0
+    for k in range(n):
+        t = k * DT
+        one = one.step(t, [float(k)])
+        sender = sender.send(t, [float(k)])
+        packets.append((t, sender.last_arrival, [float(k)]))
+        lost += math.isinf(sender.last_arrival)
+        # what the receiver has by its tick t: every packet sent by t - (delay - jitter), and a
+        # random number of later ones (the network's batching)
+        due = sum(1 for s, _, _ in packets if s <= t - config.min_delay + 1e-12)
+        upto = min(len(packets), max(due, carried + int(rng.integers(0, 4))))
+        for s, arrival, value in packets[carried:upto]:
+            receiver = receiver.carry(s, arrival, value)
+        carried = max(carried, upto)
+        receiver = receiver.receive(t)
+        assert receiver.value[0] == one.value[0], t
+        assert receiver.sent_at == one.sent_at
+    assert one.value[0] > n / 2  # the values flowed
+    assert (lost > 0) == (config.loss > 0)
+
+
+def test_a_receiving_end_cannot_draw_and_a_carried_packet_arrives_after_it_is_sent():
+    with pytest.raises(ValueError, match="receiving end"):
+        Link.start(None, [0.0]).send(0.0, [1.0])
+    with pytest.raises(ValueError, match="arrival = 0.5"):
+        Link.start(None, [0.0]).carry(1.0, 0.5, [1.0])
+    assert Link.start(None, [0.0]).carry(1.0, math.inf, [1.0]).receive(1e9).value[0] == 0.0  # lost

@@ -65,12 +65,27 @@ def test_a_master_without_its_slave_fails_to_connect_and_says_where(tmp_path, ca
     assert f"cannot connect to 127.0.0.1:{port}" in capsys.readouterr().err
 
 
+def test_a_master_delay_under_one_control_period_is_refused_before_connecting(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["run", "telecoop_master", "--connect", "127.0.0.1:9", "--delay", "0.003"])
+    assert exit_.value.code == 2
+    assert "delay - jitter = 0.003 - 0 = 0.003 s: the two-process link needs at least one period" in (
+        capsys.readouterr().err
+    )
+
+
 def test_the_slave_declares_what_the_master_writes_and_nothing_of_the_master():
     setup = SCENARIOS["telecoop_slave"].build(None)
     remote = setup.built.remote
     assert remote is not None and remote.get_name() == "remote"
-    assert {name: w.size for name, w in remote.writables.items()} == {"master": 9}
-    assert setup.extras["wait_for_client"] is True
+    # one signal per quantity, by name, with its size and units (issue 12: names across processes)
+    assert {name: (w.size, w.units) for name, w in remote.writables.items()} == {
+        "right_hand_force": (3, "N, world axes"),
+        "left_hand_force": (3, "N, world axes"),
+        "head": (2, "rad, yaw then pitch"),
+        "gripper": (1, "rad, the gripper joints' angle"),
+    }
+    assert setup.extras["wait_for_client"] is True and setup.extras["paced_by_client"] is True
     assert not {"channel", "master", "operator"} & set(setup.extras)
     names = {s.get_name() for s in setup.built.diagram.GetSystems()}
     assert "hand_positions" in names and "master" not in names and "channel" not in names
