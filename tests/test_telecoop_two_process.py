@@ -11,7 +11,10 @@ runs). Before this lockstep the writes acted when they reached the slave's wall 
 runs parted by 10-349 mm after the walk's first lift-off.
 """
 
+import json
 import re
+import signal
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -127,3 +130,49 @@ def test_the_hands_match_the_one_process_run_within_1_cm_over_the_10_s(runs):
     assert len(walking) and t[walking[0]] < t[-1] - 2.0  # steps are inside the compared run
     assert moved > 0.05  # a motion of the hands is compared, not a standstill
     assert distance.max() < 0.01
+
+
+def _serve_slave(out: Path) -> tuple[subprocess.Popen, tuple[str, int]]:
+    slave = _start("serve", "telecoop_slave", "--port", "0", "--duration", str(DURATION), "--out", str(out))
+    first = slave.stdout.readline()
+    match = re.fullmatch(r"serving on (\S+):(\d+)\n", first)
+    assert match is not None, (first, slave.stderr.read() if slave.poll() is not None else "")
+    return slave, (match.group(1), int(match.group(2)))
+
+
+def _timed_write(horizon: float) -> bytes:
+    message = {"op": "write", "signal": "remote.head", "value": [0.0, 0.0], "t": 0.0, "at": 0.14}
+    return json.dumps({**message, "horizon": horizon}).encode() + b"\n"
+
+
+def test_a_slave_waiting_for_its_masters_horizon_stops_on_sigterm_or_when_the_master_leaves(tmp_path):
+    # SIGTERM while it waits: the run stops there, writes its artefacts and exits 143
+    slave, address = _serve_slave(tmp_path / "sigterm")
+    try:
+        with socket.create_connection(address) as sock:
+            sock.sendall(_timed_write(0.05))  # the slave may simulate the ticks before 0.05 s
+            with pytest.raises(subprocess.TimeoutExpired):
+                slave.wait(timeout=5.0)  # it waits for the next horizon (for 60 s)
+            slave.send_signal(signal.SIGTERM)
+            out, err = slave.communicate(timeout=60.0)
+        assert slave.returncode == 128 + signal.SIGTERM, (out, err)
+        assert "served up to t = 0.050 s" in out
+    finally:
+        if slave.poll() is None:
+            slave.kill()
+            slave.wait()
+    # the master leaves before its horizon passed the next tick: the run fails at once, saying so
+    slave, address = _serve_slave(tmp_path / "left")
+    try:
+        with socket.create_connection(address) as sock:
+            sock.sendall(_timed_write(0.05))
+        out, err = slave.communicate(timeout=60.0)
+        assert slave.returncode == 1, (out, err)
+        assert (
+            "the client pacing the run disconnected with its horizon at 0.050000 s, before the tick of "
+            "t = 0.050000 s"
+        ) in err
+    finally:
+        if slave.poll() is None:
+            slave.kill()
+            slave.wait()
