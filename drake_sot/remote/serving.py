@@ -467,7 +467,9 @@ def serve_run(
     """Simulate ``setup`` to ``duration`` [s] while serving through ``network`` (started here,
     closed at the end); ``on_ready(address)`` is called once it listens. When the scenario was
     built with a Meshcat, its controls show the stack and the task errors. The requests that
-    changed the context are in the result's ``events`` with the timed commands."""
+    changed the context are in the result's ``events`` with the timed commands. A scenario whose
+    ``extras["paced_by_client"]`` is true is paced by its client (module docstring): the run
+    starts when the client's first horizon is beyond its first tick."""
     built = setup.built
     if getattr(built, "remote", None) is None:
         raise NotServable(
