@@ -224,7 +224,7 @@ class RemoteCommandServer(LeafSystem):
             )
         link = timed.get(name)
         if link is None:
-            value = state.get_discrete_state().get_vector(self._writables[name][1]).get_value()
+            value = state.get_discrete_state().get_vector(self._writables[name][1]).get_value().copy()
             link = Link.start(None, value)
         timed[name] = link.carry(request.sent_at, request.at, request.value)
         return None
