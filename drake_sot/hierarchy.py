@@ -51,8 +51,10 @@ __all__ = [
     "HqpLevel",
     "HqpResult",
     "LevelReport",
+    "TOLERANCE",
     "generalized_projector",
     "generalized_projectors",
+    "level_report",
     "priority_matrix",
     "solve_hqp",
     "solve_strict",
@@ -549,6 +551,9 @@ def generalized_projectors(
 #: makes a row an equality, ``±inf`` drops a side).
 HqpLevel = tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, np.ndarray]
 
+#: :func:`solve_hqp`'s default tolerance: a row within it of a bound is at that bound.
+TOLERANCE = 1e-9
+
 _INF = math.inf
 _EPS = float(np.finfo(float).eps)
 _GEQRF = scipy.linalg.lapack.dgeqrf
@@ -611,28 +616,15 @@ class HqpResult:
     iterations: int
     names: tuple[str, ...] = field(default=(), repr=False)
     problem: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default=(), repr=False)
-    tolerance: float = field(default=1e-9, repr=False)
+    tolerance: float = field(default=TOLERANCE, repr=False)
 
     @cached_property
     def levels(self) -> tuple[LevelReport, ...]:
         """Per level, its slack and active rows at the final q̇."""
-        reports = []
-        for (J, lower, upper), name in zip(self.problem, self.names, strict=True):
-            value = J @ self.qdot
-            inequality = lower < upper
-            reports.append(
-                LevelReport(
-                    name=name,
-                    slack=value - np.clip(value, lower, upper),
-                    active_lower=tuple(
-                        np.flatnonzero(inequality & (value <= lower + self.tolerance)).tolist()
-                    ),
-                    active_upper=tuple(
-                        np.flatnonzero(inequality & (value >= upper - self.tolerance)).tolist()
-                    ),
-                )
-            )
-        return tuple(reports)
+        return tuple(
+            level_report(name, *level, self.qdot, self.tolerance)
+            for level, name in zip(self.problem, self.names, strict=True)
+        )
 
     def level(self, name: str) -> LevelReport:
         """The report of the level called ``name``; KeyError listing the names otherwise."""
@@ -640,6 +632,26 @@ class HqpResult:
             if report.name == name:
                 return report
         raise KeyError(f"no level named {name!r}; levels: {', '.join(self.names)}")
+
+
+def level_report(
+    name: str,
+    J: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    qdot: np.ndarray,
+    tolerance: float = TOLERANCE,
+) -> LevelReport:
+    """The :class:`LevelReport` of the level ``lower <= J q̇ <= upper`` (``lower is upper``, or equal,
+    for equalities) at ``qdot``: its slack, and its inequality rows within ``tolerance`` of a bound."""
+    value = J @ qdot
+    inequality = lower < upper
+    return LevelReport(
+        name=name,
+        slack=value - np.clip(value, lower, upper),
+        active_lower=tuple(np.flatnonzero(inequality & (value <= lower + tolerance)).tolist()),
+        active_upper=tuple(np.flatnonzero(inequality & (value >= upper - tolerance)).tolist()),
+    )
 
 
 def _validate_hqp(
@@ -677,7 +689,7 @@ def solve_hqp(
     *,
     names: Sequence[str] | None = None,
     rank_threshold: float = 1e-6,
-    tolerance: float = 1e-9,
+    tolerance: float = TOLERANCE,
     validate: bool = True,
 ) -> HqpResult:
     """Solve a strict hierarchy of equalities and inequalities (Escande, Mansard, Wieber 2014).
