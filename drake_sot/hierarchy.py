@@ -876,8 +876,8 @@ def _inequalities_idle(
             return None
         R_inv *= _upper_mask(rows)
         r, a = R_inv.ravel(), A.ravel()
-        floor = max(rank_threshold, n * _EPS * math.sqrt(float(a @ a)))  # ||R||_F = ||A||_F
-        if math.sqrt(float(r @ r)) * floor >= 1.0:
+        floor = max(rank_threshold, n * _EPS * math.sqrt(float(a.dot(a))))  # ||R||_F = ||A||_F
+        if math.sqrt(float(r.dot(r))) * floor >= 1.0:
             return None
         target = np.concatenate([t for _, t in equalities]) if len(equalities) > 1 else equalities[0][1]
         y, info = _TRTRS(qr[:rows], target, lower=0, trans=1)  # Rᵀ y = t
@@ -891,16 +891,16 @@ def _inequalities_idle(
             Q, _, info = _ORGQR(padded, tau)  # Q = [Q₁ Q₂] (n, n)
         if info:
             return None
-        x = Q[:, :rows] @ y
+        x = Q[:, :rows].dot(y)  # ndarray.dot: ~1 µs less than @ a product at these sizes
         Z = Q[:, rows:]
     if last is not None:
         J, target = last
-        u = full_rank_lstsq(J if Z is None else J @ Z, target - J @ x, rank_threshold)
+        u = full_rank_lstsq(J if Z is None else J.dot(Z), target - J.dot(x), rank_threshold)
         if u is None:
             return None
-        x = x + (u if Z is None else Z @ u)
+        x = x + (u if Z is None else Z.dot(u))
     for J, lower, upper in inequalities:
-        value = J @ x
+        value = J.dot(x)
         if not ((value <= upper) & (value >= lower)).all():
             return None
     return x, tuple(free_dims)

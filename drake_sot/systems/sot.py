@@ -585,7 +585,7 @@ class StackOfTasks(LeafSystem):
         # A sum of squares (two BLAS dots, cheaper than two sums) is finite when every entry is;
         # only if it is not (NaN, Inf, or an overflow of large finite values) look entry by entry.
         flat = J.ravel("K")  # a view unless J is not contiguous
-        if not math.isfinite(flat @ flat + edot @ edot) and not (  # overflow: see the caller's errstate
+        if not math.isfinite(flat.dot(flat) + edot.dot(edot)) and not (  # overflow: see the caller's errstate
             np.isfinite(J).all() and np.isfinite(edot).all()
         ):
             raise RuntimeError(
@@ -611,7 +611,7 @@ class StackOfTasks(LeafSystem):
                 f"upper {shapes[3]}; expected ({m},), ({m}, {self._nv}), ({m},), ({m},)"
             )
         flat = J.ravel("K")  # a sum of squares, as in _level; under its errstate
-        if not math.isfinite(flat @ flat) and not np.isfinite(J).all():
+        if not math.isfinite(flat.dot(flat)) and not np.isfinite(J).all():
             raise RuntimeError(
                 f"task {task_name!r}: NaN or Inf in its Jacobian at t = {context.get_time():.4f} s"
             )
