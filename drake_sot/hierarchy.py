@@ -852,12 +852,12 @@ def _inequalities_idle(
     free_dims: list[int] = []  # certified below: each equality row takes one dimension
     total = 0
     for J, lower, upper in levels:
-        if lower is upper or (lower == upper).all():
+        if lower is not upper and (lower < upper).all():
+            inequalities.append((J, lower, upper))
+        elif lower is upper or (lower == upper).all():
             if J.shape[0]:
                 equalities.append((J, upper))
                 total += J.shape[0]
-        elif (lower < upper).all():
-            inequalities.append((J, lower, upper))
         else:
             return None
         free_dims.append(max(n - total, 0))
@@ -880,9 +880,7 @@ def _inequalities_idle(
         if math.sqrt(float(r.dot(r))) * floor >= 1.0:
             return None
         target = np.concatenate([t for _, t in equalities]) if len(equalities) > 1 else equalities[0][1]
-        y, info = _TRTRS(qr[:rows], target, lower=0, trans=1)  # Rᵀ y = t
-        if info:
-            return None
+        y = R_inv.T.dot(target)  # Rᵀ y = t, with R⁻¹ at hand (as equality_run's loop)
         if last is None:
             Q, _, info = _ORGQR(qr, tau)  # Q₁ (n, rows)
         else:
