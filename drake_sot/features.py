@@ -67,9 +67,10 @@ def point6d(
     Returns:
         ``(e (6,), J_e (6, nv), feedforward (6,))`` where ``feedforward = -∂e/∂t``.
     """
-    e_o = so3.log(R @ R_des.T)
+    # ndarray.dot rather than @ on these small arrays: ~1 µs less a product (numpy 2's matmul dispatch).
+    e_o = so3.log(R.dot(R_des.T))
     e = np.concatenate((p - p_des, e_o))
-    J_e = np.concatenate((J[3:], so3.left_jacobian_inverse(e_o) @ J[:3]))
+    J_e = np.concatenate((J[3:], so3.left_jacobian_inverse(e_o).dot(J[:3])))
     if velocity_des is None:
         feedforward = np.zeros(6)
     else:

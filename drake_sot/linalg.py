@@ -136,9 +136,9 @@ def full_rank_lstsq(A: np.ndarray, b: np.ndarray, rank_threshold: float = 1e-6) 
         return None
     R_inv *= _upper_mask(k)
     a = A.ravel()
-    floor = max(rank_threshold, max(m, k) * _EPS * math.sqrt(float(a @ a)))  # ||R||_F = ||A||_F
+    floor = max(rank_threshold, max(m, k) * _EPS * math.sqrt(float(a.dot(a))))  # ||R||_F = ||A||_F
     r = R_inv.ravel()
-    if math.sqrt(float(r @ r)) * floor >= 1.0:
+    if math.sqrt(float(r.dot(r))) * floor >= 1.0:  # .dot: cheaper than @ on vectors
         return None  # the smallest singular value may be at or below the floor
     return x[:k]
 

@@ -35,15 +35,15 @@ def log(R: np.ndarray) -> np.ndarray:
     Accurate near the identity and near π (where the axis is taken from the
     symmetric part of R).
     """
-    vx, vy, vz = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+    # Python floats (one tolist) rather than numpy scalars: a feature calls this at every control tick.
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R, dtype=float).tolist()
+    vx, vy, vz = r21 - r12, r02 - r20, r10 - r01
     # atan2 keeps full precision at both ends, where arccos of the trace does not.
-    theta = math.atan2(
-        0.5 * math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    )
-    v = np.array([vx, vy, vz])
+    theta = math.atan2(0.5 * math.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (r00 + r11 + r22 - 1.0))
     if theta < 1e-6:
-        return 0.5 * v
+        return np.array([0.5 * vx, 0.5 * vy, 0.5 * vz])
     if np.pi - theta < 1e-4:
+        v = np.array([vx, vy, vz])
         # The symmetric part is cosθ I + (1 - cosθ) a aᵀ: read the axis from it.
         cos_theta = np.cos(theta)
         A = (0.5 * (R + R.T) - cos_theta * np.eye(3)) / (1.0 - cos_theta)
@@ -52,12 +52,13 @@ def log(R: np.ndarray) -> np.ndarray:
         if axis @ v < 0.0:  # the antisymmetric part, 2 sinθ a, fixes the sign
             axis = -axis
         return theta * axis
-    return theta / (2.0 * math.sin(theta)) * v
+    scale = theta / (2.0 * math.sin(theta))
+    return np.array([scale * vx, scale * vy, scale * vz])
 
 
 def left_jacobian_inverse(w: np.ndarray) -> np.ndarray:
     """``J_l^{-1}(w)`` (3, 3): maps a world angular velocity to ``d/dt log(X)``, ``X = exp(w)``."""
-    x, y, z = float(w[0]), float(w[1]), float(w[2])
+    x, y, z = np.asarray(w, dtype=float).tolist()
     theta2 = x * x + y * y + z * z
     if theta2 < 1e-12:
         coef = 1.0 / 12.0

@@ -27,7 +27,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_hierarchy import stacks
 
-from drake_sot.hierarchy import solve_hqp, solve_strict
+from drake_sot.hierarchy import _inequalities_idle, solve_hqp, solve_strict
 
 SETTINGS = settings(max_examples=120, deadline=None)
 Level3 = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -204,6 +204,81 @@ def test_equality_levels_solved_together_below_a_box_that_blocks_the_second():
     reference = cascade([box] + [(J, t, t.copy()) for J, t in (first, second, third)], n)
     np.testing.assert_allclose(solve_hqp(levels).qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
     assert np.abs(reference).max() == pytest.approx(0.5)  # the box binds: the test sees the blocked path
+
+
+@st.composite
+def idle_problems(draw: st.DrawFn) -> Problem:
+    """2-4 levels on 4-7 joints, each all equalities (Gaussian rows, so of full rank: at most
+    n - 1 rows above the last equality level, which may be tall) or all inequalities (at most
+    5 rows in all) whose bounds hold, 0.01-2 away, at the equality levels' own hierarchy
+    solution: the inequalities change nothing."""
+    n = draw(st.integers(4, 7))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    kinds = draw(st.lists(st.sampled_from(["equality", "inequality"]), min_size=2, max_size=4))
+    kinds[draw(st.integers(0, len(kinds) - 1))] = "equality"
+    last = max(i for i, kind in enumerate(kinds) if kind == "equality")
+    upper_equalities = kinds[:last].count("equality")  # each takes 1 to what the others leave
+    rows_left, inequalities, levels = n - 1, 0, []
+    for i, kind in enumerate(kinds):
+        if kind == "equality":
+            if i == last:
+                m = draw(st.integers(1, n + 2))
+            else:
+                upper_equalities -= 1
+                m = draw(st.integers(1, rows_left - upper_equalities))
+                rows_left -= m
+            t = rng.normal(size=m)
+            levels.append((rng.normal(size=(m, n)), t, t.copy()))
+        else:
+            m = draw(st.integers(1, max(1, min(3, 5 - inequalities))))
+            inequalities += m
+            levels.append((rng.normal(size=(m, n)), np.zeros(m), np.zeros(m)))
+    equality_levels = [(J, t) for (J, t, _), kind in zip(levels, kinds, strict=True) if kind == "equality"]
+    at = solve_strict(equality_levels).qdot
+    for i, kind in enumerate(kinds):
+        if kind == "inequality":
+            value = levels[i][0] @ at
+            below, above = rng.uniform(0.01, 2.0, size=value.size), rng.uniform(0.01, 2.0, size=value.size)
+            side = rng.integers(0, 3, size=value.size)  # 0: both bounds, 1: lower only, 2: upper only
+            levels[i] = (
+                levels[i][0],
+                np.where(side == 2, -np.inf, value - below),
+                np.where(side == 1, np.inf, value + above),
+            )
+    return Problem(levels=levels, n=n)
+
+
+@SETTINGS
+@given(idle_problems())
+def test_inequalities_that_hold_at_the_equality_solution_take_the_shortcut(problem):
+    """When every inequality row holds where the equality levels alone lead, solve_hqp returns
+    that point without an active set (``_inequalities_idle``): it is the cascade's optimum,
+    and ``solve_strict``'s q̇ of the equality levels to rounding."""
+    equality_levels = [(J, hi) for J, lo, hi in problem.levels if (lo == hi).all()]
+    strict = solve_strict(equality_levels).qdot
+    assert _inequalities_idle([(J, lo, hi) for J, lo, hi in problem.levels], 1e-6) is not None
+    result = solve_hqp(problem.levels)
+    reference = cascade(problem.levels, problem.n)
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
+    np.testing.assert_allclose(result.qdot, strict, rtol=0.0, atol=1e-9 * scale(strict))
+    for report, (_, lo, hi) in zip(result.levels, problem.levels, strict=True):
+        if (lo < hi).all():  # an inequality level: every row holds, none at a bound
+            assert report.violation == 0.0 and report.active_lower == report.active_upper == ()
+
+
+def test_an_inequality_broken_at_the_equality_solution_goes_to_the_active_set():
+    """The shortcut declines when a row does not hold at the equality levels' solution, and
+    the active set then gives the cascade's optimum (the bound binds)."""
+    rng = np.random.default_rng(4)
+    n = 5
+    J, t = rng.normal(size=(3, n)), rng.normal(size=3)
+    free = solve_strict([(J, t)]).qdot
+    box = (np.eye(n), -np.full(n, 0.5) * np.abs(free).max(), np.full(n, 0.5) * np.abs(free).max())
+    levels = [box, (J, t, t)]
+    assert _inequalities_idle(levels, 1e-6) is None
+    reference = cascade([box, (J, t, t.copy())], n)
+    np.testing.assert_allclose(solve_hqp(levels).qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+    assert np.abs(reference).max() == pytest.approx(0.5 * np.abs(free).max())
 
 
 # --- b) by hand ---------------------------------------------------------------------------

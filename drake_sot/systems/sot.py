@@ -14,7 +14,7 @@ from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.blas import limit_blas_threads
-from drake_sot.hierarchy import solve_hqp, solve_strict
+from drake_sot.hierarchy import LevelReport, level_report, solve_hqp, solve_strict
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Stack, StackError
 from drake_sot.systems._context import own_context, settable_context
@@ -165,6 +165,17 @@ class StackOfTasks(LeafSystem):
             context's stack.
         command_results: only with ``commands_input=True``; abstract
             :class:`StackCommandResults` of the last batch of the ``commands`` input.
+        report: only with ``report=True``; abstract ``tuple`` of
+            :class:`~drake_sot.hierarchy.LevelReport`, one per task of the stack of the last tick
+            (the stack reached, during a change), highest priority first, each named by its task:
+            ``slack`` (m,) = ``J q̇ - clip(J q̇, lower, upper)`` at the ``qdot`` output (an
+            equality task's ``J q̇ - ė*``; 0 on a row that holds) [the task's rows' units /s],
+            and ``active_lower`` / ``active_upper``, the rows of an inequality task within
+            :data:`~drake_sot.hierarchy.TOLERANCE` of that bound (indices into the task's rows).
+            Empty before the first tick. The tick writes the slacks and the active rows to a
+            discrete state (one product ``J q̇`` per task of the stack, ~1 µs each); the
+            tuple is built only when the port is evaluated. Without ``report=True`` none of it
+            exists and the tick does not pay for it.
 
     Args:
         nv: size of q̇ (the model's number of velocities), >= 1.
@@ -180,6 +191,7 @@ class StackOfTasks(LeafSystem):
         solver: ``"svd"`` (:func:`~drake_sot.hierarchy.solve_strict`) or ``"hqp"``
             (:func:`~drake_sot.hierarchy.solve_hqp`, equalities and inequalities).
         commands_input: declare the ``commands`` input and the ``command_results`` output.
+        report: declare the ``report`` output (the per-task slacks and active rows of each tick).
 
     Raises:
         ValueError: at construction, naming the bad argument (a task name twice, a
@@ -205,6 +217,7 @@ class StackOfTasks(LeafSystem):
         name: str = "sot",
         solver: str = "svd",
         commands_input: bool = False,
+        report: bool = False,
     ) -> None:
         super().__init__()
         limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
@@ -294,6 +307,7 @@ class StackOfTasks(LeafSystem):
                 *remote,
             },
         )
+        self._report = self._declare_report() if report else None
 
     # --- what the stack may hold -------------------------------------------------
     @property
@@ -453,6 +467,65 @@ class StackOfTasks(LeafSystem):
         elif remote.base is not None and remote.base != driven:  # the input's newer stack wins
             state.get_mutable_abstract_state(self._committed).set_value(_Remote(results, None))
 
+    # --- the per-task report of each tick (report=True) ----------------------------------------
+    def _declare_report(self) -> int:
+        """The discrete state ``[order; slack; flags]`` the tick writes and the ``report`` output that
+        reads it: ``order`` (one entry per declared task) the declaration indices of the stack's tasks,
+        highest priority first, then -1; per declared row (as ``errors``), its slack and its flags
+        (1: at its lower bound, 2: at its upper bound, 3: both), NaN for the tasks not reported."""
+        self._task_index = {task_name: k for k, task_name in enumerate(self.task_names)}
+        index = self.DeclareDiscreteState(self._empty_report())
+        self.DeclareAbstractOutputPort(
+            "report",
+            lambda: AbstractValue.Make(()),
+            self._calc_report,
+            prerequisites_of_calc={self.discrete_state_ticket(index)},
+        )
+        return index
+
+    def _empty_report(self) -> np.ndarray:
+        """The ``report`` discrete state with no task reported."""
+        return np.concatenate((np.full(len(self._dims), -1.0), np.full(2 * self._errors_size, np.nan)))
+
+    def _report_state(
+        self, active: tuple[str, ...], signals: dict[str, tuple[np.ndarray, ...]], qdot: np.ndarray
+    ) -> np.ndarray:
+        """The ``report`` discrete state of a tick whose stack is ``active`` and whose q̇ is ``qdot``."""
+        tasks, rows = len(self._dims), self._errors_size
+        state = self._empty_report()
+        order, slack, flags = state[:tasks], state[tasks : tasks + rows], state[tasks + rows :]
+        for k, task_name in enumerate(active):
+            level = signals[task_name]
+            report = level_report(task_name, level[0], level[1], level[-1], qdot)
+            rows_of_task = self._slices[task_name]
+            order[k] = self._task_index[task_name]
+            slack[rows_of_task] = report.slack
+            task_flags = np.zeros(report.slack.size)
+            task_flags[list(report.active_lower)] += 1.0
+            task_flags[list(report.active_upper)] += 2.0
+            flags[rows_of_task] = task_flags
+        return state
+
+    def _calc_report(self, context: Context, value: AbstractValue) -> None:
+        state = context.get_discrete_state(self._report).get_value()
+        tasks, rows = len(self._dims), self._errors_size
+        slack, flags = state[tasks : tasks + rows], state[tasks + rows :]
+        reports = []
+        for k in state[:tasks]:
+            if k < 0:
+                break
+            task_name = self.task_names[int(k)]
+            task_flags = flags[self._slices[task_name]]
+            reports.append(
+                LevelReport(
+                    name=task_name,
+                    slack=slack[self._slices[task_name]].copy(),
+                    active_lower=tuple(np.flatnonzero(task_flags % 2 == 1).tolist()),
+                    active_upper=tuple(np.flatnonzero(task_flags >= 2).tolist()),
+                )
+            )
+        value.set_value(tuple(reports))
+
     # --- the control law -----------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         stack = self._current_stack(context)
@@ -461,12 +534,10 @@ class StackOfTasks(LeafSystem):
         errors = np.full(self._errors_size, np.nan)
         signals: dict[str, tuple[np.ndarray, ...]] = {}  # task name -> its level
         ports = self._ports
-        evaluated = {
-            task_name: ports[task_name].Eval(context)
-            for task_name in (
-                blend[0][0] if len(blend) == 1 else dict.fromkeys(n for active, _ in blend for n in active)
-            )
-        }
+        needed = blend[0][0] if len(blend) == 1 else dict.fromkeys(n for active, _ in blend for n in active)
+        if self._report is not None:  # the stack reached is reported (at a change's start, not in the blend)
+            needed = {**dict.fromkeys(needed), **dict.fromkeys(stack.active)}
+        evaluated = {task_name: ports[task_name].Eval(context) for task_name in needed}
         with np.errstate(over="ignore"):  # one for all the finiteness sums of _level (it says why)
             for task_name, signal in evaluated.items():
                 signals[task_name] = self._level(task_name, signal, context, errors)
@@ -483,8 +554,11 @@ class StackOfTasks(LeafSystem):
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
                 )
             qdot = weight * result.qdot if qdot is None else qdot + weight * result.qdot
-        discrete_state.set_value(self._qdot, np.zeros(self._nv) if qdot is None else qdot)  # one binding call
+        qdot = np.zeros(self._nv) if qdot is None else qdot
+        discrete_state.set_value(self._qdot, qdot)  # one binding call
         discrete_state.set_value(self._errors, errors)
+        if self._report is not None:
+            discrete_state.set_value(self._report, self._report_state(stack.active, signals, qdot))
 
     def _level(
         self, task_name: str, signal: TaskSignal | BoundedTaskSignal, context: Context, errors: np.ndarray
@@ -511,7 +585,7 @@ class StackOfTasks(LeafSystem):
         # A sum of squares (two BLAS dots, cheaper than two sums) is finite when every entry is;
         # only if it is not (NaN, Inf, or an overflow of large finite values) look entry by entry.
         flat = J.ravel("K")  # a view unless J is not contiguous
-        if not math.isfinite(flat @ flat + edot @ edot) and not (  # overflow: see the caller's errstate
+        if not math.isfinite(flat.dot(flat) + edot.dot(edot)) and not (  # overflow: see the caller's errstate
             np.isfinite(J).all() and np.isfinite(edot).all()
         ):
             raise RuntimeError(
@@ -537,7 +611,7 @@ class StackOfTasks(LeafSystem):
                 f"upper {shapes[3]}; expected ({m},), ({m}, {self._nv}), ({m},), ({m},)"
             )
         flat = J.ravel("K")  # a sum of squares, as in _level; under its errstate
-        if not math.isfinite(flat @ flat) and not np.isfinite(J).all():
+        if not math.isfinite(flat.dot(flat)) and not np.isfinite(J).all():
             raise RuntimeError(
                 f"task {task_name!r}: NaN or Inf in its Jacobian at t = {context.get_time():.4f} s"
             )
