@@ -12,10 +12,16 @@ real-time factor, each beside a baseline measured in the same run.
 3. That plant alone with its whole-body collision shapes beside the same plant whose
    soles alone collide: the price of the shapes when nothing but the soles touches
    (alternated, best of three each).
+4. ``--stabilizer``: instead of 1-3, the ``walk`` (collision shapes) with the balance
+   stabilizer, without it, and the plant alone, interleaved ``--rounds`` times in one process;
+   each real-time factor by wall time and by the process's CPU time (less moved by the
+   other processes of a shared machine), and the load average before each round.
 """
 
 from __future__ import annotations
 
+import argparse
+import os
 import statistics
 import sys
 import time
@@ -90,7 +96,52 @@ def bench_body_collision(duration: float = 5.0, repeat: int = 3) -> dict[str, fl
     return {"rtf_body": max(body), "rtf_soles": max(soles)}
 
 
+def _walk_realtime(stabilizer: bool) -> tuple[float, float, float]:
+    """(simulated duration [s], wall time [s], CPU time [s]) of the whole ``walk``."""
+    from drake_sot.diagrams import walk
+    from drake_sot.diagrams.run import simulate
+
+    setup = walk.build(stabilizer=stabilizer)
+    simulator = setup.built.create_simulator()
+    cpu = time.process_time()
+    result = simulate(simulator, setup.duration, setup.commands)
+    cpu = time.process_time() - cpu
+    if not result.completed or result.fell is not None:
+        raise RuntimeError(
+            f"walk (stabilizer {stabilizer}) did not complete: {result.failure or result.fell}"
+        )
+    return setup.duration, result.wall_time, cpu
+
+
+def bench_stabilizer_realtime(rounds: int = 3) -> None:
+    """The walk with and without the stabilizer beside the plant alone, interleaved; a row per round."""
+    print(
+        "| round (load average) | plant alone | walk, stabilizer on (ratio) | walk, stabilizer off (ratio) |"
+    )
+    print("|---|---|---|---|")
+    for k in range(rounds):
+        load = os.getloadavg()[0]
+        duration, on_wall, on_cpu = _walk_realtime(True)
+        plant_wall = plant_alone_realtime(duration)
+        plant_cpu = plant_alone_realtime(duration, clock=time.process_time)
+        _, off_wall, off_cpu = _walk_realtime(False)
+        cells = [f"wall {plant_wall:.2f} / CPU {plant_cpu:.2f}"]
+        for wall, cpu in ((on_wall, on_cpu), (off_wall, off_cpu)):
+            cells.append(
+                f"wall {duration / wall:.2f} ({duration / wall / plant_wall:.2f}) / "
+                f"CPU {duration / cpu:.2f} ({duration / cpu / plant_cpu:.2f})"
+            )
+        print(f"| {k + 1} ({load:.1f}) | {' | '.join(cells)} |", flush=True)
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stabilizer", action="store_true", help="only the walk with/without the stabilizer")
+    parser.add_argument("--rounds", type=int, default=3, help="rounds of --stabilizer (default 3)")
+    args = parser.parse_args()
+    if args.stabilizer:
+        bench_stabilizer_realtime(args.rounds)
+        return
     pg = bench_pattern_generator()
     rtf = bench_walk_realtime()
     collision = bench_body_collision()
