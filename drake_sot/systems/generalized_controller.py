@@ -54,7 +54,7 @@ from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot.blas import limit_blas_threads
-from drake_sot.hierarchy import generalized_projectors
+from drake_sot.hierarchy import projected_jacobians
 from drake_sot.linalg import pinv
 from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, static_capacity
 from drake_sot.signals import TaskSignal
@@ -661,15 +661,14 @@ class GeneralizedHierarchyController(LeafSystem):
             integral = step.integral
             desired[self._motion_rows :] = step.wrench
             errors[self._motion_rows :] = step.error
-        # The QP checks every projected Jacobian for NaN and names the task: no second check here.
-        projectors = (
-            [None] * len(self._names)
-            if self._weighted
-            else generalized_projectors(jacobians, alpha, validate=False)
-        )
+        # Each goal task enters the QP through J_i P_i (eq. 9-10: P_i J_iᵀ w_i, P_i symmetric), formed
+        # without the (nv, nv) projectors. The QP checks every Jacobian for NaN and names the task:
+        # no second check here.
+        if not self._weighted:
+            jacobians = projected_jacobians(jacobians, alpha, validate=False)
         tasks = [
-            QsTask(name, J, desired=desired[sl], weight=self._weights.get(name, 1.0), projector=P)
-            for (name, sl), J, P in zip(self._slices.items(), jacobians, projectors, strict=True)
+            QsTask(name, J, desired=desired[sl], weight=self._weights.get(name, 1.0))
+            for (name, sl), J in zip(self._slices.items(), jacobians, strict=True)
         ]
         contact_jacobians = self._contact_jacobians()
         tasks += [
