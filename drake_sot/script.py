@@ -335,9 +335,8 @@ def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
         return names, 0.0
     seconds = args[takes]
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
-        raise ValueError(
-            f"{usage}: the transition time must be a number of seconds, got {format_value(seconds)}"
-        )
+        shown = repr(seconds) if isinstance(seconds, bool) else format_value(seconds)  # no script bool
+        raise ValueError(f"{usage}: the transition time must be a number of seconds, got {shown}")
     if not (math.isfinite(seconds) and seconds >= 0.0):
         raise ValueError(f"{usage}: transition = {seconds!r} s: must be finite and >= 0")
     return names, float(seconds)
