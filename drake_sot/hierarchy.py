@@ -498,6 +498,23 @@ def generalized_projector(
     return _projector(rows, groups, jacobians[0].shape[1], tol)
 
 
+def _batch(
+    jacobians: Sequence[np.ndarray], alpha: np.ndarray, validate: bool
+) -> tuple[Sequence[np.ndarray], list[np.ndarray], np.ndarray]:
+    """``(jacobians, unit rows per task, alpha)`` for the batch functions, checked if ``validate``
+    (ValueError as :func:`generalized_projectors`)."""
+    n = len(jacobians)
+    if validate:
+        jacobians, stacked = _jacobians(jacobians)
+        a = np.asarray(alpha, dtype=float)
+        if a.shape != (n, n):
+            raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
+        _alphas(a, name="alpha", ndim=2)
+    else:
+        stacked, a = np.concatenate(jacobians), alpha
+    return jacobians, _unit_rows(jacobians, stacked), a
+
+
 def generalized_projectors(
     jacobians: Sequence[np.ndarray],
     alpha: np.ndarray,
@@ -526,17 +543,8 @@ def generalized_projectors(
         ValueError: as :func:`generalized_projector`, or ``alpha`` not (n, n).
     """
     tol = nonnegative("rank_threshold", rank_threshold)
-    n = len(jacobians)
-    if validate:
-        jacobians, stacked = _jacobians(jacobians)
-        a = np.asarray(alpha, dtype=float)
-        if a.shape != (n, n):
-            raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
-        _alphas(a, name="alpha", ndim=2)
-    else:
-        stacked, a = np.concatenate(jacobians), alpha
-    nv = jacobians[0].shape[1]
-    blocks = _unit_rows(jacobians, stacked)
+    jacobians, blocks, a = _batch(jacobians, alpha, validate)
+    n, nv = len(jacobians), jacobians[0].shape[1]
     # Tasks with the same α row have the same projector (e.g. both hands' orientation
     # tasks in a symmetric hierarchy): compute each distinct row once.
     distinct: dict[bytes, np.ndarray] = {}
@@ -569,17 +577,8 @@ def projected_jacobians(
     Args, Raises: as :func:`generalized_projectors`.
     """
     tol = nonnegative("rank_threshold", rank_threshold)
-    n = len(jacobians)
-    if validate:
-        jacobians, stacked = _jacobians(jacobians)
-        a = np.asarray(alpha, dtype=float)
-        if a.shape != (n, n):
-            raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
-        _alphas(a, name="alpha", ndim=2)
-    else:
-        stacked, a = np.concatenate(jacobians), alpha
-    nv = jacobians[0].shape[1]
-    blocks = _unit_rows(jacobians, stacked)
+    jacobians, blocks, a = _batch(jacobians, alpha, validate)
+    n, nv = len(jacobians), jacobians[0].shape[1]
     # The tasks of each distinct α row (e.g. all the tasks below the same upper ones).
     sharing: dict[bytes, list[int]] = {}
     for i in range(n):
