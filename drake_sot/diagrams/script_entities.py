@@ -978,13 +978,17 @@ _STACK_ACTIONS = {"push": Push, "rm": Rm, "up": Up, "down": Down, "pop": Pop, "c
 
 class SequencerEntity(Entity):
     CLASS = "TaskSequencer"
-    DOC = "a state machine over the stack (the paper's DecisionServer); plug its stack into the SOT's"
+    DOC = (
+        "a state machine over the stack (the paper's DecisionServer); plug its stack (or smooth_stack,"
+        " with transitionTime) into the SOT's"
+    )
 
     def __init__(self, session: ScriptSession, name: str, statement: Statement | None) -> None:
         super().__init__(session, name, statement)
         self.states: dict[str, tuple[list, list]] = {}  # name -> (entry actions, transitions)
         self.values: dict[str, object] = {}
         self._period = 0.005
+        self._transition_time = 0.0
         self.initial_stack: tuple[str, ...] = ()
 
     def _guard_ports(self) -> list[str]:
@@ -1000,7 +1004,7 @@ class SequencerEntity(Entity):
         return tuple(self._guard_ports())
 
     def outputs(self) -> tuple[str, ...]:
-        return ("stack", "state", "transitions", *self.values)
+        return ("stack", "smooth_stack", "state", "transitions", *self.values)
 
     def _state(self, value: Value) -> tuple[list, list]:
         name = _text(value, "the state")
@@ -1085,6 +1089,18 @@ class SequencerEntity(Entity):
         self._period = validation.positive(f"{self.name}.period", _number(args[0], "the period"), unit="s")
         return ""
 
+    @_command(
+        Phase.BUILD,
+        "transitionTime S",
+        "blend each state's change of the stack over S seconds on smooth_stack (0: at once)",
+    )
+    def transitionTime(self, args: tuple[Value, ...], context: Context | None) -> str:
+        _arity(args, "transitionTime S", 1)
+        self._transition_time = validation.nonnegative(
+            f"{self.name}.transitionTime", _number(args[0], "the transition time"), unit="s"
+        )
+        return ""
+
     @_command(Phase.BUILD, "initialStack TASK…", "the stack before the initial state's entry")
     def initialStack(self, args: tuple[Value, ...], context: Context | None) -> str:
         self.initial_stack = tuple(_text(a, "a task") for a in args)
@@ -1116,6 +1132,7 @@ class SequencerEntity(Entity):
                 stack=self.initial_stack,
                 period=self._period,
                 values=self.values,
+                transition_time=self._transition_time,
                 name=self.name,
             )
         )
