@@ -56,6 +56,7 @@ __all__ = [
     "generalized_projectors",
     "level_report",
     "priority_matrix",
+    "projected_jacobians",
     "solve_hqp",
     "solve_strict",
 ]
@@ -357,8 +358,11 @@ def _sorted_rows(
     return rows, groups
 
 
-def _projector(rows: np.ndarray | None, groups: list[tuple[int, float]], nv: int, tol: float) -> np.ndarray:
-    """Eq. 8 from the unit ``rows`` and ``groups`` made by :func:`_sorted_rows`.
+def _basis(
+    rows: np.ndarray, groups: list[tuple[int, float]], nv: int, tol: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(B, w)`` of eq. 8, ``P = I - B diag(w) Bᵀ``, from the unit ``rows`` and ``groups`` made by
+    :func:`_sorted_rows`: ``B`` (nv, r) orthonormal, ``w`` (r,) the alpha of each column's origin row.
 
     The rows are taken one group of equal alpha at a time, in decreasing
     alpha.  Each group's rows are made orthogonal to the basis ``B`` already
@@ -369,8 +373,6 @@ def _projector(rows: np.ndarray | None, groups: list[tuple[int, float]], nv: int
     coming from a small ``|R_kk|`` carries rounding errors ~eps/|R_kk| along
     ``B``: it is projected once more (Gram-Schmidt's "twice is enough").
     """
-    if rows is None:
-        return np.eye(nv)
     B = np.empty((nv, nv))  # columns 0..r-1: orthonormal basis built so far
     weights = np.empty(nv)  # alpha of the origin row of each basis vector
     r = 0
@@ -410,8 +412,15 @@ def _projector(rows: np.ndarray | None, groups: list[tuple[int, float]], nv: int
         B[:, r : r + k] = q
         weights[r : r + k] = a
         r += k
-    Br = B[:, :r]
-    P = (Br * -weights[:r]) @ Br.T
+    return B[:, :r], weights[:r]
+
+
+def _projector(rows: np.ndarray | None, groups: list[tuple[int, float]], nv: int, tol: float) -> np.ndarray:
+    """Eq. 8, ``P = I - B diag(w) Bᵀ`` (:func:`_basis`), from the output of :func:`_sorted_rows`."""
+    if rows is None:
+        return np.eye(nv)
+    B, w = _basis(rows, groups, nv, tol)
+    P = (B * -w) @ B.T
     P.flat[:: nv + 1] += 1.0
     return P
 
@@ -491,6 +500,23 @@ def generalized_projector(
     return _projector(rows, groups, jacobians[0].shape[1], tol)
 
 
+def _batch(
+    jacobians: Sequence[np.ndarray], alpha: np.ndarray, validate: bool
+) -> tuple[Sequence[np.ndarray], list[np.ndarray], np.ndarray]:
+    """``(jacobians, unit rows per task, alpha)`` for the batch functions, checked if ``validate``
+    (ValueError as :func:`generalized_projectors`)."""
+    n = len(jacobians)
+    if validate:
+        jacobians, stacked = _jacobians(jacobians)
+        a = np.asarray(alpha, dtype=float)
+        if a.shape != (n, n):
+            raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
+        _alphas(a, name="alpha", ndim=2)
+    else:
+        stacked, a = np.concatenate(jacobians), alpha
+    return jacobians, _unit_rows(jacobians, stacked), a
+
+
 def generalized_projectors(
     jacobians: Sequence[np.ndarray],
     alpha: np.ndarray,
@@ -519,17 +545,8 @@ def generalized_projectors(
         ValueError: as :func:`generalized_projector`, or ``alpha`` not (n, n).
     """
     tol = nonnegative("rank_threshold", rank_threshold)
-    n = len(jacobians)
-    if validate:
-        jacobians, stacked = _jacobians(jacobians)
-        a = np.asarray(alpha, dtype=float)
-        if a.shape != (n, n):
-            raise ValueError(f"alpha has shape {a.shape} but there are {n} Jacobians; expected ({n}, {n})")
-        _alphas(a, name="alpha", ndim=2)
-    else:
-        stacked, a = np.concatenate(jacobians), alpha
-    nv = jacobians[0].shape[1]
-    blocks = _unit_rows(jacobians, stacked)
+    jacobians, blocks, a = _batch(jacobians, alpha, validate)
+    n, nv = len(jacobians), jacobians[0].shape[1]
     # Tasks with the same α row have the same projector (e.g. both hands' orientation
     # tasks in a symmetric hierarchy): compute each distinct row once.
     distinct: dict[bytes, np.ndarray] = {}
@@ -539,6 +556,48 @@ def generalized_projectors(
         if key not in distinct:
             distinct[key] = _projector(*_sorted_rows(blocks, a[i].tolist(), normalise=False), nv, tol)
         out[i] = distinct[key]
+    return out
+
+
+def projected_jacobians(
+    jacobians: Sequence[np.ndarray],
+    alpha: np.ndarray,
+    *,
+    rank_threshold: float = 1e-9,
+    validate: bool = True,
+) -> list[np.ndarray]:
+    """Every task's Jacobian times its generalized projector, ``J_i P_i(A_i)`` (m_i, nv)
+    (Liu, Lober, Padois 2016, eq. 8): what the quasi-static QP of eq. 9-11 uses (``P_i`` is
+    symmetric, so ``J_i P_i = (P_i J_iᵀ)ᵀ``), without forming the (nv, nv) projectors.
+
+    Same result as ``[J_i @ P_i for J_i, P_i in zip(jacobians, generalized_projectors(jacobians,
+    alpha))]`` up to rounding: with ``P_i = I - B diag(w) Bᵀ`` (:func:`generalized_projector`'s
+    basis of the rows sorted by decreasing alpha), ``J_i P_i = J_i - ((J_i B) diag(w)) Bᵀ``,
+    computed once for all the tasks that share an α row. A task whose projector is the identity
+    (no positive alpha in its row) gets its own Jacobian, not a copy.
+
+    Args, Raises: as :func:`generalized_projectors`.
+    """
+    tol = nonnegative("rank_threshold", rank_threshold)
+    jacobians, blocks, a = _batch(jacobians, alpha, validate)
+    n, nv = len(jacobians), jacobians[0].shape[1]
+    # The tasks of each distinct α row (e.g. all the tasks below the same upper ones).
+    sharing: dict[bytes, list[int]] = {}
+    for i in range(n):
+        sharing.setdefault(a[i].tobytes(), []).append(i)
+    out: list[np.ndarray] = list(jacobians)
+    for tasks in sharing.values():
+        rows, groups = _sorted_rows(blocks, a[tasks[0]].tolist(), normalise=False)
+        if rows is None:
+            continue  # P = I
+        B, w = _basis(rows, groups, nv, tol)
+        J = jacobians[tasks[0]] if len(tasks) == 1 else np.concatenate([jacobians[i] for i in tasks])
+        JP = J - ((J @ B) * w) @ B.T
+        begin = 0
+        for i in tasks:
+            end = begin + jacobians[i].shape[0]
+            out[i] = JP[begin:end]
+            begin = end
     return out
 
 

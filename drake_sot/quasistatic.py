@@ -68,6 +68,7 @@ __all__ = [
     "QsSolution",
     "QsTask",
     "QuasiStaticQP",
+    "StackedQP",
     "StaticCapacity",
     "static_capacity",
 ]
@@ -340,6 +341,78 @@ class _Layout:
         )
 
 
+def _set_weights(lay: _Layout, tasks: Sequence[QsTask], weighted: bool) -> None:
+    """The cost's diagonal ``lay.h``: goal tasks 1 (eq. 9) or ω_t (eq. 5); non-goal tasks ω_r."""
+    weights = tuple([t.weight if (weighted or t.desired is None) else 1.0 for t in tasks])
+    if weights == lay.weights:
+        return
+    w = np.array(weights, dtype=float)
+    if not (np.isfinite(w).all() and (w > 0.0).all()):
+        bad = [t.name for t, v in zip(tasks, w, strict=True) if not (np.isfinite(v) and v > 0.0)]
+        raise ValueError(f"task weights must be finite and > 0, not for {bad}")
+    lay.h[:] = np.repeat(w, lay.dims)
+    lay.H_diag[:] = lay.h
+    lay.weights, lay.H_changed = weights, True
+
+
+class StackedQP:
+    """The quasi-static QP of a fixed set of tasks (:meth:`QuasiStaticQP.stacked`), fed stacked
+    arrays at every tick: the same problem, answer and checks as :meth:`QuasiStaticQP.solve`
+    with tasks of those Jacobians and desired wrenches, without building the structure of
+    :class:`QsTask` objects each tick (what a controller whose tasks never change pays for
+    nothing).
+
+    Attributes:
+        rows: the (m, n) work buffer of the stacked rows, task i's at ``slices[name]``: a
+            caller may write the rows there and pass it to :meth:`solve` (no copy).
+        slices: task name → its rows (and its part of ``x``), in the order of the tasks given.
+        goal_rows: how many entries ``desired`` has (the goal tasks' rows, in task order).
+    """
+
+    def __init__(self, qp: QuasiStaticQP, lay: _Layout) -> None:
+        self._qp, self._lay = qp, lay
+        self.rows = lay.AT
+        self.slices = dict(lay.slices)
+        goal = [np.arange(sl.start, sl.stop) for _, sl, _ in lay.goal]
+        index = np.concatenate(goal) if goal else np.zeros(0, dtype=int)
+        self.goal_rows = index.size
+        # Goal rows first and together (the common layout): one slice instead of an index.
+        self._goal = slice(0, index.size) if (index == np.arange(index.size)).all() else index
+
+    def solve(self, rows: np.ndarray, desired: np.ndarray, g: np.ndarray) -> QsSolution:
+        """Solve eq. 9-11 (or eq. 5-7 if the stacked QP is weighted) for this tick.
+
+        Args:
+            rows: (m, n) the tasks' rows stacked in task order: ``J_i P_i`` of the goal tasks
+                (``J_i`` for the weighted form), ``J_i`` of the others; :attr:`rows` itself may
+                be passed after writing into it.
+            desired: (:attr:`goal_rows`,) the goal tasks' desired wrenches, concatenated in
+                task order.
+            g: (n,) as in :meth:`QuasiStaticQP.solve`.
+        Raises:
+            ValueError: a shape that does not match, or NaN/Inf (naming the task).
+        """
+        t0 = time.perf_counter()
+        qp, lay = self._qp, self._lay
+        g = qp._gravity(g)
+        if rows is not lay.AT:
+            if getattr(rows, "shape", None) != lay.AT.shape:
+                raise ValueError(f"rows must be {lay.AT.shape}, got {np.shape(rows)}")
+            lay.AT[:] = rows
+        if getattr(desired, "shape", None) != (self.goal_rows,):
+            raise ValueError(f"desired must be ({self.goal_rows},), got {np.shape(desired)}")
+        lay.d[self._goal] = desired
+        if not math.isfinite(lay.AT.sum() + lay.d.sum() + g.sum()):
+            if not np.isfinite(g).all():
+                raise ValueError("g contains NaN or Inf")
+            for name, sl in self.slices.items():
+                if not (np.isfinite(lay.AT[sl]).all() and np.isfinite(lay.d[sl]).all()):
+                    raise ValueError(f"task {name!r}: its rows or desired wrench contain NaN or Inf")
+            raise ValueError("the QP data overflow (values near 1e308)")
+        qp._fill_constraints(lay, g)
+        return qp._solve_filled(lay, g, t0)
+
+
 class QuasiStaticQP:
     """Quasi-static whole-body controller QP (Liu, Lober, Padois 2016, eq. 9-11, or the eq. 5-7
     baseline).
@@ -426,10 +499,8 @@ class QuasiStaticQP:
         return lay.problem
 
     def _fill(self, lay: _Layout, tasks: Sequence[QsTask], g: np.ndarray, weighted: bool) -> np.ndarray:
-        n, nb = self.n, self.n_base
-        g = np.asarray(g, dtype=float)
-        if g.shape != (n,):
-            raise ValueError(f"g must be ({n},), got {g.shape}")
+        n = self.n
+        g = self._gravity(g)
         AT = lay.AT
         for t, proj, sl in zip(tasks, lay.use_projector, lay.task_slices, strict=True):
             if proj:
@@ -441,16 +512,7 @@ class QuasiStaticQP:
                 np.matmul(t.jacobian, P.T, out=AT[sl])  # (P Jᵀ)ᵀ
             else:
                 AT[sl] = t.jacobian
-        # Weights: goal tasks 1 (eq. 9) or ω_t (eq. 5); non-goal tasks ω_r.
-        weights = tuple([t.weight if (weighted or t.desired is None) else 1.0 for t in tasks])
-        if weights != lay.weights:
-            w = np.array(weights, dtype=float)
-            if not (np.isfinite(w).all() and (w > 0.0).all()):
-                bad = [t.name for t, v in zip(tasks, w, strict=True) if not (np.isfinite(v) and v > 0.0)]
-                raise ValueError(f"task weights must be finite and > 0, not for {bad}")
-            lay.h[:] = np.repeat(w, lay.dims)
-            lay.H_diag[:] = lay.h
-            lay.weights, lay.H_changed = weights, True
+        _set_weights(lay, tasks, weighted)
         d = lay.d
         for i, sl, m in lay.goal:
             wd = tasks[i].desired
@@ -460,10 +522,22 @@ class QuasiStaticQP:
         # NaN and Inf propagate through sums (a false alarm needs values near 1e308).
         if not math.isfinite(AT.sum() + d.sum() + g.sum()):
             self._raise_nonfinite(tasks, g)
-        np.multiply(lay.h, d, out=lay.f)
+        self._fill_constraints(lay, g)
+        return g
+
+    def _gravity(self, g: np.ndarray) -> np.ndarray:
+        g = np.asarray(g, dtype=float)
+        if g.shape != (self.n,):
+            raise ValueError(f"g must be ({self.n},), got {g.shape}")
+        return g
+
+    def _fill_constraints(self, lay: _Layout, g: np.ndarray) -> None:
+        """The linear term and the constraint rows from ``lay.AT``, ``lay.d`` and ``g``."""
+        nb = self.n_base
+        np.multiply(lay.h, lay.d, out=lay.f)
         np.negative(lay.f, out=lay.f)
         # Constraint rows: root (equality), bounded torque rows, friction (constant).
-        C, nt = lay.C, lay.n_torque
+        C, nt, AT = lay.C, lay.n_torque, lay.AT
         if lay.all_tau:
             C[: nb + nt] = AT.T
         else:
@@ -475,7 +549,6 @@ class QuasiStaticQP:
             gt = g[nb:] if lay.all_tau else g[nb + lay.tau_rows]
             np.subtract(lay.tau_hi, gt, out=lay.upper[nb : nb + nt])
             np.subtract(lay.tau_lo, gt, out=lay.lower[nb : nb + nt])
-        return g
 
     @staticmethod
     def _raise_nonfinite(tasks: Sequence[QsTask], g: np.ndarray) -> None:
@@ -503,7 +576,30 @@ class QuasiStaticQP:
         """
         t0 = time.perf_counter()
         lay = self._layout(tasks, weighted)
-        g = self._fill(lay, tasks, g, weighted)
+        return self._solve_filled(lay, self._fill(lay, tasks, g, weighted), t0)
+
+    def stacked(self, tasks: Sequence[QsTask], *, weighted: bool = False) -> StackedQP:
+        """The QP of a fixed set of tasks, fed at every tick with stacked arrays instead of
+        :class:`QsTask` objects: :meth:`StackedQP.solve` is :meth:`solve` without building and
+        looking up the structure of ``tasks`` each time.
+
+        ``tasks`` give the structure only: names, row counts (their Jacobians' shapes; the
+        values are not used), which tasks are goal-directed (``desired`` not None; its value is
+        not used), weights and friction cones. None may carry a projector: the rows handed to
+        :meth:`StackedQP.solve` are the projected ones, ``J_i P_i``. Raises ValueError as
+        :meth:`solve` on a malformed structure, or for a task with a projector.
+        """
+        projected = [t.name for t in tasks if t.projector is not None]
+        if projected:
+            raise ValueError(
+                f"tasks {projected}: a stacked QP takes the projected rows J_i P_i; give no projector"
+            )
+        lay = _Layout(tasks, self.n, self.n_base, self.tau_min, self.tau_max, weighted)
+        _set_weights(lay, tasks, weighted)
+        return StackedQP(self, lay)
+
+    def _solve_filled(self, lay: _Layout, g: np.ndarray, t0: float) -> QsSolution:
+        """Solve the QP held in ``lay``'s buffers (filled for ``g``), check and report the answer."""
         if self.solver == "daqp":
             x, status, message, iters = self._solve_daqp(lay)
         else:

@@ -72,6 +72,7 @@ __all__ = [
     "Plug",
     "Run",
     "RunFor",
+    "STACK_COMMAND_TASKS",
     "ScriptError",
     "Set",
     "Signal",
@@ -83,6 +84,7 @@ __all__ = [
     "parse_line",
     "parse_script",
     "parse_value",
+    "stack_arguments",
 ]
 
 #: The words that start a command of their own (not an ``ENTITY.COMMAND`` call).
@@ -297,6 +299,47 @@ class Call:
 
     def __str__(self) -> str:
         return " ".join([f"{self.entity}.{self.command}", *map(format_value, self.args)])
+
+
+#: The solver's stack commands (Mansard, Stasse, Evrard, Kheddar 2009, III-B.6) → how many task
+#: names each takes.
+STACK_COMMAND_TASKS = {"push": 1, "pop": 0, "rm": 1, "up": 1, "down": 1, "clear": 0}
+
+
+def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
+    """``(task names, transition [s])`` of a stack command ``SOT.COMMAND [TASK] [SECONDS]``.
+
+    The paper's commands take their task name, if any (``sot.push taskLH``, ``sot.pop``); this
+    dialect also accepts a transition time in seconds after it (``sot.push taskLH 0.5``,
+    ``sot.clear 1``): the change is then blended over that time
+    (:class:`drake_sot.stack.Transition`), instead of made at once (no time, or 0).
+
+    Raises:
+        ValueError: ``call.command`` is not a stack command (:data:`STACK_COMMAND_TASKS`), a task
+            name is missing or not a name (a word or a string), an extra argument, or a time
+            that is not a number, finite and >= 0 (the message names the command and what it
+            takes).
+    """
+    takes = STACK_COMMAND_TASKS.get(call.command)
+    if takes is None:
+        raise ValueError(f"{call.command!r}: not a stack command ({', '.join(STACK_COMMAND_TASKS)})")
+    usage = f"{call.entity}.{call.command}{' TASK' * takes} [SECONDS]"
+    args = call.args
+    names = tuple(a.text if isinstance(a, Name) else a for a in args[:takes] if isinstance(a, (Name, str)))
+    extra_name = len(args) > takes and isinstance(args[takes], (Name, str))
+    if not (takes <= len(args) <= takes + 1) or len(names) != takes or extra_name:
+        raise ValueError(
+            f"{usage}: takes {takes} task name(s) and an optional time, got {len(args)} value(s)"
+        )
+    if len(args) == takes:
+        return names, 0.0
+    seconds = args[takes]
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
+        shown = repr(seconds) if isinstance(seconds, bool) else format_value(seconds)  # no script bool
+        raise ValueError(f"{usage}: the transition time must be a number of seconds, got {shown}")
+    if not (math.isfinite(seconds) and seconds >= 0.0):
+        raise ValueError(f"{usage}: transition = {seconds!r} s: must be finite and >= 0")
+    return names, float(seconds)
 
 
 @dataclass(frozen=True)

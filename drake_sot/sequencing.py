@@ -193,14 +193,29 @@ class State:
     The transitions are tested in order at each check; the first whose guard holds
     fires. A state without transitions is final. A single action or transition may be
     given without a tuple.
+
+    ``transition_time`` [s] (finite, >= 0), when given, is the time over which the change of
+    the stack made by entering this state is blended (:meth:`drake_sot.stack.Stack.transition_from`:
+    q̇ moves continuously from the solution of the stack before to that of the stack after,
+    Liu, Lober, Padois 2016, eq. 12's profile); None takes the machine's
+    (:class:`StateMachine`'s ``transition_time``), 0 changes the stack at once.
     """
 
     name: str
     entry: tuple[Action, ...] = ()
     transitions: tuple[Transition, ...] = field(default=())
+    transition_time: float | None = None
 
     def __post_init__(self) -> None:
         validation.nonempty_string("State.name", self.name)
+        if self.transition_time is not None:
+            object.__setattr__(
+                self,
+                "transition_time",
+                validation.nonnegative(
+                    f"state {self.name!r}: transition_time", self.transition_time, unit="s"
+                ),
+            )
         entry = (self.entry,) if isinstance(self.entry, ACTIONS) else tuple(self.entry)
         transitions = (
             (self.transitions,) if isinstance(self.transitions, Transition) else tuple(self.transitions)
@@ -230,7 +245,8 @@ class Status:
     Attributes:
         state: the current state's name.
         entered: the time the current state was entered [s].
-        stack: the hierarchy the machine outputs.
+        stack: the hierarchy the machine outputs, with the change in progress that leads to it
+            when the state was entered with a transition time (:class:`State`).
         values: output name → current value (read-only mapping).
         count: transitions fired so far.
     """
@@ -279,6 +295,10 @@ class StateMachine:
         values: the initial value of every ``SetValue`` output: a number or 1-D
             numeric sequence makes a vector output of that size, anything else an
             output of that type.
+        transition_time: the time [s] over which entering a state blends the change of the
+            stack it makes (finite, >= 0; 0: at once), for the states that do not give their
+            own (:class:`State`'s ``transition_time``). The initial state's entry at the start
+            is always at once.
         check_paths: also run the stack commands along every path of the state graph
             at construction, so that, e.g., an ``Rm`` of a task that is not in the
             stack when its state can be reached is refused then (the message gives the
@@ -309,10 +329,12 @@ class StateMachine:
         stack: Sequence[str] = (),
         values: Mapping[str, object] | None = None,
         check_paths: bool = True,
+        transition_time: float = 0.0,
         name: str = "sequencer",
     ) -> None:
         self._name = name
         where = f"sequencer {name!r}"
+        self._transition_time = validation.nonnegative(f"{where}: transition_time", transition_time, unit="s")
         try:
             empty = Stack(tasks)
         except StackError as error:
@@ -476,7 +498,13 @@ class StateMachine:
             raise RuntimeError(
                 f"sequencer {self._name!r}, entering state {state_name!r}: {error} (t = {time:.4f} s)"
             ) from None
+        stack = stack.transition_from(status.stack, start=time, duration=self.transition_time(state_name))
         return Status(state_name, time, stack, values, status.count + 1)
+
+    def transition_time(self, state_name: str) -> float:
+        """The time [s] over which entering ``state_name`` blends its change of the stack."""
+        own = self._states[state_name].transition_time
+        return self._transition_time if own is None else own
 
     def _run_entry(
         self, state_name: str, stack: Stack, values: Mapping[str, object]

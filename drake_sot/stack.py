@@ -297,6 +297,20 @@ class Stack:
         """
         return self._with(self._checked_active(active))
 
+    def over(self, tasks: Iterable[str]) -> Stack:
+        """The same stack, and the change in progress that leads to it, over the known ``tasks``
+        (e.g. a solver's, for a stack made by a sequencer that knows fewer tasks): itself when
+        they are its own. StackError (UnknownTaskError) when an active task of it or of a stack
+        it comes from is not one of ``tasks``."""
+        tasks = task_names(tasks, what="tasks")
+        if tasks == self.tasks:
+            return self
+        base = Stack(tasks)
+        transition = self.transition
+        if transition is not None:
+            transition = Transition(transition.origin.over(tasks), transition.start, transition.duration)
+        return base._with(base._checked_active(self.active), transition)
+
     # --- the value ---------------------------------------------------------------------
     def __iter__(self) -> Iterator[str]:
         return iter(self.active)

@@ -28,6 +28,7 @@ from drake_sot.hierarchy import (
     generalized_projector,
     generalized_projectors,
     priority_matrix,
+    projected_jacobians,
 )
 
 SETTINGS = settings(max_examples=120, deadline=None)
@@ -378,6 +379,32 @@ def test_batch_equals_one_by_one(js: tuple[list[np.ndarray], int], data: st.Data
     np.testing.assert_array_equal(generalized_projectors(jacobians, alpha, validate=False), batch)
     for i in range(n):
         np.testing.assert_allclose(batch[i], generalized_projector(jacobians, alpha[i]), atol=1e-12)
+
+
+@SETTINGS
+@given(jacobian_sets(max_tasks=5), st.data())
+def test_projected_jacobians_are_each_jacobian_times_its_projector(
+    js: tuple[list[np.ndarray], int], data: st.DataObject
+) -> None:
+    """J_i P_i without forming P_i, against eq. 8 as written; tasks sharing an α row included."""
+    jacobians, nv = js
+    n = len(jacobians)
+    rows = [data.draw(alpha_values(n)) for _ in range(n)]
+    alpha = np.vstack([rows[data.draw(st.integers(0, i))] for i in range(n)])  # repeated rows
+    projected = projected_jacobians(jacobians, alpha)
+    assert len(projected) == n
+    for i, (J, JP) in enumerate(zip(jacobians, projected, strict=True)):
+        assert JP.shape == J.shape
+        np.testing.assert_allclose(JP, J @ literal_reference(jacobians, alpha[i]), atol=TOL)
+    for JP, again in zip(projected, projected_jacobians(jacobians, alpha, validate=False), strict=True):
+        np.testing.assert_array_equal(again, JP)  # checked input: skipping the checks changes nothing
+
+
+def test_projected_jacobians_validation() -> None:
+    with pytest.raises(ValueError, match=r"alpha\[1\]\[0\] = 2.0"):
+        projected_jacobians([J2, J3], np.array([[0.0, 0.0], [2.0, 0.0]]))
+    with pytest.raises(ValueError, match=r"jacobians\[1\] of shape \(3, 4\) contains NaN"):
+        projected_jacobians([J2, np.full((3, 4), np.nan)], np.zeros((2, 2)))
 
 
 # -------------------------------------------------------------------------------------------

@@ -13,6 +13,8 @@ a contact task's w is the force the robot applies on the environment, f = -w the
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.optimize
@@ -547,3 +549,53 @@ def test_structure_change_and_return_reuse_buffers_correctly() -> None:
         np.testing.assert_array_equal(a.wrenches[name], w)
     for name in fresh.wrenches:
         np.testing.assert_allclose(c.wrenches[name], fresh.wrenches[name], atol=1e-9)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_stacked_qp_gives_the_answer_of_solve(weighted: bool, seed: int) -> None:
+    """The stacked entry point (rows J_i P_i and the goal tasks' desired wrenches as arrays) solves the
+    same QP as solve() on the tasks; here the goal tasks are not first (contacts, goals, posture)."""
+    rng = np.random.default_rng(seed)
+    n, tasks, g = humanoid_like(rng, push=3.0)
+    tau_max = np.full(n - 6, 25.0)
+    qp = QuasiStaticQP(n, tau_min=-tau_max, tau_max=tau_max)
+    stacked = qp.stacked([replace(t, projector=None) for t in tasks], weighted=weighted)
+    for k in range(3):  # several ticks on one structure (warm-started), other data each time
+        scale = 1.0 + 0.2 * k
+        rows = np.vstack(
+            [t.jacobian if (weighted or t.projector is None) else t.jacobian @ t.projector for t in tasks]
+        )
+        desired = scale * np.concatenate([t.desired for t in tasks if t.desired is not None])
+        ticked = [replace(t, desired=scale * t.desired) if t.desired is not None else t for t in tasks]
+        expected = QuasiStaticQP(n, tau_min=-tau_max, tau_max=tau_max).solve(ticked, g, weighted=weighted)
+        got = stacked.solve(rows, desired, g)
+        assert got.status == expected.status == "optimal", (got.message, expected.message)
+        for t in tasks:
+            np.testing.assert_allclose(got.wrenches[t.name], expected.wrenches[t.name], atol=1e-8)
+        np.testing.assert_allclose(got.tau, expected.tau, atol=1e-8)
+    # Writing into the buffer and handing it back is the same as passing a copy.
+    stacked.rows[:] = rows
+    np.testing.assert_allclose(stacked.solve(stacked.rows, desired, g).tau, got.tau, atol=1e-12)
+
+
+def test_stacked_qp_bad_input_names_the_task() -> None:
+    rng = np.random.default_rng(5)
+    n, tasks, g = humanoid_like(rng)
+    qp = QuasiStaticQP(n)
+    with pytest.raises(ValueError, match=r"tasks \['hand', 'ori', 'posture'\]: .*give no projector"):
+        qp.stacked(tasks)
+    stacked = qp.stacked([replace(t, projector=None) for t in tasks])
+    rows = np.vstack([t.jacobian for t in tasks])
+    desired = np.zeros(stacked.goal_rows)
+    assert stacked.goal_rows == 6  # hand and ori
+    bad = rows.copy()
+    bad[stacked.slices["ori"].start, 0] = np.inf
+    with pytest.raises(ValueError, match=r"task 'ori': its rows or desired wrench contain NaN or Inf"):
+        stacked.solve(bad, desired, g)
+    with pytest.raises(ValueError, match=r"rows must be \(24, 12\), got \(23, 12\)"):
+        stacked.solve(rows[1:], desired, g)
+    with pytest.raises(ValueError, match=r"desired must be \(6,\), got \(5,\)"):
+        stacked.solve(rows, desired[1:], g)
+    with pytest.raises(ValueError, match=r"g must be \(12,\)"):
+        stacked.solve(rows, desired, g[1:])

@@ -206,3 +206,27 @@ def test_what_comes_after_a_change_the_host_applies_waits_for_the_tick_it_acts_a
     _tick(simulator)  # reads, help and refused lines change nothing: nothing waits
     assert [r.request.id for r in server.taken(context).requests] == [6, 7, 8, 9]
     assert sot.list(context) == ("a",)
+
+
+def test_a_stack_command_with_a_transition_time_blends_qdot_over_it(served):
+    """'sot.push b 0.5': q̇ = (1 - h) q̇*(a) + h q̇*(a, b), h eq. 12's raised cosine from the tick that
+    took it (written here); q̇*(a) = (1, 0), q̇*(a, b) = (1, 2) (each task fixes one joint)."""
+    simulator, sot, server, inbox = served
+    inbox.put(_run("sot.push a"))
+    _tick(simulator)
+    inbox.put(_run("sot.push b 0.5"))
+    _tick(simulator)
+    start = server.taken(simulator.get_context()).time
+    assert server.taken(simulator.get_context()).requests[0].kind == STACK
+    assert sot.list(simulator.get_context()) == ("a", "b")  # the stack reached, at once
+    previous = None
+    first = round(start / PERIOD)
+    for k in range(first + 1, first + int(0.6 / PERIOD)):
+        simulator.AdvanceTo((k + 0.5) * PERIOD)  # past the tick at k·PERIOD, before the next
+        h = 0.5 - 0.5 * np.cos(np.pi * min(max((k * PERIOD - start) / 0.5, 0.0), 1.0))
+        qdot = _qdot(simulator, sot)
+        np.testing.assert_allclose(qdot, [1.0, 2.0 * h], atol=1e-12)
+        if previous is not None:  # a tick moves h by at most π·period / (2 T) of the 2 rad/s gap
+            assert abs(qdot[1] - previous[1]) <= np.pi * PERIOD / (2 * 0.5) * 2.0 + 1e-12
+        previous = qdot
+    np.testing.assert_allclose(_qdot(simulator, sot), [1.0, 2.0], atol=1e-12)

@@ -27,6 +27,7 @@ from drake_sot.script import (
     parse_line,
     parse_script,
     parse_value,
+    stack_arguments,
 )
 
 # Every line of the code blocks of Mansard, Stasse, Evrard, Kheddar 2009, section III-B, as
@@ -293,3 +294,49 @@ def test_parse_value_reads_one_value_and_nothing_else():
         parse_value("[2](1,2) 3")
     with pytest.raises(ScriptError):
         parse_value("[1](nan)")  # `get` writes nan for a NaN; a script cannot set one
+
+
+# --- the stack commands' arguments, with this dialect's optional transition time -------------
+
+
+@pytest.mark.parametrize(
+    "line, names, seconds",
+    [
+        ("sot.push taskLH", ("taskLH",), 0.0),  # the paper's syntax, unchanged: at once
+        ("sot.push taskLH 0.5", ("taskLH",), 0.5),
+        ('sot.rm "taskLH" 1', ("taskLH",), 1.0),  # a quoted name and an int time
+        ("sot.up taskRH 0", ("taskRH",), 0.0),
+        ("sot.down taskRH 2.5e-1", ("taskRH",), 0.25),
+        ("sot.pop", (), 0.0),
+        ("sot.pop 0.5", (), 0.5),
+        ("sot.clear 1.5", (), 1.5),
+    ],
+)
+def test_stack_commands_take_an_optional_transition_time(line, names, seconds):
+    assert stack_arguments(parse_line(line)) == (names, seconds)
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (
+            parse_line("sot.push"),
+            r"sot.push TASK \[SECONDS\]: takes 1 task name\(s\) and an optional time, got 0",
+        ),
+        (parse_line("sot.pop taskLH"), r"sot.pop \[SECONDS\]: takes 0 task name\(s\)"),
+        (parse_line("sot.push taskLH taskRH"), r"takes 1 task name\(s\) and an optional time, got 2"),
+        (parse_line("sot.push taskLH 0.5 1"), r"got 3 value\(s\)"),
+        (parse_line("sot.push 0.5"), r"takes 1 task name"),
+        (
+            parse_line("sot.push taskLH [2](1,2)"),
+            r"the transition time must be a number of seconds, got \[2\]",
+        ),
+        (parse_line("sot.push taskLH -0.5"), r"transition = -0.5 s: must be finite and >= 0"),
+        (Call("sot", "push", (Name("taskLH"), math.nan)), r"transition = nan s: must be finite and >= 0"),
+        (Call("sot", "push", (Name("taskLH"), True)), r"must be a number of seconds"),
+        (parse_line("sot.list"), r"'list': not a stack command"),
+    ],
+)
+def test_bad_stack_command_arguments_name_the_command(call, message):
+    with pytest.raises(ValueError, match=message):
+        stack_arguments(call)

@@ -196,3 +196,66 @@ def test_definitions_are_values():
         Above("e", float("nan"))
     with pytest.raises(ValueError, match="State.name = '': must be a non-empty string"):
         State("")
+
+
+# --- smooth changes of the stack (transition_time) ---------------------------------------
+
+
+def _blend_machine(**kwargs) -> StateMachine:
+    """idle (a) → reach (a, b): push b after 1 s; → rest: rm a, at once or over the machine's time."""
+    return StateMachine(
+        [
+            State("idle", transitions=(Transition(Timeout(1.0), "reach"),)),
+            State(
+                "reach",
+                entry=(Push("b"),),
+                transitions=(Transition(Timeout(1.0), "rest"),),
+                transition_time=kwargs.pop("reach_time", None),
+            ),
+            State("rest", entry=(Rm("a"),)),
+        ],
+        "idle",
+        tasks=TASKS,
+        stack=("a",),
+        **kwargs,
+    )
+
+
+def test_a_state_entered_with_a_transition_time_blends_its_change_of_the_stack():
+    machine = _blend_machine(reach_time=0.5, transition_time=0.2)
+    status = machine.start(0.0)
+    status = machine.step(status, 1.0, _Inputs())  # enters reach at t = 1 over its own 0.5 s
+    assert status.state == "reach" and status.stack.active == ("a", "b")
+    assert status.stack.transition is not None
+    assert status.stack.transition.origin.active == ("a",)
+    assert (status.stack.transition.start, status.stack.transition.duration) == (1.0, 0.5)
+    # The blend weights are eq. 12's raised cosine from the state's entry (written here).
+    for t in (1.0, 1.1, 1.25, 1.4, 1.5, 2.0):
+        h = 0.5 - 0.5 * math.cos(math.pi * min(max((t - 1.0) / 0.5, 0.0), 1.0))
+        expected = {("a", "b"): h, ("a",): 1.0 - h}
+        got = dict(status.stack.blend(t))
+        for active, weight in expected.items():
+            assert got.get(active, 0.0) == pytest.approx(weight, abs=1e-12)
+    status = machine.step(status, 2.0, _Inputs())  # rest: the machine's 0.2 s (no time of its own)
+    assert status.stack.active == ("b",)
+    assert (status.stack.transition.start, status.stack.transition.duration) == (2.0, 0.2)
+    assert status.stack.transition.origin.active == ("a", "b")  # the finished change is dropped
+    assert status.stack.transition.origin.transition is None
+
+
+def test_without_a_transition_time_a_state_changes_the_stack_at_once():
+    machine = _blend_machine()
+    status = machine.step(machine.start(0.0), 1.0, _Inputs())
+    assert status.stack.active == ("a", "b") and status.stack.transition is None
+    assert status.stack.blend(1.0) == ((("a", "b"), 1.0),)
+    # A state's own 0 overrides the machine's time.
+    status = _blend_machine(reach_time=0.0, transition_time=0.3).step(machine.start(0.0), 1.0, _Inputs())
+    assert status.stack.transition is None
+
+
+@pytest.mark.parametrize("bad", [-0.1, math.nan, math.inf])
+def test_bad_transition_times_are_refused_naming_them(bad):
+    with pytest.raises(ValueError, match=rf"state 'x': transition_time = {bad} s: must be finite and >= 0"):
+        State("x", transition_time=bad)
+    with pytest.raises(ValueError, match=rf"sequencer 'sequencer': transition_time = {bad} s"):
+        _blend_machine(transition_time=bad)

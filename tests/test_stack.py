@@ -341,3 +341,18 @@ def test_bad_transitions_are_refused_naming_the_value(change, error, message):
 def test_stack_and_sequencing_import_no_drake():
     code = "import sys, drake_sot.stack, drake_sot.sequencing; sys.exit('pydrake' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_a_stack_over_other_known_tasks_keeps_its_active_tasks_and_its_transition():
+    few = Stack(("a", "b"))
+    before = few.with_active(("a",))
+    after = few.with_active(("a", "b")).transition_from(before, start=1.0, duration=0.5)
+    over = after.over(("z", "a", "b", "c"))
+    assert over.tasks == ("z", "a", "b", "c") and over.active == ("a", "b")
+    assert over.transition.origin.tasks == over.tasks and over.transition.origin.active == ("a",)
+    assert (over.transition.start, over.transition.duration) == (1.0, 0.5)
+    for t in (0.9, 1.1, 1.25, 1.6):
+        assert over.blend(t) == after.blend(t)
+    assert after.over(("a", "b")) is after  # its own tasks: itself
+    with pytest.raises(StackError, match=r"unknown task 'b'"):
+        after.over(("a", "c"))

@@ -107,9 +107,10 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             dynamic_feedforward: feed forward the inverse dynamics of the reference motion
                 (velocity and acceleration of the device) rather than the static torques
                 of its posture; for dynamic motions such as walking.
-            stack_source: an abstract ``tuple[str, ...]`` output that drives the stack
-                (e.g. ``TaskSequencer.stack``); then ``stack`` is only the stack's name list
-                for validation and the context commands are refused.
+            stack_source: an abstract ``tuple[str, ...]`` (or ``Stack``) output that drives the
+                stack (e.g. ``TaskSequencer.stack``, or ``smooth_stack`` for blended changes);
+                then ``stack`` is only the stack's name list for validation and the context
+                commands are refused.
             solver: the ``StackOfTasks`` solver, ``"svd"`` (equality tasks) or ``"hqp"``
                 (also the inequality tasks, e.g. :meth:`add_joint_position_limits_task`).
             wire_solver: called with the ``StackOfTasks`` before the diagram is built, to

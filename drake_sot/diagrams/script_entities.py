@@ -24,6 +24,7 @@ from drake_sot.diagrams.artifacts import atomic_path, write_svg
 from drake_sot.diagrams.walk import add_pattern_generator
 from drake_sot.gains import AdaptiveGain, Gain, validate_gain
 from drake_sot.script import (
+    Call,
     Matrix,
     Name,
     Signal,
@@ -32,6 +33,7 @@ from drake_sot.script import (
     Vector,
     Verb,
     format_value,
+    stack_arguments,
 )
 from drake_sot.sequencing import (
     Above,
@@ -825,35 +827,38 @@ class SotEntity(Entity):
     def construct(self) -> None:
         return None  # made by the builder when it closes the loop
 
-    def _stack(self, context: Context, method: str, args: tuple[Value, ...], usage: str, n: int) -> str:
-        _arity(args, usage, n)
-        names = [_text(a, "the task") for a in args]
-        result = getattr(self.system, method)(context, *names)
+    def _stack(self, context: Context, method: str, args: tuple[Value, ...]) -> str:
+        try:
+            names, transition = stack_arguments(Call(self.name, method, args))
+        except ValueError as error:
+            raise SessionError(str(error)) from None
+        result = getattr(self.system, method)(context, *names, transition=transition)
         return result if isinstance(result, str) else ""
 
-    @_command(Phase.RUN, "push TASK", "add TASK at the lowest priority")
+    # SECONDS (optional, this dialect's): blend the change over that time (StackOfTasks, transition).
+    @_command(Phase.RUN, "push TASK [SECONDS]", "add TASK at the lowest priority (over SECONDS)")
     def push(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "push", args, "push TASK", 1)
+        return self._stack(context, "push", args)
 
-    @_command(Phase.RUN, "pop", "remove the lowest-priority task; writes its name")
+    @_command(Phase.RUN, "pop [SECONDS]", "remove the lowest-priority task; writes its name")
     def pop(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "pop", args, "pop", 0)
+        return self._stack(context, "pop", args)
 
-    @_command(Phase.RUN, "rm TASK", "remove TASK wherever it is")
+    @_command(Phase.RUN, "rm TASK [SECONDS]", "remove TASK wherever it is (over SECONDS)")
     def rm(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "rm", args, "rm TASK", 1)
+        return self._stack(context, "rm", args)
 
-    @_command(Phase.RUN, "up TASK", "raise TASK by one priority level")
+    @_command(Phase.RUN, "up TASK [SECONDS]", "raise TASK by one priority level (over SECONDS)")
     def up(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "up", args, "up TASK", 1)
+        return self._stack(context, "up", args)
 
-    @_command(Phase.RUN, "down TASK", "lower TASK by one priority level")
+    @_command(Phase.RUN, "down TASK [SECONDS]", "lower TASK by one priority level (over SECONDS)")
     def down(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "down", args, "down TASK", 1)
+        return self._stack(context, "down", args)
 
-    @_command(Phase.RUN, "clear", "empty the stack")
+    @_command(Phase.RUN, "clear [SECONDS]", "empty the stack (over SECONDS)")
     def clear(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "clear", args, "clear", 0)
+        return self._stack(context, "clear", args)
 
     @_command(Phase.RUN, "list", "the stack, highest priority first")
     def list(self, args: tuple[Value, ...], context: Context | None) -> str:
@@ -973,13 +978,17 @@ _STACK_ACTIONS = {"push": Push, "rm": Rm, "up": Up, "down": Down, "pop": Pop, "c
 
 class SequencerEntity(Entity):
     CLASS = "TaskSequencer"
-    DOC = "a state machine over the stack (the paper's DecisionServer); plug its stack into the SOT's"
+    DOC = (
+        "a state machine over the stack (the paper's DecisionServer); plug its stack (or smooth_stack,"
+        " with transitionTime) into the SOT's"
+    )
 
     def __init__(self, session: ScriptSession, name: str, statement: Statement | None) -> None:
         super().__init__(session, name, statement)
         self.states: dict[str, tuple[list, list]] = {}  # name -> (entry actions, transitions)
         self.values: dict[str, object] = {}
         self._period = 0.005
+        self._transition_time = 0.0
         self.initial_stack: tuple[str, ...] = ()
 
     def _guard_ports(self) -> list[str]:
@@ -995,7 +1004,7 @@ class SequencerEntity(Entity):
         return tuple(self._guard_ports())
 
     def outputs(self) -> tuple[str, ...]:
-        return ("stack", "state", "transitions", *self.values)
+        return ("stack", "smooth_stack", "state", "transitions", *self.values)
 
     def _state(self, value: Value) -> tuple[list, list]:
         name = _text(value, "the state")
@@ -1080,6 +1089,18 @@ class SequencerEntity(Entity):
         self._period = validation.positive(f"{self.name}.period", _number(args[0], "the period"), unit="s")
         return ""
 
+    @_command(
+        Phase.BUILD,
+        "transitionTime S",
+        "blend each state's change of the stack over S seconds on smooth_stack (0: at once)",
+    )
+    def transitionTime(self, args: tuple[Value, ...], context: Context | None) -> str:
+        _arity(args, "transitionTime S", 1)
+        self._transition_time = validation.nonnegative(
+            f"{self.name}.transitionTime", _number(args[0], "the transition time"), unit="s"
+        )
+        return ""
+
     @_command(Phase.BUILD, "initialStack TASK…", "the stack before the initial state's entry")
     def initialStack(self, args: tuple[Value, ...], context: Context | None) -> str:
         self.initial_stack = tuple(_text(a, "a task") for a in args)
@@ -1111,6 +1132,7 @@ class SequencerEntity(Entity):
                 stack=self.initial_stack,
                 period=self._period,
                 values=self.values,
+                transition_time=self._transition_time,
                 name=self.name,
             )
         )

@@ -39,13 +39,13 @@ class                            signals (in → out), commands
 ``FeatureJointLimits``           q (idem) → feature, error; ``margin``
 ``Task``                         gain → task; ``add``, ``controlGain``, ``controlGainAdaptive``
 ``SOT``                          stack → qdot, errors, stack; ``push``, ``pop``, ``rm``, ``up``,
-                                 ``down``, ``clear``, ``list``
+                                 ``down``, ``clear`` (each with an optional time [s]), ``list``
 ``PatternGenerator``             → com, com_vel, left_foot, right_foot, waist, zmp_ref, …,
                                  in_process; ``parsecmd``, ``velocity``
 ``AdmittanceController``         wrench_ref, active → pose_des, velocity_des, wrench_external,
                                  saturated, fault; ``hand``, ``mass``, ``damping``, …
-``TaskSequencer``                <guard inputs> → stack, state, transitions, <outputs>;
-                                 ``addState``, ``addEntry``, ``addTransition``, …
+``TaskSequencer``                <guard inputs> → stack, smooth_stack, state, transitions, <outputs>;
+                                 ``addState``, ``addEntry``, ``addTransition``, ``transitionTime``, …
 ================================ ========================================================
 
 ``E.help`` lists an entity's signals and commands with their phase; ``pool.help``,

@@ -7,7 +7,9 @@ them, in arrival order, in its own periodic event at the control tick, and appli
 own state what a Drake system may change — its own outputs:
 
 - **stack commands** (``SOT.push|rm|up|down TASK``, ``SOT.pop``, ``SOT.clear``, ``SOT`` being the
-  solver's name given here) go out as a batch on the ``commands`` output, which a
+  solver's name given here; each may end with a transition time in seconds, ``SOT.push TASK 0.5``,
+  over which the change is blended: :func:`drake_sot.script.stack_arguments`) go out as a batch
+  on the ``commands`` output, which a
   :class:`~drake_sot.systems.sot.StackOfTasks` made with ``commands_input=True`` applies at
   the same tick (after its held stack; its ``command_results`` says, per command, if it acted);
 - **writable signals** declared with :meth:`declare_writable` when the diagram is built (the
@@ -44,7 +46,7 @@ from pydrake.systems.framework import State as DrakeState
 from drake_sot import validation
 from drake_sot.channel import Link
 from drake_sot.remote.protocol import Request
-from drake_sot.script import Call, Get, Name, ScriptError, parse_line
+from drake_sot.script import Call, Get, ScriptError, parse_line, stack_arguments
 from drake_sot.systems._context import own_context
 from drake_sot.systems.sot import STACK_COMMANDS, StackCommand, StackCommands
 
@@ -277,8 +279,8 @@ def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:
         return None  # the host answers with the parser's error
     if not (isinstance(command, Call) and command.entity == sot and command.command in STACK_COMMANDS):
         return None
-    takes = int(command.command in ("push", "rm", "up", "down"))
-    names = tuple(a.text for a in command.args if isinstance(a, Name))
-    if len(command.args) != takes or len(names) != takes:
-        return f"{cmd.strip()!r}: {sot}.{command.command} takes {takes} task name(s)"
-    return StackCommand(t, command.command, names)
+    try:
+        names, transition = stack_arguments(command)
+    except ValueError as error:
+        return f"{cmd.strip()!r}: {error}"
+    return StackCommand(t, command.command, names, transition)

@@ -54,7 +54,7 @@ from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot.blas import limit_blas_threads
-from drake_sot.hierarchy import generalized_projectors
+from drake_sot.hierarchy import projected_jacobians
 from drake_sot.linalg import pinv
 from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, static_capacity
 from drake_sot.signals import TaskSignal
@@ -491,6 +491,18 @@ class GeneralizedHierarchyController(LeafSystem):
         self._tau_v[self._v_act - self._n_base] = effort
         self._qp = QuasiStaticQP(nv, self._n_base, tau_min=-self._tau_v, tau_max=self._tau_v)
         self._check_static_capacity()
+        # The QP's tasks never change (α changes their rows, not their set): its structure once.
+        self._stacked = self._qp.stacked(
+            [
+                QsTask(name, np.zeros((m, nv)), desired=np.zeros(m), weight=self._weights.get(name, 1.0))
+                for name, m in zip(self._names, self._dims, strict=True)
+            ]
+            + [
+                QsTask(name, np.zeros((3, nv)), weight=self._regularization, friction=cone)
+                for name, cone in self._contact_points
+            ],
+            weighted=self._weighted,
+        )
 
         self._state = self.DeclareVectorInputPort("state", nq + nv)
         empty = TaskSignal("", np.zeros(0), np.zeros((0, nv)), np.zeros(0))
@@ -661,22 +673,17 @@ class GeneralizedHierarchyController(LeafSystem):
             integral = step.integral
             desired[self._motion_rows :] = step.wrench
             errors[self._motion_rows :] = step.error
-        # The QP checks every projected Jacobian for NaN and names the task: no second check here.
-        projectors = (
-            [None] * len(self._names)
-            if self._weighted
-            else generalized_projectors(jacobians, alpha, validate=False)
-        )
-        tasks = [
-            QsTask(name, J, desired=desired[sl], weight=self._weights.get(name, 1.0), projector=P)
-            for (name, sl), J, P in zip(self._slices.items(), jacobians, projectors, strict=True)
-        ]
+        # Each goal task enters the QP through J_i P_i (eq. 9-10: P_i J_iᵀ w_i, P_i symmetric), formed
+        # without the (nv, nv) projectors, then the contact points' rows. The QP checks every row for
+        # NaN and names the task: no second check here.
+        if not self._weighted:
+            jacobians = projected_jacobians(jacobians, alpha, validate=False)
+        rows = self._stacked.rows
+        goal_rows = desired.size
+        np.concatenate(jacobians, out=rows[:goal_rows])
         contact_jacobians = self._contact_jacobians()
-        tasks += [
-            QsTask(name, contact_jacobians[3 * p : 3 * p + 3], weight=self._regularization, friction=cone)
-            for p, (name, cone) in enumerate(self._contact_points)
-        ]
-        solution = self._qp.solve(tasks, g, weighted=self._weighted)
+        rows[goal_rows:] = contact_jacobians
+        solution = self._stacked.solve(rows, desired, g)
         saturation = np.zeros(self._na)
         if solution.status == "optimal":
             # Within the QP check's 1e-6 N·m of the bounds: hold them exactly.
@@ -685,7 +692,7 @@ class GeneralizedHierarchyController(LeafSystem):
             # The contact task's wrench is what the robot applies on the ground:
             # the ground's force is its opposite.
             contact = (
-                -np.concatenate([solution.wrenches[t.name] for t in tasks[len(self._names) :]])
+                -np.concatenate([solution.wrenches[name] for name, _ in self._contact_points])
                 if self._contacts
                 else np.zeros(0)
             )

@@ -36,7 +36,7 @@ from drake_sot.sequencing import State, StateMachine, Status
 from drake_sot.systems._context import own_context
 
 #: The sequencer's own output ports (not valid names for a ``SetValue`` output).
-RESERVED_OUTPUTS = ("stack", "state", "transitions")
+RESERVED_OUTPUTS = ("stack", "smooth_stack", "state", "transitions")
 
 
 class TaskSequencer(LeafSystem):
@@ -62,6 +62,10 @@ class TaskSequencer(LeafSystem):
     Output ports:
         stack: abstract ``tuple[str, ...]``, the active task names, highest priority
             first (plug into ``StackOfTasks``'s ``stack`` input, which checks them).
+        smooth_stack: abstract :class:`~drake_sot.stack.Stack`, the same stack with the change
+            in progress that leads to it when the state was entered with a transition time
+            (``transition_time``): plug it into ``StackOfTasks``'s ``stack`` input instead of
+            ``stack`` and q̇ moves continuously over that time instead of jumping.
         state: abstract ``str``, the current state's name.
         transitions: (1,) number of transitions fired so far (for logging).
         <value name>: one per key of ``values``, set by ``SetValue`` entry actions:
@@ -72,6 +76,9 @@ class TaskSequencer(LeafSystem):
             :class:`~drake_sot.sequencing.StateMachine` takes them (``tasks``: e.g.
             ``sot.task_names``).
         period: time between checks [s], finite and > 0.
+        transition_time: the time [s] over which entering a state blends its change of the
+            stack on ``smooth_stack``, for states without their own ``State.transition_time``
+            (finite, >= 0; 0: at once; :class:`~drake_sot.sequencing.StateMachine`).
         name: the system's name.
 
     Raises:
@@ -90,6 +97,7 @@ class TaskSequencer(LeafSystem):
         period: float = 0.005,
         values: Mapping[str, object] | None = None,
         check_paths: bool = True,
+        transition_time: float = 0.0,
         name: str = "sequencer",
     ) -> None:
         super().__init__()
@@ -103,7 +111,14 @@ class TaskSequencer(LeafSystem):
                 f"({', '.join(RESERVED_OUTPUTS)} are the sequencer's own outputs)"
             )
         self._machine = StateMachine(
-            states, initial, tasks=tasks, stack=stack, values=values, check_paths=check_paths, name=name
+            states,
+            initial,
+            tasks=tasks,
+            stack=stack,
+            values=values,
+            check_paths=check_paths,
+            transition_time=transition_time,
+            name=name,
         )
 
         self._inputs: dict[str, InputPort] = {
@@ -117,6 +132,12 @@ class TaskSequencer(LeafSystem):
             "stack",
             lambda: AbstractValue.Make(()),
             lambda c, v: v.set_value(self._current(c).stack.active),
+            prerequisites_of_calc=ticket,
+        )
+        self.DeclareAbstractOutputPort(
+            "smooth_stack",
+            lambda: AbstractValue.Make(self._machine.initial_status.stack),
+            lambda c, v: v.set_value(self._current(c).stack),
             prerequisites_of_calc=ticket,
         )
         self.DeclareAbstractOutputPort(

@@ -33,11 +33,13 @@ COMMANDS_PORT = "commands"
 @dataclass(frozen=True)
 class StackCommand:
     """One of the paper's stack commands, given at ``time`` [s]: ``command`` is push, pop,
-    rm, up, down or clear; ``args`` its task name (none for pop and clear)."""
+    rm, up, down or clear; ``args`` its task name (none for pop and clear); ``transition`` the
+    time [s] over which the change is blended (0: at once; see :class:`StackOfTasks`)."""
 
     time: float
     command: str
     args: tuple[str, ...] = ()
+    transition: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -141,7 +143,9 @@ class StackOfTasks(LeafSystem):
             :class:`~drake_sot.signals.BoundedTaskSignal` (error (m,), J (m, nv), bounds
             (m,) of J q̇, ±inf allowed).
         stack: optional, abstract ``tuple[str, ...]``, the active task names, highest
-            priority first (the name "stack" is therefore not a valid task name).
+            priority first (the name "stack" is therefore not a valid task name); or a
+            :class:`~drake_sot.stack.Stack`, which may carry a change in progress that is then
+            blended as a command's ``transition`` is (``TaskSequencer.smooth_stack``).
             Validated when it changes: an unknown task name or a task listed twice
             raises a RuntimeError naming them and listing the known tasks.
         commands: only with ``commands_input=True``; abstract :class:`StackCommands`, batches of
@@ -340,13 +344,15 @@ class StackOfTasks(LeafSystem):
     def _driven_stack(self, context: Context) -> Stack:
         """The ``stack`` input's value, validated (when it changes)."""
         names = self._stack_input.Eval(context)
-        if type(names) is tuple and names == self._driven[0]:
-            return self._driven[1]  # checked when it changed (a tuple cannot change in place)
+        if names is self._driven[0] or (type(names) is tuple and names == self._driven[0]):
+            return self._driven[1]  # checked when it changed (a tuple or a Stack cannot change in place)
         try:
-            stack = self._empty.with_active(names)
+            stack = (
+                names.over(self._empty.tasks) if isinstance(names, Stack) else self._empty.with_active(names)
+            )
         except StackError as error:
             raise RuntimeError(f"{self.get_name()!r}: input port {STACK_PORT!r}: {error}") from None
-        if type(names) is tuple:
+        if type(names) is tuple or isinstance(names, Stack):
             self._driven = (names, stack)
         return stack
 
@@ -449,7 +455,7 @@ class StackOfTasks(LeafSystem):
                     )
                 after = getattr(stack, command.command)(*command.args)
                 output = stack.active[-1] if command.command == "pop" else ""
-                stack = after.transition_from(stack, start=command.time, duration=0.0)
+                stack = after.transition_from(stack, start=command.time, duration=command.transition)
                 results.append((True, output))
             except (StackError, ValueError, TypeError) as error:
                 results.append((False, str(error)))

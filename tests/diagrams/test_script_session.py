@@ -575,3 +575,47 @@ def test_a_solver_output_plugged_into_an_input_of_another_size_fails_at_the_buil
     other.run_script("new FeatureGeneric g\nplug sot.errors g.errorIN\nnew Task t\nt.add g")
     with pytest.raises(SessionError, match="sot.errors: its size is known only once the diagram is built"):
         other.execute("sot.push t")
+
+
+def test_a_script_blends_stack_changes_over_a_given_time():
+    """`decision.transitionTime 0.5` with `plug decision.smooth_stack sot.stack`: the sequencer's stack
+    carries the change in progress; a bad time on a solver command is refused before it acts."""
+    session = ScriptSession()
+    session.run_script(
+        """
+        new FeatureCoM featureCom
+        new Task taskCom
+        taskCom.add featureCom
+        new TaskSequencer decision
+        decision.transitionTime 0.5
+        decision.addState a
+        decision.addState b
+        decision.addEntry b push taskCom
+        decision.addTransition a b timeout 0.1
+        plug decision.smooth_stack sot.stack
+        """
+    )
+    session.execute("run 0.2")
+    assert session.execute("decision.current") == "b"
+    assert session.execute("sot.list") == "taskCom"
+    sequencer = session.entity("decision").system
+    assert sequencer.machine.transition_time("b") == 0.5
+    smooth = sequencer.GetOutputPort("smooth_stack").Eval(
+        sequencer.GetMyContextFromRoot(session.simulator.get_context())
+    )
+    assert smooth.transition is not None and smooth.transition.duration == 0.5
+    with pytest.raises(SessionError, match=r"transition = -1 s: must be finite and >= 0"):
+        session.execute("sot.clear -1")
+
+
+def test_solver_commands_take_an_optional_transition_time():
+    session = ScriptSession()
+    session.run_script("new FeatureCoM featureCom\nnew Task taskCom\ntaskCom.add featureCom")
+    session.execute("sot.push taskCom 0.5")  # this dialect's time; the paper's syntax stays valid
+    sot = session.entity("sot").system
+    stack = sot.GetOutputPort("stack").Eval(sot.GetMyContextFromRoot(session.simulator.get_context()))
+    assert stack == ("taskCom",)
+    held = sot.GetMyContextFromRoot(session.simulator.get_context()).get_abstract_state(0).get_value()
+    assert held.transition is not None and held.transition.duration == 0.5
+    session.execute("sot.rm taskCom")
+    assert session.execute("sot.list") == ""

@@ -1,6 +1,9 @@
 """Smooth push and rm in the closed loop: the humanoid standing (feet, CoM, posture) gets a
 left-hand task pushed (and raised above the posture) at 0.5 s and removed at 1.5 s, once
-at once (no transition) and once over T = 0.5 s.
+at once (no transition) and once over T = 0.5 s; given by commands on the context, by a
+``TaskSequencer`` (states entered at those times, the machine's ``transition_time``, its
+``smooth_stack`` driving the solver) and by remote command lines (``sot.push taskLH 0.5``,
+``sot.up taskLH 0.5``, ``sot.rm taskLH 0.5`` through the ``RemoteCommandServer``).
 
 q̇ is measured on the reference the ``Device`` integrated, q̇_k = (q_ref[k+1] - q_ref[k]) / dt
 for the joints (dt = the control period), not read from the solver.
@@ -20,12 +23,31 @@ from pydrake.math import RigidTransform
 from drake_sot.diagrams.artifacts import log_arrays
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.run import Command, simulate
+from drake_sot.remote.protocol import Request
+from drake_sot.sequencing import Push, Rm, State, Timeout, Transition, Up
+from drake_sot.systems.sequencer import TaskSequencer
 
 PUSH, RM, TRANSITION = 0.5, 1.5, 0.5
+DRIVES = ("context", "sequencer", "remote")
 
 
-def _qdot_changes(transition: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(tick times, ‖q̇_{k+1} - q̇_k‖ of the joints [rad/s], the period) of one run."""
+class _Inbox:
+    """The network thread's queue, filled by the run's commands: taken at the server's next tick."""
+
+    def __init__(self) -> None:
+        self.items: list = []
+
+    def put(self, *lines: str) -> None:
+        self.items += [(0, Request("run", id=k, cmd=line)) for k, line in enumerate(lines)]
+
+    def __call__(self) -> list:
+        items, self.items = self.items, []
+        return items
+
+
+def _qdot_changes(transition: float, drive: str = "context") -> tuple[np.ndarray, np.ndarray, float]:
+    """(tick times, ‖q̇_{k+1} - q̇_k‖ of the joints [rad/s], the period) of one run, the stack
+    changed by ``drive``."""
     b = HumanoidSoTBuilder()
     X = b.initial_pose("left_hand")
     b.add_op_point_task("taskLF", "left_foot", gain=5.0)
@@ -34,18 +56,58 @@ def _qdot_changes(transition: float) -> tuple[np.ndarray, np.ndarray, float]:
     target = RigidTransform(X.rotation(), X.translation() + [0.2, 0.0, 0.15])
     b.add_op_point_task("taskLH", "left_hand", gain=2.5, desired=target)
     b.add_posture_task("taskPosture")
-    built = b.build(stack=["taskLF", "taskRF", "taskCom", "taskPosture"])
+    stack = ("taskLF", "taskRF", "taskCom", "taskPosture")
+    sequencer = None
+    if drive == "sequencer":
+        sequencer = b.builder.AddSystem(
+            TaskSequencer(
+                [
+                    State("stand", transitions=(Transition(Timeout(PUSH), "reach"),)),
+                    State(
+                        "reach",
+                        entry=(Push("taskLH"), Up("taskLH")),
+                        transitions=(Transition(Timeout(RM - PUSH), "rest"),),
+                    ),
+                    State("rest", entry=(Rm("taskLH"),)),
+                ],
+                "stand",
+                tasks=tuple(b.tasks),
+                stack=stack,
+                period=b.control_period,
+                transition_time=transition,
+            )
+        )
+    inbox = _Inbox()
+    if drive == "remote":
+        b.command_server()
+    built = b.build(
+        stack=list(stack), stack_source=None if sequencer is None else sequencer.GetOutputPort("smooth_stack")
+    )
     sot = built.sot
+    seconds = f" {transition:g}" if transition else ""  # no time: the paper's syntax
 
     def push(context):
         sot.push(context, "taskLH", transition=transition)
         sot.up(context, "taskLH", transition=transition)
 
     simulator = built.create_simulator()
-    commands = [
-        Command(PUSH, "push taskLH", push),
-        Command(RM, "rm taskLH", lambda c: sot.rm(c, "taskLH", transition=transition)),
-    ]
+    if drive == "remote":
+        built.remote.attach(inbox)
+        commands = [
+            Command(
+                PUSH - 1e-3,
+                "push taskLH",
+                lambda c: inbox.put(f"sot.push taskLH{seconds}", f"sot.up taskLH{seconds}"),
+            ),
+            Command(RM - 1e-3, "rm taskLH", lambda c: inbox.put(f"sot.rm taskLH{seconds}")),
+        ]
+    elif drive == "context":
+        commands = [
+            Command(PUSH, "push taskLH", push),
+            Command(RM, "rm taskLH", lambda c: sot.rm(c, "taskLH", transition=transition)),
+        ]
+    else:
+        commands = []
     result = simulate(simulator, RM + 0.7, commands)
     assert result.completed, result.failure
     arrays = log_arrays(built, simulator.get_context(), result)
@@ -56,13 +118,17 @@ def _qdot_changes(transition: float) -> tuple[np.ndarray, np.ndarray, float]:
 
 @pytest.fixture(scope="module")
 def runs():
-    return {transition: _qdot_changes(transition) for transition in (0.0, TRANSITION)}
+    return {}
 
 
+@pytest.mark.parametrize("drive", DRIVES)
 @pytest.mark.parametrize("command_time", [PUSH, RM], ids=["push", "rm"])
-def test_a_transition_spreads_the_jump_of_qdot_over_its_duration(runs, command_time):
-    time, instant, dt = runs[0.0]
-    _, smooth, _ = runs[TRANSITION]
+def test_a_transition_spreads_the_jump_of_qdot_over_its_duration(runs, command_time, drive):
+    for transition in (0.0, TRANSITION):
+        if (drive, transition) not in runs:
+            runs[drive, transition] = _qdot_changes(transition, drive)
+    time, instant, dt = runs[drive, 0.0]
+    _, smooth, _ = runs[drive, TRANSITION]
     before = time < PUSH - dt / 2
     window = (time > command_time - dt / 2) & (time < command_time + TRANSITION + 0.1)
     jump = instant[window].max()

@@ -58,7 +58,17 @@ def _expected_qdot(stack):
 class _Rig:
     """StackOfTasks over fixed tasks, driven by a TaskSequencer; guard inputs fixed by hand."""
 
-    def __init__(self, states, initial="s0", stack=(), values=None, period=PERIOD, guards=None, **kwargs):
+    def __init__(
+        self,
+        states,
+        initial="s0",
+        stack=(),
+        values=None,
+        period=PERIOD,
+        guards=None,
+        output="stack",
+        **kwargs,
+    ):
         builder = DiagramBuilder()
         self.sot = builder.AddSystem(StackOfTasks(NV, {n: 1 for n in TASKS}, period=PERIOD))
         self.seq = builder.AddSystem(
@@ -72,7 +82,7 @@ class _Rig:
                 **kwargs,
             )
         )
-        builder.Connect(self.seq.GetOutputPort("stack"), self.sot.GetInputPort("stack"))
+        builder.Connect(self.seq.GetOutputPort(output), self.sot.GetInputPort("stack"))
         self.diagram = builder.Build()
         self.simulator = Simulator(self.diagram)
         self.context = self.simulator.get_mutable_context()
@@ -466,3 +476,34 @@ def test_the_paper_decision_server():
     rig.run(3.001)
     assert rig.state == "manipulate" and rig.stack == ("a", "c")
     np.testing.assert_allclose(rig.qdot, _expected_qdot(("a", "c")))
+
+
+@pytest.mark.parametrize("transition_time", [0.0, 0.5])
+def test_a_state_with_a_transition_time_blends_qdot_through_smooth_stack(transition_time):
+    """Entering s1 at t = 0.1 pushes c above a (both want q̇[0]: 1 for a, 3 for c). Through
+    ``smooth_stack`` with a transition time T, q̇[0] = (1 - h) 1 + h 3, h eq. 12's raised cosine
+    from the check that entered s1 (written here); with T = 0 it jumps by 2 at that tick."""
+    states = [
+        State("s0", transitions=(Transition(Timeout(0.1), "s1"),)),
+        State("s1", entry=(Push("c"), Up("c")), transition_time=transition_time),
+    ]
+    rig = _Rig(states, stack=("a",), output="smooth_stack")
+    rig.simulator.Initialize()
+    previous = None
+    for k in range(0, 70):
+        rig.run((k + 0.5) * PERIOD)  # just after the tick at k·PERIOD
+        t = k * PERIOD
+        if transition_time:
+            h = 0.5 - 0.5 * np.cos(np.pi * min(max((t - 0.1) / transition_time, 0.0), 1.0))
+        else:
+            h = 1.0 if t >= 0.1 - 1e-9 else 0.0
+        np.testing.assert_allclose(rig.qdot, [(1 - h) * 1.0 + h * 3.0, 0.0, 0.0], atol=1e-12)
+        if previous is not None:
+            change = abs(rig.qdot[0] - previous)
+            if transition_time:  # a tick moves h by at most π·period / (2 T) of the gap of 2
+                assert change <= np.pi * PERIOD / (2 * transition_time) * 2.0 + 1e-12
+            elif abs(t - 0.1) < 1e-9:
+                assert change == pytest.approx(2.0)  # without it, the whole jump in one tick
+        previous = rig.qdot[0]
+    assert rig.stack == ("c", "a")  # the stack reached is what the solver's stack output says
+    assert rig.seq.GetOutputPort("stack").Eval(rig.seq_context) == ("c", "a")  # the names, as before

@@ -10,7 +10,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from drake_sot.gains import AdaptiveGain
 from drake_sot.hierarchy import solve_strict
 from drake_sot.signals import FeatureSignal, TaskSignal
-from drake_sot.stack import StackError
+from drake_sot.stack import Stack, StackError
 from drake_sot.systems.features import FeatureGeneric
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.task import Task
@@ -432,3 +432,26 @@ def test_constructor_arguments_are_checked(change, message):
     kwargs = {"nv": NV, "tasks": {"a": 1, "b": 2}, **change}
     with pytest.raises(ValueError, match=message):
         StackOfTasks(kwargs.pop("nv"), kwargs.pop("tasks"), **kwargs)
+
+
+def test_a_stack_value_on_the_stack_input_is_blended_like_a_command():
+    """A Stack carrying a change in progress (as TaskSequencer.smooth_stack sends), made over fewer
+    known tasks than the solver's: q̇ = (1 - h) q̇*(before) + h q̇*(after) as for a command."""
+    rng = np.random.default_rng(21)
+    sot, context, signals = _sot_with_fixed_tasks(rng, {"a": 2, "b": 2, "c": 2})
+
+    def strict(stack):
+        return solve_strict([(signals[n].jacobian, signals[n].edot_des) for n in stack]).qdot
+
+    few = Stack(("a", "c"))
+    smooth = few.with_active(("a", "c")).transition_from(few.with_active(("a",)), start=1.0, duration=0.5)
+    sot.GetInputPort("stack").FixValue(context, smooth)
+    for t in (1.0, 1.1, 1.25, 1.4, 1.6):
+        context.SetTime(t)
+        qdot, _ = _tick(sot, context)
+        h = _raised_cosine(t, 1.0, 0.5)
+        np.testing.assert_allclose(qdot, (1 - h) * strict(("a",)) + h * strict(("a", "c")), atol=1e-12)
+    assert sot.list(context) == ("a", "c")
+    sot.GetInputPort("stack").FixValue(context, Stack(("a", "d"), ("d",)))
+    with pytest.raises(RuntimeError, match=r"input port 'stack': .*unknown task 'd'"):
+        _tick(sot, context)
