@@ -6,8 +6,8 @@ from drake_sot import cli
 from drake_sot.diagrams import SCENARIOS
 
 
-def test_leader_and_delay_are_telecooperation_options(capsys):
-    assert SCENARIOS["telecooperation"].parameters == ("leader", "delay")
+def test_leader_delay_and_admittance_are_telecooperation_options(capsys):
+    assert SCENARIOS["telecooperation"].parameters == ("leader", "delay", "admittance")
     with pytest.raises(SystemExit) as exit_:
         cli.main(["run", "reach", "--leader", "cooperator"])
     assert exit_.value.code == 2
@@ -19,6 +19,14 @@ def test_leader_and_delay_are_telecooperation_options(capsys):
         cli.main(["run", "telecooperation", "--delay", "nan"])
     assert exit_.value.code == 2
     assert "delay" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["run", "reach", "--admittance", "weighted"])
+    assert exit_.value.code == 2
+    assert "reach takes no --admittance" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["run", "telecooperation", "--admittance", "heavy"])
+    assert exit_.value.code == 2
+    assert "admittance" in capsys.readouterr().err
 
 
 def test_a_delay_beyond_300_ms_is_refused_by_the_scenario():
@@ -26,6 +34,8 @@ def test_a_delay_beyond_300_ms_is_refused_by_the_scenario():
         SCENARIOS["telecooperation"].build(None, delay=0.31)
     with pytest.raises(ValueError, match="leader"):
         SCENARIOS["telecooperation"].build(None, leader="nobody")
+    with pytest.raises(ValueError, match="admittance = 'heavy'"):
+        SCENARIOS["telecooperation"].build(None, admittance="heavy")
 
 
 # --- two-process mode: serve telecoop_slave, run telecoop_master --connect HOST:PORT ---
