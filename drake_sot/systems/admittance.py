@@ -121,7 +121,8 @@ class AdmittanceController(LeafSystem):
             ``wrench_ref``, 2 measured force norm above ``max_force``, 3 measured torque
             norm above ``max_torque``.
         virtual_mass: (9,) the translation's virtual mass (3, 3) [kg] of the last tick,
-            row-major: ``diag(mass[:3])``, or Λ when weighted; for logging and tests.
+            row-major: ``diag(mass[:3])``, or Λ when weighted (from the initialization event on
+            when ``hand_pose`` is connected); for logging and tests.
 
     Input ports of the weighted variant only (``weighted=True``), both from the controller's
     model at the reference configuration (``RobotKinematics``):
@@ -286,6 +287,8 @@ class AdmittanceController(LeafSystem):
             x = self._x(context).copy()
             self._follow(x, self._checked_pose(self._hand_pose, context))
             x[_ACTIVE] = 0.0
+            if self._weighted:
+                x[_MASS] = self._apparent_inertia(context).reshape(-1)
             discrete_state.get_mutable_vector(self._state).SetFromVector(x)
         return EventStatus.Succeeded()
 
