@@ -78,13 +78,7 @@ def coupled_run(admittance: str, delay: float, duration: float) -> tuple[float, 
     f_op = a["operator_forces"][after, :3]
     f_robot = -a["wrench/e_fr"][after, 3:]
     rms = float(np.sqrt(np.mean(np.sum((f_op - f_robot) ** 2, axis=1))))
-    plant, instance = run.setup.built.plant, run.setup.built.info.model_instance
-    columns = []
-    for joint in tc.CARRY_JOINTS:  # the shoulders' pitch and the elbows, in the logged v
-        v = np.zeros(plant.num_velocities())
-        v[plant.GetJointByName(joint, instance).velocity_start()] = 1.0
-        columns.append(int(np.argmax(plant.GetVelocitiesFromArray(instance, v))))
-    speed = float(np.sqrt(np.mean(a["v"][after][:, columns] ** 2)))
+    speed = float(np.sqrt(np.mean(tc.arm_speeds(run.setup, a["v"][after]) ** 2)))
     return (
         100 * intention.max(),
         100 * handle.max(),

@@ -542,6 +542,18 @@ def build(
     )
 
 
+def arm_speeds(setup: ScenarioSetup, v: np.ndarray) -> np.ndarray:
+    """(T, 4) [rad/s] the speeds of the ``CARRY_JOINTS`` (the shoulders' pitch, the elbows) from the
+    robot's logged velocities ``v`` (T, the robot's nv), e.g. ``arrays["v"]``."""
+    plant, instance = setup.built.plant, setup.built.info.model_instance
+    columns = []
+    for joint in CARRY_JOINTS:
+        unit = np.zeros(plant.num_velocities())
+        unit[plant.GetJointByName(joint, instance).velocity_start()] = 1.0
+        columns.append(int(np.argmax(plant.GetVelocitiesFromArray(instance, unit))))
+    return v[:, columns]
+
+
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """The Fig.-7-like plot, the force transparency and the steps (see ``telecooperation_plots``)."""
     path = Path(out_dir) / "telecooperation_fig7.png"

@@ -347,13 +347,7 @@ def test_weighted_admittance_standing_meets_the_same_bounds_as_the_plain_one(wei
     after = t > 1.0
     f_op, f_robot = a["operator_forces"][after, :3], -a["wrench/e_fr"][after, 3:]
     force_rms = np.sqrt(np.mean(np.sum((f_op - f_robot) ** 2, axis=1)))
-    plant, instance = weighting.setup.built.plant, weighting.setup.built.info.model_instance
-    columns = []
-    for name in tc.CARRY_JOINTS:  # the shoulders' pitch and the elbows, in the logged v
-        v = np.zeros(plant.num_velocities())
-        v[plant.GetJointByName(name, instance).velocity_start()] = 1.0
-        columns.append(int(np.argmax(plant.GetVelocitiesFromArray(instance, v))))
-    speeds = a["v"][after][:, columns]
+    speeds = tc.arm_speeds(weighting.setup, a["v"][after])
     print(
         f"{weighting.setup.extras['admittance']}: hand error max "
         f"{100 * _hand_error(weighting)[after].max():.2f} cm, force RMS {force_rms:.2f} N, "
