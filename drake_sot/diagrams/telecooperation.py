@@ -94,9 +94,10 @@ Choices where the paper is silent (said here, as the issue asks):
   and J_v the hand point's translation Jacobian, as the paper writes it (the feet's contact is not
   in A); the damping stays ``HAND_ADMITTANCE``'s. The other half of eq. 5-7, the A-weighted
   pseudo-inverse, is not used: in this strict hierarchy the posture task at the bottom takes up
-  every degree of freedom the tasks above leave, and then the hierarchy's solution does not
-  depend on the weight of any level's pseudo-inverse; so the joints do not move as eq. 7 says
-  (A q̈ = Jᵀ f − B_q q̇), only the hand's reference does (Λ r̈ + B ṙ = f).
+  every degree of freedom the tasks above leave (its Jacobian, the joints, is injective on the
+  feet tasks' null space), and then the hierarchy's solution does not depend on the weight of
+  any level's pseudo-inverse (up to the solver's damping); so the joints do not move as eq. 7
+  says (A q̈ = Jᵀ f − B_q q̇), only the hand's reference does (Λ r̈ + B ṙ = f).
 """
 
 from __future__ import annotations
