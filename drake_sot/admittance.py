@@ -16,6 +16,8 @@ pseudo-inverse form of the same law (Mansard et al. 2009, eq. 12-14): with the j
 W = A (the robot's inertia matrix) and M = Λ = (J A⁻¹ Jᵀ)⁻¹ (the apparent inertia
 of the end effector), the kinematic inverse of the admittance reference gives the
 joint motion ``A q̈ = Jᵀ f - Jᵀ B J q̇`` of a gravity-compensated compliant robot.
+:func:`coupled_step` integrates the admittance with such a full (non-diagonal) virtual mass,
+the weighted variant's (Evrard et al. 2009, III-B, eq. 5-7).
 
 No Drake here: the Drake adapter is :class:`drake_sot.systems.admittance.AdmittanceController`.
 """
@@ -28,7 +30,7 @@ import scipy.linalg
 from drake_sot.linalg import weighted_pinv
 from drake_sot.validation import per_axis, positive, positive_int, vector
 
-__all__ = ["MassDamperSpring", "apparent_inertia", "joint_acceleration"]
+__all__ = ["MassDamperSpring", "apparent_inertia", "coupled_step", "joint_acceleration"]
 
 ArrayLike = float | np.ndarray | list | tuple
 
@@ -181,3 +183,51 @@ def joint_acceleration(
         raise ValueError(f"f and rdot must have shape ({m},), got {f.shape} and {rdot.shape}")
     rddot = np.linalg.solve(M, f - B @ rdot)
     return weighted_pinv(J, A, rank_threshold=0.0) @ rddot
+
+
+def coupled_step(
+    M: np.ndarray,
+    B: np.ndarray,
+    K: np.ndarray,
+    y: np.ndarray,
+    v: np.ndarray,
+    f: np.ndarray,
+    dt: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(y, v)`` after one step of ``dt`` of ``M ÿ + B ẏ + K y = f``, f held constant, with full
+    (m, m) matrices: the admittance whose virtual mass is an apparent inertia (Evrard et al.
+    2009, eq. 7), which couples the axes.
+
+    Exact for the zero-order hold, like :class:`MassDamperSpring` (its per-axis special case):
+    the matrix exponential of the augmented system ``d/dt [y; v; f] = [[0, I, 0], [-M⁻¹K, -M⁻¹B,
+    M⁻¹], [0, 0, 0]] [y; v; f]``, computed at each call (the mass changes with the posture).
+
+    Args:
+        M: (m, m) virtual mass, symmetric positive definite [kg].
+        B, K: (m, m) damping [N s/m] and stiffness [N/m] (or their diagonals (m,)).
+        y: (m,) displacement from the spring's rest [m]; v: (m,) velocity [m/s];
+        f: (m,) force [N]; dt: the step [s], > 0.
+
+    Raises:
+        ValueError: naming the bad argument (shape, non-finite, M not positive definite, dt).
+    """
+    y = vector("y", y)
+    m = y.size
+    v = vector("v", v, m)
+    f = vector("f", f, m)
+    dt = positive("dt", dt, unit="s")
+    M = _square("M", M, m)
+    B = _square("B", B, m)
+    K = _square("K", K, m)
+    try:
+        scipy.linalg.cholesky(0.5 * (M + M.T), lower=True)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"M = {M.tolist()}: must be symmetric positive definite") from None
+    Minv = np.linalg.inv(M)
+    F = np.zeros((3 * m, 3 * m))
+    F[:m, m : 2 * m] = np.eye(m)
+    F[m : 2 * m, :m] = -Minv @ K
+    F[m : 2 * m, m : 2 * m] = -Minv @ B
+    F[m : 2 * m, 2 * m :] = Minv
+    E = scipy.linalg.expm(F * dt)[: 2 * m] @ np.concatenate((y, v, f))
+    return E[:m], E[m:]

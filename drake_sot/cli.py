@@ -266,6 +266,13 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         metavar="S",
         help="telecooperation: one-way delay of the link [s], 0-0.3 (default 0.14)",
     )
+    run.add_argument(
+        "--admittance",
+        choices=("plain", "weighted"),
+        default=None,
+        help="telecooperation: the hands' admittance, plain (a fixed virtual mass, default) or weighted "
+        "(the virtual mass is the hand's apparent inertia, Evrard et al. 2009 eq. 5-7)",
+    )
     # --- end telecooperation ---
     # --- two-process mode: a scenario run as the client of a served one ---
     run.add_argument(
@@ -464,6 +471,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--decision": args.decision is not None,
         "--leader": args.leader is not None,
         "--delay": args.delay is not None,
+        "--admittance": args.admittance is not None,
         "--no-record": args.no_record,
         "--push": bool(args.push),
         "--no-stabilizer": args.no_stabilizer,
@@ -488,7 +496,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parameters |= {"decision": args.decision} if args.decision is not None else {}
     parameters |= {"stabilizer": False} if args.no_stabilizer else {}
     parameters |= {
-        name: getattr(args, name) for name in ("leader", "delay") if getattr(args, name) is not None
+        name: getattr(args, name)
+        for name in ("leader", "delay", "admittance")
+        if getattr(args, name) is not None
     }
     parameters |= {"robot": args.robot} if args.robot is not None else {}
     return _run_scenario(SCENARIOS[args.scenario], args, parameters)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from drake_sot.admittance import MassDamperSpring, apparent_inertia, joint_acceleration
+from drake_sot.admittance import MassDamperSpring, apparent_inertia, coupled_step, joint_acceleration
 
 DT = 0.005
 
@@ -197,3 +197,32 @@ def test_validation_errors_name_the_value():
         apparent_inertia(J, -A)
     with pytest.raises(ValueError, match="shape"):
         joint_acceleration(J, A, np.eye(2), np.eye(3), np.zeros(3), np.zeros(3))
+
+
+def test_coupled_step_is_the_per_axis_one_when_the_mass_is_diagonal_and_in_its_eigenbasis_otherwise():
+    """A second algorithm: MassDamperSpring per axis, on the diagonal, and in the eigenbasis of
+    M (with B and K multiples of the identity, the coupled system separates there)."""
+    rng = np.random.default_rng(4)
+    y, v, f = rng.normal(size=3), rng.normal(size=3), rng.normal(size=3)
+    m, b, k = np.array([1.0, 3.0, 0.5]), np.array([20.0, 5.0, 0.0]), np.array([0.0, 50.0, 300.0])
+    ref = MassDamperSpring(m, b, k, DT).step(y, v, f)
+    got = coupled_step(np.diag(m), b, np.diag(k), y, v, f, DT)
+    for r, g in zip(ref, got, strict=True):
+        np.testing.assert_allclose(g, r, rtol=1e-10, atol=1e-14)
+    M = random_spd(rng, 3)
+    lam, U = np.linalg.eigh(M)
+    y_e, v_e = MassDamperSpring(lam, 40.0, 100.0, DT).step(U.T @ y, U.T @ v, U.T @ f)
+    y_c, v_c = coupled_step(M, 40.0 * np.eye(3), 100.0 * np.eye(3), y, v, f, DT)
+    np.testing.assert_allclose(y_c, U @ y_e, rtol=1e-9, atol=1e-13)
+    np.testing.assert_allclose(v_c, U @ v_e, rtol=1e-9, atol=1e-13)
+
+
+def test_coupled_step_names_bad_values():
+    with pytest.raises(ValueError, match="M = .*positive definite"):
+        coupled_step(-np.eye(2), np.ones(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), DT)
+    with pytest.raises(ValueError, match=r"B must be finite with shape \(2, 2\)"):
+        coupled_step(np.eye(2), np.ones(3), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), DT)
+    with pytest.raises(ValueError, match="f = .*NaN"):
+        coupled_step(np.eye(2), np.ones(2), np.zeros(2), np.zeros(2), np.zeros(2), [np.nan, 0.0], DT)
+    with pytest.raises(ValueError, match="dt = nan s"):
+        coupled_step(np.eye(2), np.ones(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.nan)

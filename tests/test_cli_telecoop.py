@@ -6,19 +6,25 @@ from drake_sot import cli
 from drake_sot.diagrams import SCENARIOS
 
 
-def test_leader_and_delay_are_telecooperation_options(capsys):
-    assert SCENARIOS["telecooperation"].parameters == ("leader", "delay")
+def test_leader_delay_and_admittance_are_telecooperation_options():
+    assert SCENARIOS["telecooperation"].parameters == ("leader", "delay", "admittance")
+
+
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["run", "reach", "--leader", "cooperator"], "reach takes no --leader"),
+        (["run", "telecooperation", "--leader", "nobody"], "--leader: invalid choice: 'nobody'"),
+        (["run", "telecooperation", "--delay", "nan"], "delay"),
+        (["run", "reach", "--admittance", "weighted"], "reach takes no --admittance"),
+        (["run", "telecooperation", "--admittance", "heavy"], "--admittance: invalid choice: 'heavy'"),
+    ],
+)
+def test_telecooperation_options_are_checked(argv, named, capsys):
     with pytest.raises(SystemExit) as exit_:
-        cli.main(["run", "reach", "--leader", "cooperator"])
+        cli.main(argv)
     assert exit_.value.code == 2
-    assert "reach takes no --leader" in capsys.readouterr().err
-    with pytest.raises(SystemExit) as exit_:
-        cli.main(["run", "telecooperation", "--leader", "nobody"])
-    assert exit_.value.code == 2
-    with pytest.raises(SystemExit) as exit_:
-        cli.main(["run", "telecooperation", "--delay", "nan"])
-    assert exit_.value.code == 2
-    assert "delay" in capsys.readouterr().err
+    assert named in capsys.readouterr().err
 
 
 def test_a_delay_beyond_300_ms_is_refused_by_the_scenario():
@@ -26,6 +32,8 @@ def test_a_delay_beyond_300_ms_is_refused_by_the_scenario():
         SCENARIOS["telecooperation"].build(None, delay=0.31)
     with pytest.raises(ValueError, match="leader"):
         SCENARIOS["telecooperation"].build(None, leader="nobody")
+    with pytest.raises(ValueError, match="admittance = 'heavy'"):
+        SCENARIOS["telecooperation"].build(None, admittance="heavy")
 
 
 # --- two-process mode: serve telecoop_slave, run telecoop_master --connect HOST:PORT ---

@@ -453,7 +453,7 @@ class PoolEntity(Entity):
 
 class DynamicEntity(Entity):
     CLASS = "Dynamic"
-    DOC = "the robot model (com, Jcom, the operational points); the paper's dyn and dyn2"
+    DOC = "the robot model (com, Jcom, inertia, the operational points); the paper's dyn and dyn2"
     WIRED = {"q": "the reference configuration the loop integrates (the device's q)"}
 
     def inputs(self) -> tuple[str, ...]:
@@ -461,7 +461,7 @@ class DynamicEntity(Entity):
 
     def outputs(self) -> tuple[str, ...]:
         ops = self.session.builder.dyn.operational_points
-        return ("com", "Jcom", *(x for op in ops for x in (op, "J" + op, op + FRAME_SUFFIX)))
+        return ("com", "Jcom", "inertia", *(x for op in ops for x in (op, "J" + op, op + FRAME_SUFFIX)))
 
     @_command(
         Phase.BUILD,
@@ -928,7 +928,7 @@ class AdmittanceEntity(Entity):
         return ("wrench", "sensor_pose", "hand_pose", "wrench_ref", "active")
 
     def outputs(self) -> tuple[str, ...]:
-        return ("pose_des", "velocity_des", "wrench_external", "saturated", "fault")
+        return ("pose_des", "velocity_des", "wrench_external", "saturated", "fault", "virtual_mass")
 
     @_command(Phase.BUILD, "hand right|left", "the hand (its wrist sensor and poses are wired)")
     def hand(self, args: tuple[Value, ...], context: Context | None) -> str:

@@ -371,6 +371,7 @@ class HumanoidTaskBuilder:
         damping: float | Sequence[float],
         stiffness: float | Sequence[float] = 0.0,
         max_velocity=(0.5, 1.0),
+        weighted: bool = False,
     ) -> AdmittanceController:
         """An ``AdmittanceController`` named ``name`` on one hand, read by its wrist sensor
         (Mansard et al. 2009, IV-C): the sensor's wrench, the sensor frame's and the hand's
@@ -381,6 +382,9 @@ class HumanoidTaskBuilder:
             mass, damping, stiffness: the virtual mass [kg, kg·m²], damping [N·s/m,
                 N·m·s/rad] and stiffness of the admittance, per axis or one value.
             max_velocity: saturation (linear, angular).
+            weighted: the A-weighted variant (Evrard et al. 2009, III-B): the translation's
+                virtual mass is the hand's apparent inertia, from ``dyn.inertia`` and the hand's
+                Jacobian (``mass`` then gives the rotation's only).
         Returns:
             the controller; its ``pose_des`` and ``velocity_des`` are for a hand feature,
             its ``active`` and ``wrench_ref`` inputs are left for the caller to drive
@@ -406,10 +410,14 @@ class HumanoidTaskBuilder:
                 hand_com=hand_com,
                 period=self.control_period,
                 max_velocity=max_velocity,
+                weighted=weighted,
                 name=name,
             )
         )
         hand = self.op_point(f"{side}_hand")
+        if weighted:
+            self.builder.Connect(self.dyn.GetOutputPort("inertia"), admittance.GetInputPort("inertia"))
+            self.builder.Connect(self.dyn.GetOutputPort("J" + hand), admittance.GetInputPort("hand_jacobian"))
         self.builder.Connect(sensor.GetOutputPort("wrench"), admittance.GetInputPort("wrench"))
         self.builder.Connect(self.dyn.GetOutputPort(sensor_op), admittance.GetInputPort("sensor_pose"))
         self.builder.Connect(self.dyn.GetOutputPort(hand), admittance.GetInputPort("hand_pose"))
@@ -426,6 +434,7 @@ class HumanoidTaskBuilder:
         gain: Gain = 5.0,
         max_velocity=(0.5, 1.0),
         selection: SelectionLike = None,
+        weighted: bool = False,
     ) -> AdmittanceController:
         """A force-based hand task (Mansard et al. 2009, IV-C): the hand's wrist sensor drives an
         ``AdmittanceController`` (:meth:`add_admittance_controller`, named
@@ -433,7 +442,8 @@ class HumanoidTaskBuilder:
 
         Args:
             task_name: the task (e.g. the paper's ``taskForce``).
-            side, mass, damping, stiffness, max_velocity: as :meth:`add_admittance_controller`.
+            side, mass, damping, stiffness, max_velocity, weighted: as
+                :meth:`add_admittance_controller`.
             gain: the hand task's gain [1/s].
             selection: the components of the hand task (as :meth:`add_op_point_task`; None: all 6).
         Returns:
@@ -447,6 +457,7 @@ class HumanoidTaskBuilder:
             damping=damping,
             stiffness=stiffness,
             max_velocity=max_velocity,
+            weighted=weighted,
         )
         self.add_op_point_task(task_name, f"{side}_hand", gain=gain, selection=selection)
         feature = self.features[task_name]

@@ -36,8 +36,11 @@ with about 10-15 N) the balance is marginal: the stabilizer's offset sits at its
 both axes 73 % of the time (its model has no external force), and on the tree just before the
 last solver speed-ups (the same equations, other rounding) the robot fell 52.8 s into the 58 s
 run, during the sideways walk.
-The replay shows the robot and the board; the operator's hands and the co-operator are in the
-logs and the Fig.-7 plot, not drawn as ghosts.
+The replay shows the robot, the board and, as translucent blue spheres (``GHOSTS``), the
+operator's hands: the handles' positions ``MasterSite.hands`` = x_S + x_Δ (eq. 9; the operator's
+hands hold the handles), in the master's world, identified with the slave's; they lead the
+robot's hands by the delay. The co-operator is not drawn (they hold the board's far end); the
+two-process mode's slave has no master, hence no ghosts.
 
 Why the walk fell before, measured (the operator leading fell at 15 s, the co-operator leading
 at 10 s, with the balance stabilizer on):
@@ -85,6 +88,16 @@ Choices where the paper is silent (said here, as the issue asks):
   the aperture opens from 0.1 to 0.5 rad between 1 and 2 s.
 - The step rule: reference = the hands' initial midpoint in the waist frame, threshold 5 cm,
   strides up to 0.2 m.
+- ``admittance="weighted"`` (``--admittance weighted``), III-B's eq. 5-7: the virtual mass of each
+  hand's translation is, at every tick, the hand point's apparent inertia Λ = (J_v A⁻¹ J_vᵀ)⁻¹,
+  with A the whole (floating-base) robot model's inertia matrix at the reference configuration
+  and J_v the hand point's translation Jacobian, as the paper writes it (the feet's contact is not
+  in A); the damping stays ``HAND_ADMITTANCE``'s. The other half of eq. 5-7, the A-weighted
+  pseudo-inverse, is not used: in this strict hierarchy the posture task at the bottom takes up
+  every degree of freedom the tasks above leave (its Jacobian, the joints, is injective on the
+  feet tasks' null space), and then the hierarchy's solution does not depend on the weight of
+  any level's pseudo-inverse (up to the solver's damping); so the joints do not move as eq. 7
+  says (A q̈ = Jᵀ f − B_q q̇), only the hand's reference does (Λ r̈ + B ṙ = f).
 """
 
 from __future__ import annotations
@@ -95,7 +108,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Box, Meshcat
+from pydrake.geometry import Box, Meshcat, Rgba
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FixedOffsetFrame, LinearBushingRollPitchYaw, SpatialInertia
@@ -119,12 +132,17 @@ from drake_sot.sequencing import Above, Below, Push, Rm, State, Transition, Up
 from drake_sot.stabilization import StabilizerGains
 from drake_sot.systems.channel import Channel
 from drake_sot.systems.hand_steps import StepDecider
+from drake_sot.systems.marker import MeshcatMarker
 from drake_sot.systems.master import MasterSite, Operator
 from drake_sot.systems.partner import Hold, Partner
 from drake_sot.systems.sequencer import TaskSequencer
 from drake_sot.systems.telecoop import MASTER_SIGNALS, MASTER_SIZE, HandPositions, SlaveReferences
 
 LEADERS = ("operator", "cooperator")
+#: The hands' admittance (III-B): ``plain``, eq. 4 with the fixed virtual mass of
+#: ``HAND_ADMITTANCE``; ``weighted``, eq. 5-7, the translation's virtual mass the hand's apparent
+#: inertia Λ = (J A⁻¹ Jᵀ)⁻¹ at every tick (see the docstring).
+ADMITTANCES = ("plain", "weighted")
 SIDES = ("right", "left")
 ALTITUDE_TASKS = ("e_zr", "e_zl")
 HAND_TASKS = ("e_fr", "e_fl")
@@ -164,6 +182,9 @@ CARRY_JOINTS = {
     f"{side}_{joint}": value for side in "rl" for joint, value in (("shoulder_pitch", 0.0), ("elbow", -1.3))
 }
 MASTER_ADMITTANCE = {"mass": 2.0, "damping": 60.0, "stiffness": 400.0}
+#: The operator's hands in the replay: Meshcat paths [right, left], radius [m], colour.
+GHOSTS = {"paths": ("/drake_sot/operator/right_hand", "/drake_sot/operator/left_hand"), "radius": 0.04}
+GHOST_COLOUR = Rgba(0.2, 0.45, 0.95, 0.35)
 STEP_LIMITS = StepLimits(max_stride=0.2)
 STEP_THRESHOLD = 0.05
 WALK_AT = INTERACT_AT + 2 * LIFT / SPEED  # [s] the leader starts walking
@@ -311,6 +332,17 @@ def master_logs(side: MasterSide) -> tuple[tuple[str, OutputPort], ...]:
     )
 
 
+def add_ghosts(builder: DiagramBuilder, meshcat: Meshcat, hands: OutputPort) -> None:
+    """The operator's hands ``hands`` (6,) [m] ``[right; left]`` drawn as translucent spheres
+    (``GHOSTS``) in ``meshcat`` and its recording."""
+    split = builder.AddSystem(Demultiplexer([3, 3]))
+    split.set_name("operator_hands_split")
+    builder.Connect(hands, split.get_input_port())
+    for k, path in enumerate(GHOSTS["paths"]):
+        ghost = builder.AddSystem(MeshcatMarker(meshcat, path, radius=GHOSTS["radius"], rgba=GHOST_COLOUR))
+        builder.Connect(split.get_output_port(k), ghost.GetInputPort("position"))
+
+
 # --- end of the master site ---
 
 
@@ -321,15 +353,18 @@ def build(
     pushes: Sequence[ExternalPush] = (),
     walk: bool = True,
     remote: bool = False,
+    admittance: str = "plain",
 ) -> ScenarioSetup:
     """Build the ``telecooperation`` diagram; ``leader`` is ``"operator"`` or ``"cooperator"``,
     ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot;
     ``walk=False``: the leader only lifts and sets back the board (standing interaction);
     ``remote=True``: the slave side only, what the master sends written to the command server's
     signals ``remote.<name>`` of ``MASTER_SIGNALS`` (see ``telecoop_slave``; ``delay`` is then
-    the master process's)."""
+    the master process's); ``admittance``: the hands' admittance, one of :data:`ADMITTANCES`."""
     if leader not in LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
+    if admittance not in ADMITTANCES:
+        raise ValueError(f"admittance = {admittance!r}: one of {', '.join(ADMITTANCES)}")
     delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
     hands0 = _initial_hands()
     b = HumanoidSoTBuilder(
@@ -350,7 +385,9 @@ def build(
     for task_name, side in zip(ALTITUDE_TASKS, SIDES, strict=True):
         b.add_op_point_task(task_name, f"{side}_hand", selection="001000", gain=5.0)
     admittances = {
-        task_name: b.add_admittance_task(task_name, side, selection="111000", **HAND_ADMITTANCE)
+        task_name: b.add_admittance_task(
+            task_name, side, selection="111000", weighted=admittance == "weighted", **HAND_ADMITTANCE
+        )
         for task_name, side in zip(HAND_TASKS, SIDES, strict=True)
     }
     b.add_op_point_task("e_head", "head", selection="000111", gain=5.0)
@@ -435,6 +472,8 @@ def build(
         side = add_master_site(builder, x_s0, leader, walk, b.control_period)
         builder.Connect(channel.GetOutputPort("backward_out"), side.master.GetInputPort("slave_hands"))
         builder.Connect(side.sent.get_output_port(), channel.GetInputPort("forward_in"))
+        if meshcat is not None:  # the operator's hands as ghosts in the replay
+            add_ghosts(builder, meshcat, side.master.GetOutputPort("hands"))
         link_logs = (
             *master_logs(side),
             ("received_by_master", channel.GetOutputPort("backward_out")),
@@ -486,8 +525,10 @@ def build(
         ("phase", pg.GetOutputPort("phase")),
     ):
         b.log(name, port)
-    for task_name, admittance in admittances.items():
-        b.log(f"wrench/{task_name}", admittance.GetOutputPort("wrench_external"))
+    for task_name, admittance_system in admittances.items():
+        b.log(f"wrench/{task_name}", admittance_system.GetOutputPort("wrench_external"))
+        b.log(f"reference_velocity/{task_name}", admittance_system.GetOutputPort("velocity_des"))
+        b.log(f"virtual_mass/{task_name}", admittance_system.GetOutputPort("virtual_mass"))
     built = b.build(
         stack=STACK,
         load=pg.GetOutputPort("load"),
@@ -508,9 +549,22 @@ def build(
             "admittances": admittances,
             "leader": leader,
             "delay": delay,
+            "admittance": admittance,
             "grippers": GRIPPERS,
         },
     )
+
+
+def arm_speeds(setup: ScenarioSetup, v: np.ndarray) -> np.ndarray:
+    """(T, 4) [rad/s] the speeds of the ``CARRY_JOINTS`` (the shoulders' pitch, the elbows) from the
+    robot's logged velocities ``v`` (T, the robot's nv), e.g. ``arrays["v"]``."""
+    plant, instance = setup.built.plant, setup.built.info.model_instance
+    columns = []
+    for joint in CARRY_JOINTS:
+        unit = np.zeros(plant.num_velocities())
+        unit[plant.GetJointByName(joint, instance).velocity_start()] = 1.0
+        columns.append(int(np.argmax(plant.GetVelocitiesFromArray(instance, unit))))
+    return v[:, columns]
 
 
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
@@ -525,5 +579,5 @@ SCENARIO = Scenario(
     description="a remote operator (140 ms away) and a co-operator carry a board with the walking humanoid",
     build=build,
     extra_plots=write_plots,
-    parameters=("leader", "delay"),
+    parameters=("leader", "delay", "admittance"),
 )

@@ -6,7 +6,10 @@ after removing the hand's own weight, what is left is the wrench the world (a hu
 partner, an object) applies on the hand. That wrench, plus a reference wrench sent
 by a remote operator, drives a virtual mass-damper(-spring) whose pose is the
 reference of the hand's 6D task (``FeaturePoint6d``): the hand yields to pushes.
-The dynamics live in :class:`drake_sot.admittance.MassDamperSpring`.
+The dynamics live in :class:`drake_sot.admittance.MassDamperSpring`; the A-weighted variant
+(``weighted=True``, Evrard et al. 2009, III-B, eq. 5-7) makes the translation's virtual mass the
+hand's apparent inertia (:func:`drake_sot.admittance.apparent_inertia`,
+:func:`drake_sot.admittance.coupled_step`).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from pydrake.systems.framework import (
 )
 
 from drake_sot import so3
-from drake_sot.admittance import MassDamperSpring
+from drake_sot.admittance import MassDamperSpring, apparent_inertia, coupled_step
 from drake_sot.configuration import quaternion_to_rotation
 from drake_sot.systems._context import own_context
 from drake_sot.validation import nonnegative, per_axis, positive, vector
@@ -38,7 +41,8 @@ _P_REST = slice(13, 16)  # spring rest position: the hand position at activation
 _Q_REST = slice(16, 20)  # spring rest orientation (quaternion)
 _ACTIVE, _FAULT, _SATURATED = 20, 21, 22  # flags of the last update
 _W = slice(23, 29)  # compensated external wrench [τ; f] of the last update
-_SIZE = 29
+_MASS = slice(29, 38)  # the translation's virtual mass (3, 3) of the last update, row-major
+_SIZE = 38
 
 
 def _quaternion(R: np.ndarray) -> np.ndarray:
@@ -69,6 +73,13 @@ class AdmittanceController(LeafSystem):
     orientation by ``R ← exp(∫ω dt) R``; the rest pose is the hand pose at
     activation. With K_r > 0 the rotational spring treats θ̇ as ω (exact about a
     fixed axis, first-order otherwise).
+
+    Weighted (``weighted=True``; Evrard et al. 2009, III-B, eq. 5-7): the translation's virtual
+    mass M is, at every tick, the hand point's apparent inertia ``Λ = (J_v A⁻¹ J_vᵀ)⁻¹`` (3, 3)
+    from the robot's inertia matrix A and the translation rows J_v of the hand's Jacobian, so
+    that the reference moves as the hand's own inertia would under the force (eq. 7); the
+    axes are then coupled (:func:`~drake_sot.admittance.coupled_step`, exact for the period
+    with Λ held). The translation entries of ``mass`` are unused; the rotation keeps its own.
 
     Velocity limit: when the linear (or angular) velocity exceeds ``max_velocity``
     the velocity is scaled down to the limit (direction kept) and so is the motion
@@ -109,6 +120,16 @@ class AdmittanceController(LeafSystem):
         fault: (1,) fault code of the last tick: 0 none, 1 non-finite ``wrench`` or
             ``wrench_ref``, 2 measured force norm above ``max_force``, 3 measured torque
             norm above ``max_torque``.
+        virtual_mass: (9,) the translation's virtual mass (3, 3) [kg] of the last tick,
+            row-major: ``diag(mass[:3])``, or Λ when weighted (from the initialization event on
+            when ``hand_pose`` is connected); for logging and tests.
+
+    Input ports of the weighted variant only (``weighted=True``), both from the controller's
+    model at the reference configuration (``RobotKinematics``):
+        inertia: abstract ``ndarray`` (nv, nv), the robot's joint-space inertia matrix A
+            [kg, kg m, kg m²] (``RobotKinematics.inertia``).
+        hand_jacobian: abstract ``ndarray`` (6, nv), the hand frame's Jacobian, rows ``[ω; v]``
+            (``RobotKinematics.J<hand>``).
 
     Args:
         mass, damping, stiffness: virtual mass [kg | kg m²], damping [N s/m | N m s/rad]
@@ -124,6 +145,7 @@ class AdmittanceController(LeafSystem):
         max_force: largest plausible measured force norm [N].
         max_torque: largest plausible measured torque norm [N·m] (at the sensor frame).
         g: gravity vector (3,) [m/s²], world.
+        weighted: the A-weighted variant (above).
         name: system name.
 
     Raises:
@@ -144,6 +166,7 @@ class AdmittanceController(LeafSystem):
         max_force: float = 1000.0,
         max_torque: float = 200.0,
         g=(0.0, 0.0, -9.81),
+        weighted: bool = False,
         name: str = "admittance",
     ) -> None:
         super().__init__()
@@ -174,9 +197,15 @@ class AdmittanceController(LeafSystem):
         self._hand_pose = self.DeclareAbstractInputPort("hand_pose", AbstractValue.Make(RigidTransform()))
         self._wrench_ref = self.DeclareVectorInputPort("wrench_ref", 6)
         self._active = self.DeclareVectorInputPort("active", 1)
+        self._weighted = bool(weighted)
+        if self._weighted:
+            matrix = AbstractValue.Make(np.zeros((0, 0)))
+            self._inertia = self.DeclareAbstractInputPort("inertia", matrix)
+            self._hand_jacobian = self.DeclareAbstractInputPort("hand_jacobian", matrix)
 
         x0 = np.zeros(_SIZE)
         x0[_Q] = x0[_Q_REST] = (1.0, 0.0, 0.0, 0.0)
+        x0[_MASS] = np.diag(self.dynamics.mass[:3]).reshape(-1)
         self._state = self.DeclareDiscreteState(x0)
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
@@ -201,6 +230,7 @@ class AdmittanceController(LeafSystem):
         state_output("wrench_external", lambda x: x[_W])
         state_output("saturated", lambda x: x[_SATURATED : _SATURATED + 1])
         state_output("fault", lambda x: x[_FAULT : _FAULT + 1])
+        state_output("virtual_mass", lambda x: x[_MASS])
 
     # --- reading the state --------------------------------------------------------------
     @property
@@ -257,8 +287,23 @@ class AdmittanceController(LeafSystem):
             x = self._x(context).copy()
             self._follow(x, self._checked_pose(self._hand_pose, context))
             x[_ACTIVE] = 0.0
+            if self._weighted:
+                x[_MASS] = self._apparent_inertia(context).reshape(-1)
             discrete_state.get_mutable_vector(self._state).SetFromVector(x)
         return EventStatus.Succeeded()
+
+    def _apparent_inertia(self, context: Context) -> np.ndarray:
+        """Λ (3, 3) [kg] of the hand point from the ``inertia`` and ``hand_jacobian`` inputs."""
+        for port in (self._inertia, self._hand_jacobian):
+            if not port.HasValue(context):
+                raise RuntimeError(
+                    f"{self.get_name()!r}: the weighted variant needs input {port.get_name()!r}"
+                )
+        A = np.asarray(self._inertia.Eval(context), dtype=float)
+        J = np.asarray(self._hand_jacobian.Eval(context), dtype=float)
+        if J.ndim != 2 or J.shape[0] != 6:
+            raise RuntimeError(f"{self.get_name()!r}: input 'hand_jacobian' has shape {J.shape}, not (6, nv)")
+        return apparent_inertia(J[3:], A)
 
     def _limit(self, v: np.ndarray, limits: np.ndarray) -> float:
         """Scale factor in (0, 1] that brings the 3-vector v within its limits."""
@@ -310,6 +355,14 @@ class AdmittanceController(LeafSystem):
         position = np.concatenate((x[_P], theta))
         rest = np.concatenate((x[_P_REST], np.zeros(3)))
         position_next, v_next = self.dynamics.step(position, x[_V], force, rest)
+        if self._weighted:  # the translation's mass: the hand's apparent inertia (eq. 7)
+            mass = self._apparent_inertia(context)
+            d = self.dynamics
+            position_next[:3], v_next[:3] = coupled_step(
+                mass, d.damping[:3], d.stiffness[:3], x[_P] - x[_P_REST], x[_V][:3], force[:3], self._period
+            )
+            position_next[:3] += x[_P_REST]
+            x[_MASS] = mass.reshape(-1)
         motion = position_next - position
 
         saturated = False

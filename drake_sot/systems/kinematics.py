@@ -59,6 +59,8 @@ class RobotKinematics(LeafSystem):
     Output ports:
         com: centre of mass position in world (3,) [m].
         Jcom: CoM Jacobian, abstract ``ndarray`` (3, nv), w.r.t. v.
+        inertia: the joint-space inertia (mass) matrix A, abstract ``ndarray`` (nv, nv)
+            [kg, kg m, kg m²] (the SoT's ``dyn.inertia``; the weighted admittance's weight).
         <name>: pose of the operational point's frame in world, abstract ``RigidTransform``.
         J<name>: the frame's Jacobian, abstract ``ndarray`` (6, nv): rows ``[ω; v]``
             (angular velocity, then velocity of the frame origin, world frame), w.r.t. v.
@@ -102,6 +104,12 @@ class RobotKinematics(LeafSystem):
             "Jcom",
             lambda: AbstractValue.Make(np.zeros((3, nv))),
             self._calc_jcom,
+            prerequisites_of_calc=q_ticket,
+        )
+        self.DeclareAbstractOutputPort(
+            "inertia",
+            lambda: AbstractValue.Make(np.zeros((nv, nv))),
+            self._calc_inertia,
             prerequisites_of_calc=q_ticket,
         )
 
@@ -194,6 +202,10 @@ class RobotKinematics(LeafSystem):
     def _calc_com(self, context, output: BasicVector) -> None:
         self._update(context)
         output.SetFromVector(self._plant.CalcCenterOfMassPositionInWorld(self._plant_context))
+
+    def _calc_inertia(self, context, value) -> None:
+        self._update(context)
+        value.set_value(self._plant.CalcMassMatrix(self._plant_context))
 
     def _calc_jcom(self, context, value) -> None:
         self._update(context)

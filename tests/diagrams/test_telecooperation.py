@@ -9,31 +9,43 @@ import functools
 
 import numpy as np
 import pytest
+from pydrake.multibody.tree import JacobianWrtVariable
 
 from drake_sot.diagrams import SCENARIOS
 from drake_sot.diagrams import telecooperation as tc
+from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.diagrams.walk_then_interact import hand_positions
+from drake_sot.systems.telecoop import MASTER_LAYOUT
 
 pytestmark = pytest.mark.slow
 
 STANDING = 20.0  # [s]
 
 
-def _standing(tmp_path_factory, leader: str, delay: float, duration: float):
+def _standing(
+    tmp_path_factory,
+    leader: str,
+    delay: float,
+    duration: float,
+    admittance: str = "plain",
+    pushes: tuple[ExternalPush, ...] = (),
+    record: bool = False,
+):
     scenario = Scenario(
         name="telecooperation",
         description="standing only",
         build=functools.partial(tc.build, walk=False),
         extra_plots=tc.write_plots,
-        parameters=("leader", "delay"),
+        parameters=("leader", "delay", "admittance"),
     )
     return run_scenario(
         scenario,
-        tmp_path_factory.mktemp(f"standing_{leader}_{delay}"),
+        tmp_path_factory.mktemp(f"standing_{leader}_{delay}_{admittance}"),
         duration=duration,
-        record=False,
-        parameters={"leader": leader, "delay": delay},
+        record=record,
+        parameters={"leader": leader, "delay": delay, "admittance": admittance},
+        pushes=pushes,
     )
 
 
@@ -45,6 +57,23 @@ def standing(request, tmp_path_factory):
 @pytest.fixture(scope="module")
 def standing_cooperator(tmp_path_factory):
     return _standing(tmp_path_factory, "cooperator", 0.14, 8.0)
+
+
+#: A force step on the robot's right hand, standing, before the lift: 10 N forward and 10 N to
+#: the left for 50 ms (the hand yields about 5 mm).
+STEP_PUSH = ExternalPush(0.6, "right_hand", (10.0, 10.0, 0.0), 0.05)
+
+
+@pytest.fixture(scope="module", params=tc.ADMITTANCES)
+def weighting(request, tmp_path_factory):
+    """Standing at 140 ms with each admittance (plain, weighted) and the step push."""
+    return _standing(tmp_path_factory, "operator", 0.14, 8.0, admittance=request.param, pushes=(STEP_PUSH,))
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """2.5 s standing at 140 ms, the replay recorded: the operator starts the lift at 1 s."""
+    return _standing(tmp_path_factory, "operator", 0.14, 2.5, record=True)
 
 
 @pytest.fixture(scope="module", params=tc.LEADERS)
@@ -242,3 +271,113 @@ def test_walking_stays_bounded_across_delay(walking_across_delay):
     late = error[t > ACROSS_DELAY - 5.0].max()
     before = error[(t > ACROSS_DELAY - 15.0) & (t <= ACROSS_DELAY - 5.0)].max()
     assert late <= max(before, 0.01)
+
+
+# --- the A-weighted admittance (III-B, eq. 5-7) against the plain one -----------------------------
+def _hand_apparent_inertia(run, k: int) -> np.ndarray:
+    """Λ = (J_v A⁻¹ J_vᵀ)⁻¹ (3, 3) [kg] of the right hand's point, from the simulated plant at the
+    logged configuration of sample k (Drake's mass matrix and Jacobian, a plain inverse)."""
+    plant, instance = run.setup.built.plant, run.setup.built.info.model_instance
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, instance, run.arrays["q"][k])
+    hand = plant.GetFrameByName(run.setup.built.info.frames["right_hand"], instance)
+    J = plant.CalcJacobianTranslationalVelocity(
+        context, JacobianWrtVariable.kV, hand, np.zeros(3), plant.world_frame(), plant.world_frame()
+    )
+    return np.linalg.inv(J @ np.linalg.solve(plant.CalcMassMatrix(context), J.T))
+
+
+def _step_response(M: np.ndarray, damping: float, df: np.ndarray, dt: float) -> np.ndarray:
+    """The velocity [m/s] after dt of ``M r̈ + b ṙ = Δf`` from rest (the spring's share in a 5 ms
+    step is under 1 %), summed over the eigenvectors of M."""
+    lam, U = np.linalg.eigh(M)
+    return U @ (U.T @ df / damping * (1.0 - np.exp(-damping * dt / lam)))
+
+
+def _right_hand_force(run) -> np.ndarray:
+    """(T, 3) [N] the force driving the right hand's admittance: the wrist sensor's external force
+    plus the master's, as received."""
+    a = run.arrays
+    return a["wrench/e_fr"][:, 3:] + a["received_by_slave"][:, MASTER_LAYOUT["force_right"]]
+
+
+def test_weighted_admittance_the_hand_reference_answers_a_force_step_with_the_hands_apparent_inertia(
+    weighting,
+):
+    """III-B: weighted, the virtual mass is the hand's apparent inertia Λ (computed here from the
+    simulated robot), so a force step Δf changes the reference's velocity by what a body of
+    inertia Λ would do, not along Δf; plain, by what 4 kg would do. At the push's two edges
+    (the measured force jumps by ~10 N) the velocity's jump (second difference of the logged
+    reference velocity) is compared with both models."""
+    a = weighting.arrays
+    weighted = weighting.setup.extras["admittance"] == "weighted"
+    t, v, f = a["time"], a["reference_velocity/e_fr"][:, :3], _right_hand_force(weighting)
+    dt = float(np.median(np.diff(t)))
+    b = tc.HAND_ADMITTANCE["damping"][0]
+    plain_mass = tc.HAND_ADMITTANCE["mass"][0] * np.eye(3)
+    edges = np.flatnonzero(np.linalg.norm(np.diff(f, axis=0), axis=1) > 5.0) + 1
+    assert len(edges) == 2 and abs(t[edges[0]] - STEP_PUSH.time) < 0.02
+    for k in edges:
+        Lam = _hand_apparent_inertia(weighting, k)
+        assert np.linalg.cond(Lam) > 2.0  # anisotropic: the two models differ
+        jump = (v[k] - v[k - 1]) - (v[k - 1] - v[k - 2])
+        df = f[k] - f[k - 1]
+        own, other = (Lam, plain_mass) if weighted else (plain_mass, Lam)
+        expected = _step_response(own, b, df, dt)
+        print(
+            f"{weighting.setup.extras['admittance']}: t = {t[k]:.3f} s, Δf = {np.round(df, 2)} N, "
+            f"Δv = {np.round(jump * 1000, 2)} mm/s, {np.round(expected * 1000, 2)} with its own mass, "
+            f"{np.round(_step_response(other, b, df, dt) * 1000, 2)} with the other's"
+        )
+        assert np.linalg.norm(jump - expected) < 0.08 * np.linalg.norm(expected)
+        assert np.linalg.norm(jump - _step_response(other, b, df, dt)) > 0.2 * np.linalg.norm(expected)
+    if weighted:  # and the controller's Λ (its model, at its reference q) is the robot's, all along
+        for k in range(0, len(t), 100):
+            logged = a["virtual_mass/e_fr"][k].reshape(3, 3)
+            Lam = _hand_apparent_inertia(weighting, k)
+            assert np.linalg.norm(logged - Lam) < 0.05 * np.linalg.norm(Lam)
+
+
+def test_weighted_admittance_standing_meets_the_same_bounds_as_the_plain_one(weighting):
+    """Either admittance, with the step push, standing at 140 ms: upright, the board held, the
+    hands within 2 cm of the operator's once settled; prints the comparison (benchmarks/README)."""
+    _check_standing(weighting)
+    a = weighting.arrays
+    t = a["time"]
+    after = t > 1.0
+    f_op, f_robot = a["operator_forces"][after, :3], -a["wrench/e_fr"][after, 3:]
+    force_rms = np.sqrt(np.mean(np.sum((f_op - f_robot) ** 2, axis=1)))
+    speeds = tc.arm_speeds(weighting.setup, a["v"][after])
+    print(
+        f"{weighting.setup.extras['admittance']}: hand error max "
+        f"{100 * _hand_error(weighting)[after].max():.2f} cm, force RMS {force_rms:.2f} N, "
+        f"shoulder/elbow speed RMS {np.sqrt(np.mean(speeds**2)):.4f} rad/s"
+    )
+
+
+# --- the operator's hands as ghosts in the replay ---------------------------------------------------
+def test_the_replay_draws_the_operators_hands_as_translucent_ghosts_that_move_as_logged(recorded):
+    """The recorded page holds a translucent sphere per operator hand (``tc.GHOSTS``) and an
+    animation track for each whose keyframes are the logged ``operator_hands`` (the handles), the
+    lift included."""
+    from replay_html import replay_messages
+
+    messages = replay_messages(recorded.files["html"])
+    a = recorded.arrays
+    (animation,) = [m for m in messages if m.get("type") == "set_animation"]
+    for k, path in enumerate(tc.GHOSTS["paths"]):
+        (drawn,) = [m for m in messages if m.get("type") == "set_object" and m["path"] == path]
+        (material,) = drawn["object"]["materials"]
+        assert material["transparent"] and 0.0 < material["opacity"] < 1.0
+        (geometry,) = drawn["object"]["geometries"]
+        assert geometry["type"] == "SphereGeometry" and geometry["radius"] == tc.GHOSTS["radius"]
+        (clip,) = [track["clip"] for track in animation["animations"] if track["path"] == path]
+        (position,) = [track for track in clip["tracks"] if track["name"] == ".position"]
+        times = np.array([key["time"] for key in position["keys"]]) / clip["fps"]
+        drawn_at = np.array([key["value"] for key in position["keys"]])
+        assert times[-1] > 2.0  # the whole run
+        logged = np.column_stack(
+            [np.interp(times, a["time"], a["operator_hands"][:, 3 * k + j]) for j in range(3)]
+        )
+        np.testing.assert_allclose(drawn_at, logged, atol=1e-3)  # [m]
+        assert np.ptp(drawn_at[:, 2]) > 0.01  # it moves: the operator lifts

@@ -518,3 +518,53 @@ def test_humanoid_wrist_sensor_reads_the_hand_weight_and_a_push():
     X_WS = sensor.frame.CalcPoseInWorld(pc)
     w_ext = controller.external_wrench(w, X_WS, hand.CalcPoseInWorld(pc).translation())
     np.testing.assert_allclose(w_ext, np.concatenate((np.zeros(3), f_push)), atol=2e-2)
+
+
+def test_weighted_the_reference_moves_as_a_body_of_the_hands_apparent_inertia():
+    """Evrard et al. 2009, eq. 5-7: with ``weighted=True`` the translation's virtual mass is
+    Λ = (J_v A⁻¹ J_vᵀ)⁻¹; under a constant force the reference follows ``Λ r̈ + b ṙ = f``,
+    whose closed form is summed here over the eigenvectors u_i (eigenvalues λ_i) of Λ:
+    ṙ(t) = Σ u_i u_iᵀ f / b (1 − e^{−b t/λ_i}), coupled axes (the velocity leaves f's direction)."""
+    rng = np.random.default_rng(3)
+    n = 8
+    X = rng.normal(size=(n, n))
+    A = X @ X.T + n * np.eye(n)
+    J = rng.normal(size=(6, n))
+    Lam = np.linalg.inv(J[3:] @ np.linalg.inv(A) @ J[3:].T)
+    plain = Bench(rng)
+    bench = Bench(rng, weighted=True)
+    bench.fix("inertia", A)
+    bench.fix("hand_jacobian", J)
+    f = np.array([12.0, -5.0, 3.0])
+    for b in (bench, plain):
+        b.push(f_ext=f)
+        b.step(6)
+    T = 6 * DT
+    lam, U = np.linalg.eigh(Lam)
+    modes = U.T @ f / B_LIN
+    v = U @ (modes * (1 - np.exp(-B_LIN * T / lam)))
+    x = U @ (modes * (T - lam / B_LIN * (1 - np.exp(-B_LIN * T / lam))))
+    np.testing.assert_allclose(bench.velocity[:3], v, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(bench.pose.translation() - bench.X_WH.translation(), x, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(bench.out("virtual_mass").reshape(3, 3), Lam, rtol=1e-9)
+    # The plain admittance along f at M_LIN (its virtual_mass: diag(M_LIN)); the two differ.
+    np.testing.assert_allclose(plain.velocity[:3], v_closed(M_LIN, B_LIN, f, T), rtol=1e-9)
+    np.testing.assert_array_equal(plain.out("virtual_mass").reshape(3, 3), M_LIN * np.eye(3))
+    assert np.linalg.norm(bench.velocity[:3] - plain.velocity[:3]) > 0.1 * np.linalg.norm(v)
+    # The rotation keeps its own diagonal mass.
+    np.testing.assert_allclose(bench.velocity[3:], 0.0, atol=1e-12)
+
+
+def test_weighted_needs_its_inputs_and_a_full_rank_jacobian():
+    bench = Bench(weighted=True)
+    bench.push(f_ext=(1.0, 0.0, 0.0))
+    with pytest.raises(RuntimeError, match="needs input 'inertia'"):
+        bench.step()
+    bench.fix("inertia", np.eye(4))
+    bench.fix("hand_jacobian", np.zeros((3, 4)))
+    with pytest.raises(RuntimeError, match=r"'hand_jacobian' has shape \(3, 4\)"):
+        bench.step()
+    bench.fix("hand_jacobian", np.zeros((6, 4)))
+    with pytest.raises(ValueError, match="full row rank"):
+        bench.step()
+    assert not Bench().c.HasInputPort("inertia")  # the plain variant has no such inputs
