@@ -105,6 +105,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from drake_sot import validation
 from drake_sot.channel import DEFAULT_DELAY, LinkConfig
+from drake_sot.diagrams.balance import add_zmp_estimator, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
@@ -346,6 +347,16 @@ def build(
         task_name: b.add_admittance_task(task_name, side, selection="111000", **HAND_ADMITTANCE)
         for task_name, side in zip(HAND_TASKS, SIDES, strict=True)
     }
+    # The balance stabilizer's model has the hands' measured wrenches (the board's weight and the
+    # co-operator's pull): without them it answered a forward pull by moving the CoM forward.
+    connect_hand_wrenches(
+        b,
+        builder.GetMutableSubsystemByName("stabilizer"),
+        {
+            side: admittances[task].GetOutputPort("wrench_external")
+            for task, side in zip(HAND_TASKS, SIDES, strict=True)
+        },
+    )
     b.add_op_point_task("e_head", "head", selection="000111", gain=5.0)
     b.add_posture_task("e_grip", GRIPPERS, gain=5.0)
     b.add_posture_task("taskPosture", gain=1.0)
@@ -462,7 +473,10 @@ def build(
 
     # --- logs ----------------------------------------------------------------------------------
     board_instance = b.plant.GetModelInstanceByName("board")
+    zmp = add_zmp_estimator(b)
     for name, port in (
+        ("zmp", zmp.GetOutputPort("zmp")),
+        ("foot_forces", zmp.GetOutputPort("foot_forces")),
         ("board_state", b.plant.get_state_output_port(board_instance)),
         ("cooperator_force", cooperator.GetOutputPort("forces")),
         *link_logs,  # (two-process mode: the master's logs are the master's)
