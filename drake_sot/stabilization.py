@@ -118,6 +118,13 @@ class StabilizerGains:
         damping: d [1/s], damping of the CoM offset's rate (eq. 3), >= 0.
         zmp_filter: τ [s], time constant of the low-pass filter of the measured ZMP, >= 0
             (0: no filter).
+        wrench_filter: τ_h [s], time constant of the low-pass filter of the hands' measured
+            wrenches (eq. 4-6), >= 0 (0: no filter). Eq. 6 is the LIPM's answer to the slow
+            interaction (a partner's pull, an object's weight); the faster part of the measured
+            wrench is the robot's own stepping shaking the object, and fed through it closed a
+            loop that shook the co-operator-led tele-cooperation walk until the robot fell (15 s
+            in, with the wrench's standard deviation growing from 1 to 10 N): that part is left
+            to the DCM feedback.
         max_offset: [m] bound of the CoM offset |Δc| on each ground axis, finite and > 0.
         margin: [m] the desired ZMP is kept this far inside the support polygon, >= 0.
 
@@ -129,13 +136,19 @@ class StabilizerGains:
     zmp: float = 20.0
     damping: float = 10.0
     zmp_filter: float = 0.02
+    wrench_filter: float = 1.0
     max_offset: float = 0.10
     margin: float = 0.01
 
     def __post_init__(self) -> None:
         for name, unit in (("dcm", "1/s"), ("zmp", "1/s²"), ("max_offset", "m")):
             object.__setattr__(self, name, validation.positive(name, getattr(self, name), unit=unit))
-        for name, unit in (("damping", "1/s"), ("zmp_filter", "s"), ("margin", "m")):
+        for name, unit in (
+            ("damping", "1/s"),
+            ("zmp_filter", "s"),
+            ("wrench_filter", "s"),
+            ("margin", "m"),
+        ):
             object.__setattr__(self, name, validation.nonnegative(name, getattr(self, name), unit=unit))
 
 
@@ -187,6 +200,18 @@ def project_into_polygon(polygon: np.ndarray, point: np.ndarray, margin: float =
         if distance < best_distance:
             best, best_distance = candidate, distance
     return best
+
+
+def low_pass(filtered: np.ndarray, value: np.ndarray, dt: float, tau: float) -> np.ndarray:
+    """One tick of ``dt`` [s] of a first-order low-pass filter of time constant ``tau`` [s]:
+    ``filtered`` moved towards ``value`` by dt / (tau + dt) of the gap. ``filtered`` with NaN (no
+    value yet): ``value`` as it is; ``value`` with NaN (no measurement): ``filtered`` as it was."""
+    value, filtered = np.asarray(value, dtype=float), np.asarray(filtered, dtype=float)
+    if not np.all(np.isfinite(value)):
+        return filtered
+    if not np.all(np.isfinite(filtered)):
+        return value
+    return filtered + dt / (tau + dt) * (value - filtered)
 
 
 @dataclass(frozen=True)
@@ -302,9 +327,7 @@ def stabilizer_step(
         raw = hands.zmp(zmp_ref) + (1.0 + gains.dcm / omega) * hands.feedback_scale() * dcm_error
     desired = project_into_polygon(polygon, raw, gains.margin)
     zmp, filtered = np.asarray(zmp, dtype=float), np.asarray(zmp_filtered, dtype=float)
-    if np.all(np.isfinite(zmp)):
-        first = not np.all(np.isfinite(filtered))
-        filtered = zmp if first else filtered + dt / (gains.zmp_filter + dt) * (zmp - filtered)
+    filtered = low_pass(filtered, zmp, dt, gains.zmp_filter)
     rate = np.asarray(offset_rate, dtype=float)
     pull = -gains.zmp * (desired - filtered) if np.all(np.isfinite(filtered)) else np.zeros(2)
     rate = rate + (pull - gains.damping * rate) * dt

@@ -22,14 +22,17 @@ from drake_sot.stabilization import (
     HandLoad,
     StabilizerGains,
     divergent_component,
+    low_pass,
     natural_frequency,
     stabilizer_step,
 )
 from drake_sot.support import sole_corners, support_polygon
 
 #: Layout of the discrete state: offset Δc (2), its rate Δċ (2), filtered measured ZMP (2),
-#: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset), DCM excess (2).
+#: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset), DCM excess (2), then the
+#: low-passed hands' wrenches (12, NaN while there is none).
 _OFFSET, _RATE, _ZMP_F, _ZMP_D, _DCM, _FLAGS, _EXCESS = (slice(i, i + 2) for i in range(0, 14, 2))
+_WRENCHES = slice(14, 26)
 
 
 class BalanceStabilizer(LeafSystem):
@@ -60,9 +63,10 @@ class BalanceStabilizer(LeafSystem):
             object, a partner) applies on the hand, torque about the origin of the hand frame
             named in ``hands``, world axes (``AdmittanceController.wrench_external``). The
             desired ZMP is then that of the inverted pendulum with these wrenches
-            (:mod:`drake_sot.stabilization`, eq. 6 and 2'), the hands placed by ``state``.
-            Unconnected, or not finite at a tick (a faulty wrist sensor): that tick is
-            computed without them, as by a stabilizer without the port.
+            low-passed (``gains.wrench_filter``; :mod:`drake_sot.stabilization`, eq. 6 and 2'),
+            the hands placed by ``state``. A reading that is not finite (a faulty wrist sensor)
+            leaves the filtered wrenches as they were; unconnected, or before the first finite
+            reading, the ticks are computed without them, as by a stabilizer without the port.
     Output ports:
         com: (3,) [m] corrected CoM reference, for the CoM feature's ``sdes``.
         com_vel: (3,) [m/s] corrected CoM velocity reference, for ``sdes_dot``.
@@ -126,8 +130,9 @@ class BalanceStabilizer(LeafSystem):
         self._hands = None if hands is None else [plant.GetFrameByName(name) for name in hands]
         self._hand_wrenches = None if hands is None else self.DeclareVectorInputPort("hand_wrenches", 12)
         self._mass = plant.CalcTotalMass(self._plant_context)
-        initial = np.zeros(14)
+        initial = np.zeros(26)
         initial[_ZMP_F] = np.nan  # no measurement yet
+        initial[_WRENCHES] = np.nan
         self._state = self.DeclareDiscreteState(initial)
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         held = self.discrete_state_ticket(self._state)
@@ -177,16 +182,18 @@ class BalanceStabilizer(LeafSystem):
             ]
         )
 
-    def _hand_load(self, context: Context) -> HandLoad | None:
-        """The hands' wrenches at this tick (needs the plant context set), or None (see
-        ``hand_wrenches``)."""
+    def _hand_load(self, context: Context, filtered: np.ndarray) -> tuple[HandLoad | None, np.ndarray]:
+        """The hands' low-passed wrenches at this tick (needs the plant context set), or None (see
+        ``hand_wrenches``), and the filter's new state (12,)."""
         if self._hand_wrenches is None or not self._hand_wrenches.HasValue(context):
-            return None
-        wrenches = self._hand_wrenches.Eval(context)
-        if not np.all(np.isfinite(wrenches)):
-            return None
+            return None, filtered
+        filtered = low_pass(
+            filtered, self._hand_wrenches.Eval(context), self._period, self.gains.wrench_filter
+        )
+        if not np.all(np.isfinite(filtered)):
+            return None, filtered
         points = [frame.CalcPoseInWorld(self._plant_context).translation() for frame in self._hands]
-        return HandLoad(self._mass, np.array(points), wrenches.reshape(2, 6))
+        return HandLoad(self._mass, np.array(points), filtered.reshape(2, 6)), filtered
 
     def _update(self, context: Context, discrete: DiscreteValues) -> None:
         com_ref = self._com_ref.Eval(context)
@@ -198,6 +205,7 @@ class BalanceStabilizer(LeafSystem):
         polygon = self.support_polygon(self._foot_forces.Eval(context), feet)
         held = self._held(context)
         dcm = divergent_component(com[:2], com_vel[:2], omega)
+        hands, wrenches = self._hand_load(context, held[_WRENCHES])
         step = stabilizer_step(
             held[_OFFSET],
             held[_RATE],
@@ -212,7 +220,7 @@ class BalanceStabilizer(LeafSystem):
             omega=omega,
             dt=self._period,
             gains=self.gains,
-            hands=self._hand_load(context),
+            hands=hands,
         )
         discrete.set_value(
             self._state,
@@ -225,6 +233,7 @@ class BalanceStabilizer(LeafSystem):
                     dcm,
                     [float(step.zmp_saturated), float(step.offset_saturated)],
                     dcm_excess(self._hull(feet), dcm),
+                    wrenches,
                 )
             ),
         )
