@@ -150,3 +150,40 @@ def test_the_zmp_the_hands_wrenches_cause_is_expected_and_does_not_move_the_offs
     np.testing.assert_allclose(out["com"], com, atol=1e-9)
     blind, _, _ = _tick([280.0, 280.0], np.zeros(3), duration=1.0, zmp=cop, hands=True)
     assert blind["offset"][0] > 0.005
+
+
+def test_a_wrench_that_starts_reaches_the_desired_zmp_through_the_wrench_filter():
+    """Zero wrenches, then from 0.5 s the pull: a time constant later the desired ZMP is the
+    statics' CoP under (1 − e⁻¹) of the pull (a first-order filter), and the pull's whole shift
+    once it settled."""
+    plant, info = make_control_model()
+    q0 = half_sitting_configuration(plant, info)
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q0)
+    com = plant.CalcCenterOfMassPositionInWorld(context)
+    soles = tuple(info.frames[f"{side}_foot"] for side in ("left", "right"))
+    tau = StabilizerGains().wrench_filter
+    stabilizer = BalanceStabilizer(plant, soles, SOLE, hands=tuple(info.frames[f"{s}_hand"] for s in HANDS))
+    simulator = Simulator(stabilizer)
+    sc = simulator.get_mutable_context()
+    for name, value in (
+        ("com_ref", com),
+        ("com_vel_ref", np.zeros(3)),
+        ("zmp_ref", com[:2]),
+        ("zmp", com[:2]),
+        ("foot_forces", [280.0, 280.0]),
+        ("state", np.concatenate((q0, np.zeros(plant.num_velocities())))),
+        ("hand_wrenches", np.zeros(12)),
+    ):
+        stabilizer.GetInputPort(name).FixValue(sc, value)
+    simulator.AdvanceTo(0.5 - 1e-4)
+    np.testing.assert_allclose(stabilizer.GetOutputPort("zmp_desired").Eval(sc), com[:2], atol=1e-12)
+    stabilizer.GetInputPort("hand_wrenches").FixValue(sc, PULL)
+    simulator.AdvanceTo(0.5 + tau - 1e-4)
+    share = 1.0 - math.exp(-1.0)
+    desired = stabilizer.GetOutputPort("zmp_desired").Eval(sc)
+    np.testing.assert_allclose(desired, _cop_of_the_statics(share * PULL), atol=2e-4)
+    simulator.AdvanceTo(0.5 + 10 * tau)
+    np.testing.assert_allclose(
+        stabilizer.GetOutputPort("zmp_desired").Eval(sc), _cop_of_the_statics(PULL), atol=1e-5
+    )
