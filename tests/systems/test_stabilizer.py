@@ -17,11 +17,11 @@ from drake_sot.systems.stabilizer import BalanceStabilizer
 HANDS = ("left", "right")
 
 
-def _tick(foot_forces, base_velocity, *, duration=1e-4, zmp=None, hands=False, hand_wrenches=None):
-    """Ticks (from t = 0, over ``duration`` [s]) of a stabilizer whose references are the robot at
-    rest in its half-sitting posture, the measured robot moving as a whole at ``base_velocity``
-    [m/s], its measured ZMP ``zmp`` (None: under the CoM); ``hands``: the stabilizer has the
-    ``hand_wrenches`` port, fixed to ``hand_wrenches`` unless None."""
+def _stabilizer(foot_forces, base_velocity, *, zmp=None, hands=False, hand_wrenches=None):
+    """A stabilizer whose references are the robot at rest in its half-sitting posture, the
+    measured robot moving as a whole at ``base_velocity`` [m/s], its measured ZMP ``zmp`` (None:
+    under the CoM); ``hands``: the stabilizer has the ``hand_wrenches`` port, fixed to
+    ``hand_wrenches`` unless None. Returns it, its simulator, the CoM and the soles' positions."""
     plant, info = make_control_model()
     q0 = half_sitting_configuration(plant, info)
     context = plant.CreateDefaultContext()
@@ -46,7 +46,14 @@ def _tick(foot_forces, base_velocity, *, duration=1e-4, zmp=None, hands=False, h
         stabilizer.GetInputPort(name).FixValue(sc, value)
     if hand_wrenches is not None:
         stabilizer.GetInputPort("hand_wrenches").FixValue(sc, hand_wrenches)
+    return stabilizer, simulator, com, feet
+
+
+def _tick(foot_forces, base_velocity, *, duration=1e-4, **kw):
+    """The outputs of :func:`_stabilizer` (same arguments) after ``duration`` [s] of ticks from t = 0."""
+    stabilizer, simulator, com, feet = _stabilizer(foot_forces, base_velocity, **kw)
     simulator.AdvanceTo(duration)
+    sc = simulator.get_context()
     out = {
         name: stabilizer.GetOutputPort(name).Eval(sc)
         for name in ("com", "com_vel", "offset", "dcm", "zmp_desired", "saturated", "dcm_excess")
@@ -156,26 +163,11 @@ def test_a_wrench_that_starts_reaches_the_desired_zmp_through_the_wrench_filter(
     """Zero wrenches, then from 0.5 s the pull: a time constant later the desired ZMP is the
     statics' CoP under (1 − e⁻¹) of the pull (a first-order filter), and the pull's whole shift
     once it settled."""
-    plant, info = make_control_model()
-    q0 = half_sitting_configuration(plant, info)
-    context = plant.CreateDefaultContext()
-    plant.SetPositions(context, q0)
-    com = plant.CalcCenterOfMassPositionInWorld(context)
-    soles = tuple(info.frames[f"{side}_foot"] for side in ("left", "right"))
     tau = StabilizerGains().wrench_filter
-    stabilizer = BalanceStabilizer(plant, soles, SOLE, hands=tuple(info.frames[f"{s}_hand"] for s in HANDS))
-    simulator = Simulator(stabilizer)
+    stabilizer, simulator, com, _ = _stabilizer(
+        [280.0, 280.0], np.zeros(3), hands=True, hand_wrenches=np.zeros(12)
+    )
     sc = simulator.get_mutable_context()
-    for name, value in (
-        ("com_ref", com),
-        ("com_vel_ref", np.zeros(3)),
-        ("zmp_ref", com[:2]),
-        ("zmp", com[:2]),
-        ("foot_forces", [280.0, 280.0]),
-        ("state", np.concatenate((q0, np.zeros(plant.num_velocities())))),
-        ("hand_wrenches", np.zeros(12)),
-    ):
-        stabilizer.GetInputPort(name).FixValue(sc, value)
     simulator.AdvanceTo(0.5 - 1e-4)
     np.testing.assert_allclose(stabilizer.GetOutputPort("zmp_desired").Eval(sc), com[:2], atol=1e-12)
     stabilizer.GetInputPort("hand_wrenches").FixValue(sc, PULL)
