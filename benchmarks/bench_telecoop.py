@@ -23,7 +23,7 @@ Then, in the same run and for the same duration, three times interleaved (median
 real-time factors, over wall time and over the process's CPU time (less sensitive to the other
 processes on the machine), of the whole diagram at 140 ms, of the slave side alone (the robot,
 its seven tasks, the board and the co-operator: ``telecooperation``'s diagram with
-``remote=True``, as ``telecoop_slave`` serves it, the master's vector held at its initial value
+``remote=True``, as ``telecoop_slave`` serves it, the master's named signals held at their initial values
 since no client writes it) and of the plant alone (the robot on constant half-sitting set points,
 no controller, no board: ``bench_sot.plant_alone_realtime``). The load average is printed before
 and after.

@@ -54,6 +54,39 @@ stable for every k_ξ, k_z > 0, d >= 0: the offset returns to zero once the dist
 gone (with the default gains, at the CoM height of the embedded humanoid, ω = 3.5 /s: a
 natural frequency of 2.5 rad/s, overdamped).
 
+External wrenches at the hands (Evrard et al. 2009, III-D: the interaction forces of a
+collaborative task perturb the ZMP). The LIPM above has no external force; a robot carrying
+an object with a partner has one at each hand, (τ_i, f_i) at the point h_i (world axes; the
+wrench the object applies on the robot, measured by the wrist sensors). At the ZMP p the
+forces on the robot other than the ground's, gravity m g at c, the inertial force −m c̈
+(c̈_z = 0 and the rate of angular momentum about the CoM neglected, as in the LIPM) and the
+hands' wrenches, have no horizontal moment. The moments about the ground point p, per axis:
+
+    (m g − f_z) p = m g (c − c̈ / ω²) + Σ_i (z_i f_i,xy − f_i,z h_i,xy + S τ_i),          (4)
+
+with f_z = Σ_i f_i,z, z_i the height of h_i above the ground and S (τ_x, τ_y) = (τ_y, −τ_x).
+Without the hands it is the LIPM's p = c − c̈ / ω²; a forward pull f_x at the height z_h moves
+the ZMP forward by z_h f_x / (m g) (15 N at 0.84 m on the 57.8 kg embedded humanoid: 2.2 cm),
+a load carried in front (f_z < 0, h_x ahead) too. Solved for c̈, (4) is the LIPM with the
+moved ZMP  p_h(p) = ((m g − f_z) p − Σ_i (...)) / (m g):
+
+    c̈ = ω² (c − p_h(p)),        ξ̇ = ω (ξ − p_h(p)).                                        (5)
+
+The pattern generator planned the free LIPM, ξ̇_r = ω (ξ_r − p_r); the robot follows the plan
+when p_h(p) = p_r, i.e. with the ZMP (4) gives for the planned motion (c_r − c̈_r / ω² = p_r):
+
+    p_r^h = (m g p_r + Σ_i (z_i f_i,xy − f_i,z h_i,xy + S τ_i)) / (m g − f_z),            (6)
+
+and the DCM feedback (2), for the error to decay at k_ξ again under (5), becomes
+
+    p_d = p_r^h + (1 + k_ξ / ω) (m g / (m g − f_z)) (ξ − ξ_r).                             (2')
+
+Without (6) the measured ZMP sits ahead of p_d by p_r^h − p_r under a forward pull, and (3)
+reads it as the ZMP of a robot falling back: the offset drives the CoM forward, towards the
+pull (measured on the tele-cooperation walk with the co-operator leading: the offset at its
+bound most of the time). With it the ZMP the hands cause is expected, and the offset answers
+only the DCM error. :class:`HandLoad` holds the wrenches; :func:`stabilizer_step` takes it.
+
 Limits, never silent: p_d is projected into the support polygon (shrunk by a margin) when
 (2) puts it outside, and Δc is bounded per axis; :class:`StabilizerStep` says when either
 happened. A DCM outside the polygon cannot be brought back through the ZMP: that needs
@@ -85,6 +118,13 @@ class StabilizerGains:
         damping: d [1/s], damping of the CoM offset's rate (eq. 3), >= 0.
         zmp_filter: τ [s], time constant of the low-pass filter of the measured ZMP, >= 0
             (0: no filter).
+        wrench_filter: τ_h [s], time constant of the low-pass filter of the hands' measured
+            wrenches (eq. 4-6), >= 0 (0: no filter). Eq. 6 is the LIPM's answer to the slow
+            interaction (a partner's pull, an object's weight); the faster part of the measured
+            wrench is the robot's own stepping shaking the object, and fed through it closed a
+            loop that shook the co-operator-led tele-cooperation walk until the robot fell (15 s
+            in, with the wrench's standard deviation growing from 1 to 10 N): that part is left
+            to the DCM feedback.
         max_offset: [m] bound of the CoM offset |Δc| on each ground axis, finite and > 0.
         margin: [m] the desired ZMP is kept this far inside the support polygon, >= 0.
 
@@ -96,13 +136,19 @@ class StabilizerGains:
     zmp: float = 20.0
     damping: float = 10.0
     zmp_filter: float = 0.02
+    wrench_filter: float = 1.0
     max_offset: float = 0.10
     margin: float = 0.01
 
     def __post_init__(self) -> None:
         for name, unit in (("dcm", "1/s"), ("zmp", "1/s²"), ("max_offset", "m")):
             object.__setattr__(self, name, validation.positive(name, getattr(self, name), unit=unit))
-        for name, unit in (("damping", "1/s"), ("zmp_filter", "s"), ("margin", "m")):
+        for name, unit in (
+            ("damping", "1/s"),
+            ("zmp_filter", "s"),
+            ("wrench_filter", "s"),
+            ("margin", "m"),
+        ):
             object.__setattr__(self, name, validation.nonnegative(name, getattr(self, name), unit=unit))
 
 
@@ -156,6 +202,75 @@ def project_into_polygon(polygon: np.ndarray, point: np.ndarray, margin: float =
     return best
 
 
+def low_pass(filtered: np.ndarray, value: np.ndarray, dt: float, tau: float) -> np.ndarray:
+    """One tick of ``dt`` [s] of a first-order low-pass filter of time constant ``tau`` [s]:
+    ``filtered`` moved towards ``value`` by dt / (tau + dt) of the gap. ``filtered`` with NaN (no
+    value yet): ``value`` as it is; ``value`` with NaN (no measurement): ``filtered`` as it was."""
+    value, filtered = np.asarray(value, dtype=float), np.asarray(filtered, dtype=float)
+    if not np.all(np.isfinite(value)):
+        return filtered
+    if not np.all(np.isfinite(filtered)):
+        return value
+    return filtered + dt / (tau + dt) * (value - filtered)
+
+
+@dataclass(frozen=True)
+class HandLoad:
+    """External wrenches on the robot at its hands, for the LIPM with external forces (eq. 4-6).
+
+    Attributes:
+        mass: m [kg], the robot's mass, finite and > 0.
+        points: (k, 3) [m] the points h_i where the wrenches apply (the hand frames' origins),
+            world frame, the ground at z = 0.
+        wrenches: (k, 6) ``[τ_i [N m]; f_i [N]]`` the wrench the environment applies on the
+            robot at h_i (torque about h_i), world axes.
+        gravity: g [m/s²], finite and > 0.
+
+    Raises:
+        ValueError: a value out of its range or of the wrong shape, named; the hands carrying
+            the robot's weight (m g − f_z <= 0: the feet have no load, hence no ZMP).
+    """
+
+    mass: float
+    points: np.ndarray
+    wrenches: np.ndarray
+    gravity: float = GRAVITY
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mass", validation.positive("mass", self.mass, unit="kg"))
+        object.__setattr__(self, "gravity", validation.positive("gravity", self.gravity, unit="m/s²"))
+        points = validation.matrix("points", self.points, (None, 3))
+        wrenches = validation.matrix("wrenches", self.wrenches, (len(points), 6))
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "wrenches", wrenches)
+        if not (self.weight - wrenches[:, 5].sum() > 0.0):
+            raise ValueError(
+                f"wrenches: the hands' vertical force {wrenches[:, 5].sum()!r} N carries the robot's "
+                f"weight {self.weight!r} N (no load on the feet, no ZMP)"
+            )
+
+    @property
+    def weight(self) -> float:
+        """m g [N]."""
+        return self.mass * self.gravity
+
+    def moment(self) -> np.ndarray:
+        """(2,) [N m] Σ_i (z_i f_i,xy − f_i,z h_i,xy + S τ_i), the hands' term of eq. 4."""
+        tau, f, h = self.wrenches[:, :3], self.wrenches[:, 3:], self.points
+        swapped = np.stack((tau[:, 1], -tau[:, 0]), axis=1)
+        return np.sum(h[:, 2:3] * f[:, :2] - f[:, 2:3] * h[:, :2] + swapped, axis=0)
+
+    def zmp(self, free_zmp: np.ndarray) -> np.ndarray:
+        """(2,) [m] the ZMP (eq. 4) of a robot whose free LIPM's ZMP, c − c̈ / ω², is
+        ``free_zmp`` (2,) [m]; with ``free_zmp`` = p_r it is the reference p_r^h of eq. 6."""
+        free_zmp = np.asarray(free_zmp, dtype=float)
+        return (self.weight * free_zmp + self.moment()) / (self.weight - self.wrenches[:, 5].sum())
+
+    def feedback_scale(self) -> float:
+        """m g / (m g − f_z), the factor of the DCM feedback in eq. 2'."""
+        return self.weight / (self.weight - self.wrenches[:, 5].sum())
+
+
 @dataclass(frozen=True)
 class StabilizerStep:
     """The stabilizer's state after one control tick, and what it decided.
@@ -193,6 +308,7 @@ def stabilizer_step(
     omega: float,
     dt: float,
     gains: StabilizerGains,
+    hands: HandLoad | None = None,
 ) -> StabilizerStep:
     """Advance the stabilizer by one tick of ``dt`` [s] (eq. 2 and 3, semi-implicit Euler).
 
@@ -200,15 +316,18 @@ def stabilizer_step(
     polygon (k, 2). ``offset``, ``offset_rate`` and ``zmp_filtered`` are the state before the
     tick (``zmp_filtered`` NaN: no measurement yet, the first one is taken as it is). A
     measured ``zmp`` with NaN (the feet carry no load: no ZMP) leaves the filtered ZMP as it
-    was; while there is none, only the damping acts on the offset's rate.
+    was; while there is none, only the damping acts on the offset's rate. ``hands``: the
+    external wrenches at the hands, the desired ZMP then from eq. 6 and 2' instead of 2
+    (None: no external wrench, eq. 2).
     """
     dcm_error = divergent_component(com, com_vel, omega) - divergent_component(com_ref, com_vel_ref, omega)
-    raw = np.asarray(zmp_ref, dtype=float) + (1.0 + gains.dcm / omega) * dcm_error
+    if hands is None:
+        raw = np.asarray(zmp_ref, dtype=float) + (1.0 + gains.dcm / omega) * dcm_error
+    else:
+        raw = hands.zmp(zmp_ref) + (1.0 + gains.dcm / omega) * hands.feedback_scale() * dcm_error
     desired = project_into_polygon(polygon, raw, gains.margin)
     zmp, filtered = np.asarray(zmp, dtype=float), np.asarray(zmp_filtered, dtype=float)
-    if np.all(np.isfinite(zmp)):
-        first = not np.all(np.isfinite(filtered))
-        filtered = zmp if first else filtered + dt / (gains.zmp_filter + dt) * (zmp - filtered)
+    filtered = low_pass(filtered, zmp, dt, gains.zmp_filter)
     rate = np.asarray(offset_rate, dtype=float)
     pull = -gains.zmp * (desired - filtered) if np.all(np.isfinite(filtered)) else np.zeros(2)
     rate = rate + (pull - gains.damping * rate) * dt

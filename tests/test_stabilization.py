@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 from drake_sot.stabilization import (
+    GRAVITY,
+    HandLoad,
     StabilizerGains,
     divergent_component,
     natural_frequency,
@@ -155,3 +157,93 @@ def test_a_missing_zmp_keeps_the_last_measurement():
     np.testing.assert_array_equal(lost.zmp_filtered, [0.03, 0.01])
     never = _step(filtered=np.full(2, np.nan), zmp=np.full(2, np.nan))
     np.testing.assert_array_equal(never.offset_rate, 0.0)
+
+
+# --- external wrenches at the hands (eq. 4-6, 2') ---------------------------------------------
+MASS = 57.8  # [kg]
+HAND_POINTS = np.array([[0.34, -0.2, 0.84], [0.36, 0.21, 0.83]])  # right, left [m]
+#: [τ; f] on the robot at each hand: a forward pull of 14 N, some sideways and a board's weight,
+#: torques from the grasp.
+HAND_WRENCHES = np.array([[0.4, -0.8, 0.1, 7.0, 1.5, -6.0], [-0.3, 0.5, 0.0, 7.5, -0.5, -4.0]])
+
+
+def _cop_by_equilibrium(com, com_acc, points, wrenches, mass=MASS):
+    """(2,) centre of pressure of the ground's wrench on a point mass at ``com`` (3,) accelerating
+    at ``com_acc`` (3,), with the wrenches [τ; f] at ``points``: Newton-Euler about the world
+    origin gives the ground's force and moment; the CoP is where that moment is vertical."""
+    gravity = np.array([0.0, 0.0, -GRAVITY])
+    force = mass * (com_acc - gravity) - wrenches[:, 3:].sum(axis=0)
+    moment = np.cross(com, mass * (com_acc - gravity)) - sum(
+        np.cross(h, w[3:]) + w[:3] for h, w in zip(points, wrenches, strict=True)
+    )
+    return np.array([-moment[1], moment[0]]) / force[2]
+
+
+def test_the_zmp_under_hand_wrenches_is_the_centre_of_pressure_of_the_statics():
+    """A point mass at rest and one accelerating horizontally: eq. 4's ZMP is the centre of
+    pressure the Newton-Euler balance with the hands' wrenches gives."""
+    com = np.array([0.02, -0.01, 0.8])
+    load = HandLoad(MASS, HAND_POINTS, HAND_WRENCHES)
+    omega = math.sqrt(GRAVITY / com[2])
+    for acc in (np.zeros(3), np.array([0.6, -0.3, 0.0])):
+        expected = _cop_by_equilibrium(com, acc, HAND_POINTS, HAND_WRENCHES)
+        np.testing.assert_allclose(load.zmp(com[:2] - acc[:2] / omega**2), expected, atol=1e-12)
+    # the forward pull moves the ZMP forward, by about z_h f_x / (m g) (2.1 cm) and the load in front
+    at_rest = load.zmp(com[:2])
+    assert 0.02 < at_rest[0] - com[0] < 0.04
+    no_hands = HandLoad(MASS, np.zeros((0, 3)), np.zeros((0, 6)))
+    np.testing.assert_array_equal(no_hands.zmp(com[:2]), com[:2])
+    assert no_hands.feedback_scale() == 1.0
+
+
+def test_the_desired_zmp_with_hand_wrenches_makes_the_dcm_error_decay_at_k():
+    """A point mass with the hands' wrenches whose ZMP is the desired one (its acceleration
+    solved from the Newton-Euler balance): its DCM error decays as exp(-k t), as without them."""
+    gains = StabilizerGains(dcm=2.0)
+    load = HandLoad(MASS, HAND_POINTS, HAND_WRENCHES)
+    z = GRAVITY / OMEGA**2
+    dt, c, cd = 1e-4, np.array([0.0, 0.02]), np.array([0.1, 0.05])  # reference at rest at 0
+    e0 = divergent_component(c, cd, OMEGA)
+
+    def acceleration(c, p):
+        """c̈ (2,) for which the centre of pressure is p (affine in c̈: two evaluations)."""
+        com = np.append(c, z)
+        base = _cop_by_equilibrium(com, np.zeros(3), HAND_POINTS, HAND_WRENCHES)
+        J = np.column_stack(
+            [_cop_by_equilibrium(com, np.eye(3)[i], HAND_POINTS, HAND_WRENCHES) - base for i in range(2)]
+        )
+        return np.linalg.solve(J, p - base)
+
+    # the reference at rest under the wrenches: ZMP at the planned place with the load's shift
+    for _ in range(int(1.0 / dt)):
+        p = _step(com=c, com_vel=cd, gains=gains, hands=load).zmp_desired
+        c, cd = c + cd * dt, cd + acceleration(c, p) * dt
+    np.testing.assert_allclose(divergent_component(c, cd, OMEGA), e0 * math.exp(-2.0), rtol=2e-3)
+
+
+def test_the_zmp_the_hands_cause_does_not_move_the_offset():
+    """The robot on its plan (at rest, the reference at rest), its ZMP where the hands' wrenches
+    put it (the statics above): with the hands in the model the offset does not move; without,
+    it drives the CoM forward, towards the pull (the measured fault of the tele-cooperation walk)."""
+    com = np.array([0.02, -0.01, 0.8])
+    measured = _cop_by_equilibrium(com, np.zeros(3), HAND_POINTS, HAND_WRENCHES)
+    at_plan = {"com_ref": com[:2], "zmp_ref": com[:2], "com": com[:2], "zmp": measured}
+    load = HandLoad(MASS, HAND_POINTS, HAND_WRENCHES)
+    step = _step(filtered=measured, hands=load, **at_plan)
+    np.testing.assert_allclose(step.zmp_desired, measured, atol=1e-12)
+    np.testing.assert_allclose(step.offset_rate, 0.0, atol=1e-12)
+    blind = _step(filtered=measured, **at_plan)
+    assert blind.offset_rate[0] > 0.0
+
+
+def test_hand_loads_refuse_bad_values_by_name():
+    with pytest.raises(ValueError, match="mass = 0.0 kg"):
+        HandLoad(0.0, HAND_POINTS, HAND_WRENCHES)
+    with pytest.raises(ValueError, match="wrenches must be a matrix of shape"):
+        HandLoad(MASS, HAND_POINTS, HAND_WRENCHES[:1])
+    with pytest.raises(ValueError, match="wrenches of shape .* contains NaN"):
+        HandLoad(MASS, HAND_POINTS, np.full((2, 6), np.nan))
+    lifting = np.zeros((2, 6))
+    lifting[:, 5] = 0.5 * MASS * GRAVITY
+    with pytest.raises(ValueError, match="carries the robot's weight"):
+        HandLoad(MASS, HAND_POINTS, lifting)

@@ -6,13 +6,15 @@ a CoM task: the task's ``sdes`` and ``sdes_dot`` come from the stabilizer, which
 simulated robot's state and the ZMP of its ankle force sensors. :func:`add_hip_strategy`
 adds, beside it, a trunk orientation task whose reference leans when the stabilizer's DCM
 leaves the support polygon (:class:`~drake_sot.systems.hip_strategy.HipStrategy`).
+:func:`connect_hand_wrenches` gives the stabilizer the hands' measured external wrenches (a
+robot carrying an object with a partner: the LIPM with external forces at the hands).
 """
 
 from __future__ import annotations
 
 import numpy as np
 from pydrake.systems.framework import OutputPort
-from pydrake.systems.primitives import ConstantVectorSource
+from pydrake.systems.primitives import ConstantVectorSource, Multiplexer
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.models.humanoid import SOLE
@@ -72,6 +74,7 @@ def add_stabilizer(
             b.control_plant,
             (b.control_info.frames["left_foot"], b.control_info.frames["right_foot"]),
             SOLE,
+            hands=(b.control_info.frames["left_hand"], b.control_info.frames["right_hand"]),
             gains=gains,
             period=b.control_period,
         )
@@ -95,6 +98,28 @@ def add_stabilizer(
     ):
         b.log(log, stabilizer.GetOutputPort(port))
     return stabilizer
+
+
+def connect_hand_wrenches(
+    b: HumanoidTaskBuilder, stabilizer: BalanceStabilizer, wrenches: dict[str, OutputPort]
+) -> None:
+    """Feed ``stabilizer`` (added by :func:`add_stabilizer`) the hands' external wrenches, so that
+    its model has them (the inverted pendulum with external forces at the hands).
+
+    Args:
+        b: the builder.
+        stabilizer: the stabilizer.
+        wrenches: ``"left"`` and ``"right"`` → a (6,) output ``[τ [N m]; f [N]]``, the world's
+            wrench on that hand about its ``left_hand``/``right_hand`` frame, world axes (e.g.
+            ``AdmittanceController.wrench_external`` of the hand's admittance task).
+    """
+    if sorted(wrenches) != ["left", "right"]:
+        raise ValueError(f"wrenches: keys {sorted(wrenches)}, needs 'left' and 'right'")
+    both = b.builder.AddSystem(Multiplexer([6, 6]))
+    both.set_name(f"{stabilizer.get_name()}_hand_wrenches")
+    for i, side in enumerate(("left", "right")):  # the stabilizer's order
+        b.builder.Connect(wrenches[side], both.get_input_port(i))
+    b.builder.Connect(both.get_output_port(), stabilizer.GetInputPort("hand_wrenches"))
 
 
 def add_hip_strategy(

@@ -5,6 +5,8 @@ simply not that model, drifts from it. The stabilizer measures the robot (CoM an
 velocity of the simulated plant, ZMP from the ankle force sensors), and corrects the CoM
 reference sent to the CoM task so that the divergent component of motion returns to its
 reference (:mod:`drake_sot.stabilization` has the equations and the argument for them).
+With the hands' measured wrenches (``hand_wrenches``) its model is the linear inverted
+pendulum with external forces at the hands (eq. 4-6, 2' there).
 """
 
 from __future__ import annotations
@@ -16,12 +18,21 @@ from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot import validation
 from drake_sot.recovery import dcm_excess
-from drake_sot.stabilization import StabilizerGains, divergent_component, natural_frequency, stabilizer_step
+from drake_sot.stabilization import (
+    HandLoad,
+    StabilizerGains,
+    divergent_component,
+    low_pass,
+    natural_frequency,
+    stabilizer_step,
+)
 from drake_sot.support import sole_corners, support_polygon
 
 #: Layout of the discrete state: offset Δc (2), its rate Δċ (2), filtered measured ZMP (2),
-#: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset), DCM excess (2).
+#: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset), DCM excess (2), then the
+#: low-passed hands' wrenches (12, NaN while there is none).
 _OFFSET, _RATE, _ZMP_F, _ZMP_D, _DCM, _FLAGS, _EXCESS = (slice(i, i + 2) for i in range(0, 14, 2))
+_WRENCHES = slice(14, 26)
 
 
 class BalanceStabilizer(LeafSystem):
@@ -47,6 +58,15 @@ class BalanceStabilizer(LeafSystem):
             of the robot's model instance), laid out as ``plant``'s.
         foot_forces: (2,) [N] [left, right] vertical ground force on each foot
             (``ZmpEstimator.foot_forces``).
+        hand_wrenches: (12,) only with ``hands``, optional: ``[τ_l; f_l; τ_r; f_r]`` the
+            external wrench on the left, then the right hand ([N m], [N]): what the world (an
+            object, a partner) applies on the hand, torque about the origin of the hand frame
+            named in ``hands``, world axes (``AdmittanceController.wrench_external``). The
+            desired ZMP is then that of the inverted pendulum with these wrenches
+            low-passed (``gains.wrench_filter``; :mod:`drake_sot.stabilization`, eq. 6 and 2'),
+            the hands placed by ``state``. A reading that is not finite (a faulty wrist sensor)
+            leaves the filtered wrenches as they were; unconnected, or before the first finite
+            reading, the ticks are computed without them, as by a stabilizer without the port.
     Output ports:
         com: (3,) [m] corrected CoM reference, for the CoM feature's ``sdes``.
         com_vel: (3,) [m/s] corrected CoM velocity reference, for ``sdes_dot``.
@@ -68,6 +88,8 @@ class BalanceStabilizer(LeafSystem):
         soles: names of the left and right sole frames in ``plant`` (centred on the soles).
         sole: (length, width) [m] of a sole.
         contact_force: [N] a foot is in the support polygon above this vertical force, > 0.
+        hands: names of the left and right hand frames in ``plant`` where ``hand_wrenches``
+            apply; None: no ``hand_wrenches`` port.
         gains: the stabilizer's gains and limits.
         period: [s] control period, finite and > 0.
         name: system name.
@@ -80,6 +102,7 @@ class BalanceStabilizer(LeafSystem):
         sole: tuple[float, float],
         *,
         contact_force: float = 50.0,
+        hands: tuple[str, str] | None = None,
         gains: StabilizerGains = StabilizerGains(),
         period: float = 0.005,
         name: str = "stabilizer",
@@ -104,8 +127,12 @@ class BalanceStabilizer(LeafSystem):
         self._foot_forces = self.DeclareVectorInputPort("foot_forces", 2)
         self._soles = [plant.GetFrameByName(name) for name in soles]
         self._contact_force = validation.positive("contact_force", contact_force, unit="N")
-        initial = np.zeros(14)
+        self._hands = None if hands is None else [plant.GetFrameByName(name) for name in hands]
+        self._hand_wrenches = None if hands is None else self.DeclareVectorInputPort("hand_wrenches", 12)
+        self._mass = plant.CalcTotalMass(self._plant_context)
+        initial = np.zeros(26)
         initial[_ZMP_F] = np.nan  # no measurement yet
+        initial[_WRENCHES] = np.nan
         self._state = self.DeclareDiscreteState(initial)
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         held = self.discrete_state_ticket(self._state)
@@ -155,6 +182,19 @@ class BalanceStabilizer(LeafSystem):
             ]
         )
 
+    def _hand_load(self, context: Context, filtered: np.ndarray) -> tuple[HandLoad | None, np.ndarray]:
+        """The hands' low-passed wrenches at this tick (needs the plant context set), or None (see
+        ``hand_wrenches``), and the filter's new state (12,)."""
+        if self._hand_wrenches is None or not self._hand_wrenches.HasValue(context):
+            return None, filtered
+        filtered = low_pass(
+            filtered, self._hand_wrenches.Eval(context), self._period, self.gains.wrench_filter
+        )
+        if not np.all(np.isfinite(filtered)):
+            return None, filtered
+        points = [frame.CalcPoseInWorld(self._plant_context).translation() for frame in self._hands]
+        return HandLoad(self._mass, np.array(points), filtered.reshape(2, 6)), filtered
+
     def _update(self, context: Context, discrete: DiscreteValues) -> None:
         com_ref = self._com_ref.Eval(context)
         self._plant.SetPositionsAndVelocities(self._plant_context, self._x.Eval(context))
@@ -165,6 +205,7 @@ class BalanceStabilizer(LeafSystem):
         polygon = self.support_polygon(self._foot_forces.Eval(context), feet)
         held = self._held(context)
         dcm = divergent_component(com[:2], com_vel[:2], omega)
+        hands, wrenches = self._hand_load(context, held[_WRENCHES])
         step = stabilizer_step(
             held[_OFFSET],
             held[_RATE],
@@ -179,6 +220,7 @@ class BalanceStabilizer(LeafSystem):
             omega=omega,
             dt=self._period,
             gains=self.gains,
+            hands=hands,
         )
         discrete.set_value(
             self._state,
@@ -191,6 +233,7 @@ class BalanceStabilizer(LeafSystem):
                     dcm,
                     [float(step.zmp_saturated), float(step.offset_saturated)],
                     dcm_excess(self._hull(feet), dcm),
+                    wrenches,
                 )
             ),
         )

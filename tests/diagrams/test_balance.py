@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from drake_sot import cli
-from drake_sot.diagrams import walk, walk_then_interact
-from drake_sot.diagrams.balance import add_hip_strategy, add_stabilizer
+from drake_sot.diagrams import telecooperation, walk, walk_then_interact
+from drake_sot.diagrams.balance import add_hip_strategy, add_stabilizer, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.pushes import ExternalPush
 
 
 def _com_reference_source(built) -> str:
@@ -89,3 +90,50 @@ def test_the_command_line_switches_it_off_only_where_there_is_one(monkeypatch, c
     )
     assert cli.main(["run", "walk", "--no-stabilizer", "--no-record"]) == 0
     assert given == {"stabilizer": False}
+
+
+def _source_of(built, system, port: str) -> tuple[str, str]:
+    """(system name, output port name) feeding ``system``'s input ``port``."""
+    index = system.GetInputPort(port).get_index()
+    for (dst, dst_index), (src, src_index) in built.diagram.connection_map().items():
+        if dst is system and dst_index == index:
+            return src.get_name(), src.get_output_port(src_index).get_name()
+    raise AssertionError(f"{system.get_name()}'s {port} is not connected")
+
+
+def test_the_hands_admittance_wrenches_reach_the_stabilizer_left_then_right():
+    """Standing with both hands' admittance tasks, the left hand pushed forward by 20 N: the
+    stabilizer's ``hand_wrenches`` is the left hand's external wrench, then the right's, as the
+    admittance controllers output them (the left one with about the push's force)."""
+    b = HumanoidSoTBuilder(pushes=[ExternalPush(0.0, "left_hand", (20.0, 0.0, 0.0), 1.0)])
+    b.add_com_task("taskCom", selection="110")
+    stabilizer = add_stabilizer(b, "taskCom")
+    hands = {
+        side: b.add_admittance_task(f"hand_{side}", side, mass=4.0, damping=150.0)
+        for side in ("left", "right")
+    }
+    connect_hand_wrenches(
+        b, stabilizer, {side: a.GetOutputPort("wrench_external") for side, a in hands.items()}
+    )
+    built = b.build(stack=["taskCom", "hand_left", "hand_right"])
+    simulator = built.create_simulator()
+    simulator.AdvanceTo(0.02)
+    root = simulator.get_context()
+    received = stabilizer.GetInputPort("hand_wrenches").Eval(stabilizer.GetMyContextFromRoot(root))
+    for side, part in (("left", slice(0, 6)), ("right", slice(6, 12))):
+        sent = hands[side].GetOutputPort("wrench_external").Eval(hands[side].GetMyContextFromRoot(root))
+        np.testing.assert_array_equal(received[part], sent)
+    assert received[3] > 10.0 and abs(received[9]) < 5.0  # the push is on the left hand
+    with pytest.raises(ValueError, match="wrenches: keys \\['left'\\], needs 'left' and 'right'"):
+        connect_hand_wrenches(b, stabilizer, {"left": hands["left"].GetOutputPort("wrench_external")})
+
+
+def test_in_telecooperation_the_stabilizer_has_the_hands_admittance_wrenches():
+    built = telecooperation.build(leader="cooperator").built
+    stabilizer = next(s for s in built.diagram.GetSystems() if s.get_name() == "stabilizer")
+    mux_name, _ = _source_of(built, stabilizer, "hand_wrenches")
+    mux = next(s for s in built.diagram.GetSystems() if s.get_name() == mux_name)
+    assert [_source_of(built, mux, mux.get_input_port(i).get_name()) for i in range(2)] == [
+        ("admittance_e_fl", "wrench_external"),
+        ("admittance_e_fr", "wrench_external"),
+    ]
