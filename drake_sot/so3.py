@@ -20,6 +20,14 @@ def hat(w: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a × b`` (3,) of two 3-vectors, on Python floats: ``np.cross`` costs ~10-25 µs a call
+    in numpy 2 (it broadcasts and moves axes), this ~1.5 µs."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def exp(w: np.ndarray) -> np.ndarray:
     """Rotation matrix (3, 3) of the rotation vector ``w`` (3,) [rad] (Rodrigues)."""
     theta = float(np.linalg.norm(w))

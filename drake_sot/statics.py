@@ -68,7 +68,12 @@ def zmp_from_wrenches(
     """
     min_force = nonnegative("min_force", min_force, unit="N")
     f = forces.sum(axis=0)
-    n = torques.sum(axis=0) + np.cross(points, forces).sum(axis=0)  # moment about the origin
+    # The horizontal moment about the origin, Σ τ + Σ p × f (its x and y rows; np.cross costs
+    # ~10-25 µs a call in numpy 2, four dot products ~4).
+    x, y, z = points.T
+    fx, fy, fz = forces.T
+    n_x = torques[:, 0].sum() + y.dot(fz) - z.dot(fy)
+    n_y = torques[:, 1].sum() + z.dot(fx) - x.dot(fz)
     if f[2] < max(min_force, 1e-9):
         return np.array([np.nan, np.nan, f[2]])
-    return np.array([-n[1] / f[2], n[0] / f[2], f[2]])
+    return np.array([-n_y / f[2], n_x / f[2], f[2]])

@@ -45,3 +45,10 @@ def test_left_jacobian_inverse_is_derivative_of_log(w, omega):
     np.testing.assert_allclose(so3.left_jacobian_inverse(w) @ omega, fd, atol=1e-6)
     fd_right = (so3.log(X @ so3.exp(h * omega)) - so3.log(X @ so3.exp(-h * omega))) / (2 * h)
     np.testing.assert_allclose(so3.right_jacobian_inverse(w) @ omega, fd_right, atol=1e-6)
+
+
+@given(vectors, vectors)
+def test_cross_is_the_cross_product(a, b):
+    # Against numpy's, and against the skew matrix [a]_x b.
+    np.testing.assert_allclose(so3.cross(a, b), np.cross(a, b), atol=1e-12)
+    np.testing.assert_allclose(so3.cross(a, b), so3.hat(a) @ b, atol=1e-12)

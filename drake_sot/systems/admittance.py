@@ -262,7 +262,7 @@ class AdmittanceController(LeafSystem):
         weight = self._hand_mass * self._g
         p_com = p_S + R @ self._hand_com
         f_ext = -f_w - weight
-        tau_ext = -tau_w - np.cross(p_S - p_WH, f_w) - np.cross(p_com - p_WH, weight)
+        tau_ext = -tau_w - so3.cross(p_S - p_WH, f_w) - so3.cross(p_com - p_WH, weight)
         return np.concatenate((tau_ext, f_ext))
 
     # --- events ---------------------------------------------------------------------------

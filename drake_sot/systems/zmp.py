@@ -41,13 +41,24 @@ class ZmpEstimator(LeafSystem):
         self, plant: MultibodyPlant, sensor_joints: Sequence[str], *, min_force: float = 20.0
     ) -> None:
         super().__init__()
-        self._joints = [plant.GetJointByName(name) for name in sensor_joints]
-        self._X_BJ = [j.frame_on_child().GetFixedPoseInBodyFrame() for j in self._joints]
-        self._bodies = [int(j.child_body().index()) for j in self._joints]
-        self._weights = [
-            j.child_body().default_mass() * plant.gravity_field().gravity_vector() for j in self._joints
-        ]
-        self._p_BoBcm = [j.child_body().default_spatial_inertia().get_com() for j in self._joints]
+        joints = [plant.GetJointByName(name) for name in sensor_joints]
+        g = plant.gravity_field().gravity_vector()
+        #: Per foot: the sensor joint's index, its child frame's pose in the foot body (R_BJ, p_BJ),
+        #: the foot body's index, its weight [N] and its centre of mass in its frame.
+        self._feet = []
+        for joint in joints:
+            X_BJ = joint.frame_on_child().GetFixedPoseInBodyFrame()
+            foot = joint.child_body()
+            self._feet.append(
+                (
+                    int(joint.index()),
+                    X_BJ.rotation().matrix(),
+                    X_BJ.translation(),
+                    int(foot.index()),
+                    foot.default_mass() * g,
+                    foot.default_spatial_inertia().get_com(),
+                )
+            )
         self._min_force = min_force
         self._forces = self.DeclareAbstractInputPort(
             "reaction_forces", plant.get_reaction_forces_output_port().Allocate()
@@ -57,9 +68,7 @@ class ZmpEstimator(LeafSystem):
         )
         self._cache = self.DeclareCacheEntry(
             "zmp_and_force",
-            ValueProducer(
-                allocate=lambda: AbstractValue.Make(np.zeros(3 + len(self._joints))), calc=self._calc
-            ),
+            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(3 + len(joints))), calc=self._calc),
             prerequisites_of_calc={self.all_input_ports_ticket()},
         )
         self.DeclareVectorOutputPort(
@@ -76,7 +85,7 @@ class ZmpEstimator(LeafSystem):
         )
         self.DeclareVectorOutputPort(
             "foot_forces",
-            len(self._joints),
+            len(joints),
             lambda c, out: out.SetFromVector(self._cache.Eval(c)[3:]),
             prerequisites_of_calc={self._cache.ticket()},
         )
@@ -84,22 +93,21 @@ class ZmpEstimator(LeafSystem):
     def _calc(self, context: Context, value: AbstractValue) -> None:
         reactions = self._forces.Eval(context)
         poses = self._poses.Eval(context)
-        points, forces, torques = [], [], []
-        for joint, X_BJ, body, weight, p_BoBcm in zip(
-            self._joints, self._X_BJ, self._bodies, self._weights, self._p_BoBcm, strict=True
-        ):
+        k = len(self._feet)
+        points, forces, torques = np.empty((2 * k, 3)), np.empty((2 * k, 3)), np.zeros((2 * k, 3))
+        for i, (joint, R_BJ, p_BJ, body, weight, p_BoBcm) in enumerate(self._feet):
             X_WB: RigidTransform = poses[body]
-            X_WJ = X_WB @ X_BJ
-            F = reactions[int(joint.index())]  # on the foot, at the joint frame, expressed in it
-            R = X_WJ.rotation().matrix()
+            R_WB = X_WB.rotation().matrix()
+            p_WB = X_WB.translation()
+            R = R_WB.dot(R_BJ)
+            F = reactions[joint]  # on the foot, at the joint frame, expressed in it
             # Ground on foot = -(ankle on foot) - weight, each with its point of application.
-            points += [X_WJ.translation(), X_WB @ p_BoBcm]
-            forces += [-R @ F.translational(), -weight]
-            torques += [-R @ F.rotational(), np.zeros(3)]
-        forces = np.array(forces)
+            points[2 * i] = p_WB + R_WB.dot(p_BJ)
+            points[2 * i + 1] = p_WB + R_WB.dot(p_BoBcm)
+            forces[2 * i] = -R.dot(F.translational())
+            forces[2 * i + 1] = -weight
+            torques[2 * i] = -R.dot(F.rotational())
         per_foot = forces[0::2, 2] + forces[1::2, 2]
         value.set_value(
-            np.concatenate(
-                (zmp_from_wrenches(np.array(points), forces, np.array(torques), self._min_force), per_foot)
-            )
+            np.concatenate((zmp_from_wrenches(points, forces, torques, self._min_force), per_foot))
         )

@@ -62,3 +62,17 @@ def test_sensor_zmp_matches_the_contact_centre_of_pressure():
     left, right = zmp.GetOutputPort("foot_forces").Eval(zmp_context)
     assert left + right == pytest.approx(normal, rel=0.01)
     assert left > right > 0.0
+
+
+def test_zmp_formula_is_the_point_where_the_horizontal_moment_vanishes():
+    # Random wrenches: about the returned point (z = 0), the total moment Σ τ + Σ (p - zmp) × f
+    # (numpy's cross product, not the function's dot products) has no horizontal component.
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        points, forces, torques = rng.normal(size=(3, 4, 3))
+        forces[:, 2] = np.abs(forces[:, 2]) + 10.0
+        x, y, fz = zmp_from_wrenches(points, forces, torques)
+        about = points - np.array([x, y, 0.0])
+        moment = torques.sum(axis=0) + np.cross(about, forces).sum(axis=0)
+        np.testing.assert_allclose(moment[:2], 0.0, atol=1e-9)
+        assert fz == pytest.approx(forces[:, 2].sum())
