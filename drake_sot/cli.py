@@ -29,7 +29,7 @@ from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.humanoid import with_command_server
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.run import Interrupted, RunResult, SignalGuard
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup, run_scenario
+from drake_sot.diagrams.scenario import Scenario, ScenarioParameterError, ScenarioSetup, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.models.humanoid import FRAMES
@@ -197,6 +197,7 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser) -> int:
 #: The options of ``run`` a peer scenario may refuse (their ``args`` attribute is None, False or
 #: empty when not given).
 _RUN_FLAGS = (
+    "--admittance",
     "--workers",
     "--transition",
     "--decision",
@@ -265,6 +266,22 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         default=None,
         metavar="S",
         help="telecooperation: one-way delay of the link [s], 0-0.3 (default 0.14)",
+    )
+    run.add_argument(
+        "--jitter",
+        type=_checked(nonnegative, "jitter", unit="s"),
+        default=None,
+        metavar="S",
+        help="telecooperation, telecoop_master: half-width of the link's uniform jitter [s] on each "
+        "packet's delay (default 0; delay + jitter at most 0.3)",
+    )
+    run.add_argument(
+        "--loss",
+        type=_checked(nonnegative, "loss"),
+        default=None,
+        metavar="P",
+        help="telecooperation, telecoop_master: probability in [0, 1) that a packet of the link is lost "
+        "(default 0; the newest packet that has arrived is held)",
     )
     run.add_argument(
         "--admittance",
@@ -472,6 +489,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--leader": args.leader is not None,
         "--delay": args.delay is not None,
         "--admittance": args.admittance is not None,
+        "--jitter": args.jitter is not None,
+        "--loss": args.loss is not None,
         "--no-record": args.no_record,
         "--push": bool(args.push),
         "--no-stabilizer": args.no_stabilizer,
@@ -497,7 +516,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parameters |= {"stabilizer": False} if args.no_stabilizer else {}
     parameters |= {
         name: getattr(args, name)
-        for name in ("leader", "delay", "admittance")
+        for name in ("leader", "delay", "admittance", "jitter", "loss")
         if getattr(args, name) is not None
     }
     parameters |= {"robot": args.robot} if args.robot is not None else {}
@@ -677,16 +696,20 @@ def _run_scenario(scenario: Scenario, args: argparse.Namespace, parameters: dict
 
 
 def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, progress: ProgressBar) -> int:
-    output = run_scenario(
-        scenario,
-        args.out,
-        duration=args.duration,
-        record=not args.no_record,
-        progress=progress,
-        parameters=parameters,
-        pushes=getattr(args, "push", None) or (),  # `script` takes no --push
-        runner=decision_runner() if parameters.get("decision") == "remote" else None,
-    )
+    try:
+        output = run_scenario(
+            scenario,
+            args.out,
+            duration=args.duration,
+            record=not args.no_record,
+            progress=progress,
+            parameters=parameters,
+            pushes=getattr(args, "push", None) or (),  # `script` takes no --push
+            runner=decision_runner() if parameters.get("decision") == "remote" else None,
+        )
+    except ScenarioParameterError as exc:  # a usage error: nothing simulated
+        print(f"drake-sot: error: {exc}", file=sys.stderr)
+        return 2
     result = output.result
     for path in output.files.values():
         print(f"wrote {path}")

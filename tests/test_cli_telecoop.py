@@ -6,8 +6,8 @@ from drake_sot import cli
 from drake_sot.diagrams import SCENARIOS
 
 
-def test_leader_delay_and_admittance_are_telecooperation_options():
-    assert SCENARIOS["telecooperation"].parameters == ("leader", "delay", "admittance")
+def test_leader_delay_admittance_jitter_and_loss_are_telecooperation_options():
+    assert SCENARIOS["telecooperation"].parameters == ("leader", "delay", "admittance", "jitter", "loss")
 
 
 @pytest.mark.parametrize(
@@ -18,6 +18,10 @@ def test_leader_delay_and_admittance_are_telecooperation_options():
         (["run", "telecooperation", "--delay", "nan"], "delay"),
         (["run", "reach", "--admittance", "weighted"], "reach takes no --admittance"),
         (["run", "telecooperation", "--admittance", "heavy"], "--admittance: invalid choice: 'heavy'"),
+        (["run", "reach", "--jitter", "0.01"], "reach takes no --jitter"),
+        (["run", "reach", "--loss", "0.1"], "reach takes no --loss"),
+        (["run", "telecooperation", "--loss", "-0.1"], "loss = -0.1"),
+        (["run", "telecooperation", "--jitter", "nan"], "jitter"),
     ],
 )
 def test_telecooperation_options_are_checked(argv, named, capsys):
@@ -36,6 +40,28 @@ def test_a_delay_beyond_300_ms_is_refused_by_the_scenario():
         SCENARIOS["telecooperation"].build(None, admittance="heavy")
 
 
+def test_a_link_value_the_channel_refuses_is_a_usage_error_naming_it(tmp_path, capsys):
+    # Each checked by LinkConfig when the scenario is built: exit 2, nothing simulated.
+    for argv, named in (
+        (["--loss", "1"], "LinkConfig.loss = 1.0: must be in [0, 1)"),
+        (["--delay", "0.2", "--jitter", "0.15"], "LinkConfig.jitter = 0.15 s: must be in [0, 0.1"),
+        (["--delay", "0.31"], "delay = 0.31 s"),
+    ):
+        code = cli.main(["run", "telecooperation", *argv, "--no-record", "--out", str(tmp_path)])
+        assert code == 2, argv
+        assert named in capsys.readouterr().err, argv
+        assert not (tmp_path / "telecooperation.npz").exists()
+
+
+def test_jitter_and_loss_reach_both_directions_of_the_channel():
+    from drake_sot.systems.channel import Channel
+
+    setup = SCENARIOS["telecooperation"].build(None, delay=0.1, jitter=0.02, loss=0.25)
+    (channel,) = [s for s in setup.built.diagram.GetSystems() if isinstance(s, Channel)]
+    for config, seed in ((channel.configs["forward"], 0), (channel.configs["backward"], 1)):
+        assert (config.delay, config.jitter, config.loss, config.seed) == (0.1, 0.02, 0.25, seed)
+
+
 # --- two-process mode: serve telecoop_slave, run telecoop_master --connect HOST:PORT ---
 
 
@@ -48,6 +74,10 @@ def test_connect_is_telecoop_masters_and_it_needs_it(capsys):
             "takes no --no-stabilizer",
         ),
         (["run", "telecoop_master", "--connect", "nowhere"], "expected HOST:PORT"),
+        (
+            ["run", "telecoop_master", "--connect", "127.0.0.1:7777", "--admittance", "weighted"],
+            "takes no --admittance",
+        ),
         (["run", "telecoop_master", "--connect", "127.0.0.1:70000"], "expected HOST:PORT"),
         (["serve", "reach", "--leader", "cooperator", "--port", "0"], "reach takes no --leader"),
     ):

@@ -80,6 +80,10 @@ class ScenarioOutput:
     context: Context
 
 
+class ScenarioParameterError(ValueError):
+    """A scenario's ``build`` refused the value of one of its parameters: nothing was simulated."""
+
+
 def run_scenario(
     scenario: Scenario,
     out_dir: str | Path,
@@ -113,7 +117,9 @@ def run_scenario(
             commands), called as ``runner(setup, simulator, duration, progress=, guard=)``.
 
     Raises:
-        ValueError: a bad ``duration`` or an undeclared parameter (before anything is built).
+        ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
+            :class:`ScenarioParameterError` when ``build`` refuses a parameter's value (before
+            anything is simulated).
         OSError: ``out_dir`` cannot be written (before anything is built).
     """
     if duration is not None:
@@ -125,7 +131,10 @@ def run_scenario(
         )
     out = output_directory(out_dir)
     extra = {"pushes": tuple(pushes)} if pushes else {}
-    setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}), **extra)
+    try:
+        setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}), **extra)
+    except ValueError as exc:
+        raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
     built = setup.built
     files = {"svg": out / f"{scenario.name}.svg"}
     write_svg(built.diagram, files["svg"])

@@ -36,7 +36,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
 from drake_sot import validation
-from drake_sot.channel import DEFAULT_DELAY, LinkConfig
+from drake_sot.channel import DEFAULT_DELAY
 from drake_sot.diagrams import telecooperation
 from drake_sot.diagrams.artifacts import output_directory, write_npz
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
@@ -60,14 +60,17 @@ class MasterOutput:
 
 
 def build_master(
-    leader: str = "operator", delay: float = DEFAULT_DELAY
+    leader: str = "operator", delay: float = DEFAULT_DELAY, jitter: float = 0.0, loss: float = 0.0
 ) -> tuple[Diagram, RemoteLink, dict[str, VectorLogSink]]:
     """The master's diagram, its link (unattached: see :meth:`RemoteLink.attach`) and its loggers
-    by name; ``delay`` [s] one way, both directions (one control period to 0.3)."""
+    by name; ``delay`` [s] one way, both directions (one control period to 0.3), ``jitter`` [s]
+    and ``loss`` as :func:`telecooperation.link_configs` takes them."""
     if leader not in telecooperation.LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(telecooperation.LEADERS)}")
     delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
     forward0, hands0 = telecooperation.initial_link_values()
+    # telecooperation's Channel's configurations and seeds
+    forward, backward = telecooperation.link_configs(delay, jitter, loss)
     builder = DiagramBuilder()
     side = telecooperation.add_master_site(builder, hands0, leader, True, PERIOD)
     link = builder.AddSystem(
@@ -75,9 +78,8 @@ def build_master(
             None,
             WRITTEN,
             HANDS,
-            # telecooperation's Channel's configurations and seeds
-            forward=LinkConfig(delay=delay, seed=0),
-            backward=LinkConfig(delay=delay, seed=1),
+            forward=forward,
+            backward=backward,
             period=PERIOD,
             forward_initial=forward0,
             backward_initial=hands0,
@@ -103,6 +105,8 @@ def run_master(
     *,
     leader: str = "operator",
     delay: float = DEFAULT_DELAY,
+    jitter: float = 0.0,
+    loss: float = 0.0,
     duration: float = telecooperation.DURATION,
     realtime: float = 1.0,
     token: str | None = None,
@@ -115,7 +119,7 @@ def run_master(
     duration = validation.positive("duration", duration, unit="s")
     realtime = validation.positive("realtime", realtime)
     out = output_directory(out_dir)
-    diagram, link, loggers = build_master(leader, delay)
+    diagram, link, loggers = build_master(leader, delay, jitter, loss)
     simulator = Simulator(diagram)
     simulator.Initialize()
     # Connected last: the slave starts its clock at this connection.
@@ -160,5 +164,5 @@ SCENARIO = PeerScenario(
     name="telecoop_master",
     description="telecooperation's master site, the client of a served telecoop_slave (--connect HOST:PORT)",
     run=run_master,
-    parameters=("leader", "delay"),
+    parameters=("leader", "delay", "jitter", "loss"),
 )

@@ -282,6 +282,17 @@ def initial_master_values() -> dict[str, np.ndarray]:
     return values
 
 
+def link_configs(delay: float, jitter: float = 0.0, loss: float = 0.0) -> tuple[LinkConfig, LinkConfig]:
+    """The link's two directions, forward (master → slave, seed 0) and backward (seed 1), each with
+    the one-way ``delay`` [s], the jitter's half-width ``jitter`` [s] and the probability ``loss``
+    that a packet is lost: the one-process ``Channel`` and the two-process master draw the same
+    packets from them."""
+    return (
+        LinkConfig(delay=delay, jitter=jitter, loss=loss, seed=0),
+        LinkConfig(delay=delay, jitter=jitter, loss=loss, seed=1),
+    )
+
+
 def initial_link_values() -> tuple[np.ndarray, np.ndarray]:
     """What each side holds before the first packet: the master's signals as one vector (in the
     order of ``MASTER_SIGNALS``, :func:`initial_master_values`) and the slave's hands
@@ -359,18 +370,23 @@ def build(
     walk: bool = True,
     remote: bool = False,
     admittance: str = "plain",
+    jitter: float = 0.0,
+    loss: float = 0.0,
 ) -> ScenarioSetup:
     """Build the ``telecooperation`` diagram; ``leader`` is ``"operator"`` or ``"cooperator"``,
     ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot;
     ``walk=False``: the leader only lifts and sets back the board (standing interaction);
     ``remote=True``: the slave side only, what the master sends written to the command server's
     signals ``remote.<name>`` of ``MASTER_SIGNALS`` (see ``telecoop_slave``; ``delay`` is then
-    the master process's); ``admittance``: the hands' admittance, one of :data:`ADMITTANCES`."""
+    the master process's, and so are ``jitter`` and ``loss``); ``admittance``: the hands'
+    admittance, one of :data:`ADMITTANCES`; ``jitter`` [s], ``loss`` (a probability in [0, 1)):
+    the link's, both directions (:func:`link_configs`)."""
     if leader not in LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
     if admittance not in ADMITTANCES:
         raise ValueError(f"admittance = {admittance!r}: one of {', '.join(ADMITTANCES)}")
     delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
+    forward_link, backward_link = link_configs(delay, jitter, loss)
     hands0 = _initial_hands()
     b = HumanoidSoTBuilder(
         meshcat=meshcat,
@@ -476,8 +492,8 @@ def build(
             Channel(
                 MASTER_SIZE,
                 6,
-                forward=LinkConfig(delay=delay, seed=0),
-                backward=LinkConfig(delay=delay, seed=1),
+                forward=forward_link,
+                backward=backward_link,
                 period=b.control_period,
                 forward_initial=initial,
                 backward_initial=x_s0,
@@ -600,5 +616,5 @@ SCENARIO = Scenario(
     description="a remote operator (140 ms away) and a co-operator carry a board with the walking humanoid",
     build=build,
     extra_plots=write_plots,
-    parameters=("leader", "delay", "admittance"),
+    parameters=("leader", "delay", "admittance", "jitter", "loss"),
 )

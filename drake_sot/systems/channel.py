@@ -70,6 +70,8 @@ class Channel(LeafSystem):
         self._period = validation.positive("period", period, unit="s")
         initials = {"forward": forward_initial, "backward": backward_initial}
         configs = {"forward": forward, "backward": backward}
+        #: The :class:`~drake_sot.channel.LinkConfig` of each direction, by name.
+        self.configs = configs
         links = tuple(
             Link.start(
                 configs[d],
