@@ -177,29 +177,43 @@ def project_into_polygon(polygon: np.ndarray, point: np.ndarray, margin: float =
     polygon = validation.matrix("polygon", polygon, (None, 2))
     point = validation.vector("point", point, 2)
     margin = validation.nonnegative("margin", margin, unit="m")
-    edge = np.roll(polygon, -1, axis=0) - polygon
+    edge = _next(polygon) - polygon
     normal = np.stack((-edge[:, 1], edge[:, 0]), axis=1) / np.linalg.norm(edge, axis=1, keepdims=True)
     offset = np.einsum("ij,ij->i", normal, polygon) + margin  # inside: normal · x >= offset
     if np.all(normal @ point >= offset):
         return point
-    # Vertices of the shrunk polygon: edge i-1 and edge i, each moved inward by the margin.
-    vertices = []
-    for i in range(len(polygon)):
-        A = np.array([normal[i - 1], normal[i]])
-        vertices.append(np.linalg.solve(A, [offset[i - 1], offset[i]]))
-    vertices = np.array(vertices)
+    # Vertices of the shrunk polygon: edge i-1 and edge i, each moved inward by the margin, met
+    # (the 2x2 systems [n_{i-1}; n_i] x = [o_{i-1}; o_i] of all vertices at once, by Cramer's rule).
+    before, offset_before = _previous(normal), _previous(offset)
+    det = before[:, 0] * normal[:, 1] - before[:, 1] * normal[:, 0]
+    vertices = np.stack(
+        (
+            (offset_before * normal[:, 1] - before[:, 1] * offset) / det,
+            (before[:, 0] * offset - offset_before * normal[:, 0]) / det,
+        ),
+        axis=1,
+    )
     if np.any(normal @ vertices.T < offset[:, None] - 1e-9):
         raise ValueError(f"margin = {margin!r} m: larger than the support polygon's inradius")
-    best, best_distance = point, math.inf
-    for a, b in zip(vertices, np.roll(vertices, -1, axis=0), strict=True):
-        ab = b - a
-        length2 = float(ab @ ab)
-        s = 0.0 if length2 == 0.0 else min(1.0, max(0.0, float((point - a) @ ab) / length2))
-        candidate = a + s * ab
-        distance = float(np.linalg.norm(point - candidate))
-        if distance < best_distance:
-            best, best_distance = candidate, distance
-    return best
+    # The nearest point of each edge of the shrunk polygon, then the nearest of those (the first
+    # one on a tie).
+    ab = _next(vertices) - vertices
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    along = np.einsum("ij,ij->i", point - vertices, ab)
+    s = np.clip(np.divide(along, length2, out=np.zeros_like(along), where=length2 > 0.0), 0.0, 1.0)
+    candidates = vertices + s[:, None] * ab
+    gap = point - candidates
+    return candidates[int(np.argmin(np.einsum("ij,ij->i", gap, gap)))]
+
+
+def _next(rows: np.ndarray) -> np.ndarray:
+    """``rows`` turned by one: row i is row i + 1 (``np.roll(rows, -1, axis=0)``, ~5x cheaper)."""
+    return np.concatenate((rows[1:], rows[:1]))
+
+
+def _previous(rows: np.ndarray) -> np.ndarray:
+    """``rows`` turned back by one: row i is row i - 1 (``np.roll(rows, 1, axis=0)``)."""
+    return np.concatenate((rows[-1:], rows[:-1]))
 
 
 def low_pass(filtered: np.ndarray, value: np.ndarray, dt: float, tau: float) -> np.ndarray:

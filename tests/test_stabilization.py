@@ -247,3 +247,33 @@ def test_hand_loads_refuse_bad_values_by_name():
     lifting[:, 5] = 0.5 * MASS * GRAVITY
     with pytest.raises(ValueError, match="carries the robot's weight"):
         HandLoad(MASS, HAND_POINTS, lifting)
+
+
+def test_projection_is_the_nearest_point_of_the_shrunk_polygon_by_a_qp():
+    # Random support polygons of one or two soles: the projection equals the solution of
+    # min |x - p|² s.t. n_i · x >= n_i · v_i + margin (scipy's SLSQP, another algorithm).
+    from scipy.optimize import minimize
+
+    from drake_sot.support import sole_corners, support_polygon
+
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        soles = [
+            sole_corners(*rng.normal(0.0, 0.1, 2), rng.uniform(-1.0, 1.0), (0.23, 0.13))
+            for _ in range(rng.integers(1, 3))
+        ]
+        polygon = support_polygon(soles)
+        point, margin = rng.normal(0.0, 0.3, 2), 0.01
+        edge = np.roll(polygon, -1, axis=0) - polygon
+        normal = np.stack((-edge[:, 1], edge[:, 0]), axis=1) / np.linalg.norm(edge, axis=1)[:, None]
+        offset = np.sum(normal * polygon, axis=1) + margin
+        qp = minimize(
+            lambda x: float((x - point) @ (x - point)),
+            polygon.mean(axis=0),
+            jac=lambda x: 2.0 * (x - point),
+            constraints=[{"type": "ineq", "fun": lambda x: normal @ x - offset, "jac": lambda x: normal}],
+            method="SLSQP",
+            options={"ftol": 1e-14, "maxiter": 200},
+        )
+        assert qp.success, qp.message
+        np.testing.assert_allclose(project_into_polygon(polygon, point, margin), qp.x, atol=1e-6)

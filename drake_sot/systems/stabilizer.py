@@ -167,10 +167,15 @@ class BalanceStabilizer(LeafSystem):
     def _held(self, context: Context) -> np.ndarray:
         return context.get_discrete_state(self._state).get_value()
 
-    def support_polygon(self, foot_forces: np.ndarray, feet: list[RigidTransform]) -> np.ndarray:
+    def support_polygon(
+        self, foot_forces: np.ndarray, feet: list[RigidTransform], *, hull: np.ndarray | None = None
+    ) -> np.ndarray:
         """The support polygon (k, 2) of the soles at ``feet`` whose force is above
-        ``contact_force`` (both when none is: the ZMP is then undefined)."""
-        on = [X for X, f in zip(feet, foot_forces, strict=True) if f > self._contact_force] or feet
+        ``contact_force`` (both when none is: the ZMP is then undefined); ``hull``: the hull of
+        all ``feet`` when already computed (it is the polygon when all or none are loaded)."""
+        on = [X for X, f in zip(feet, foot_forces, strict=True) if f > self._contact_force]
+        if len(on) in (0, len(feet)):
+            return self._hull(feet) if hull is None else hull
         return self._hull(on)
 
     def _hull(self, feet: list[RigidTransform]) -> np.ndarray:
@@ -202,7 +207,8 @@ class BalanceStabilizer(LeafSystem):
         com_vel = self._plant.CalcCenterOfMassTranslationalVelocityInWorld(self._plant_context)
         omega = natural_frequency(com_ref[2])
         feet = [frame.CalcPoseInWorld(self._plant_context) for frame in self._soles]
-        polygon = self.support_polygon(self._foot_forces.Eval(context), feet)
+        both = self._hull(feet)
+        polygon = self.support_polygon(self._foot_forces.Eval(context), feet, hull=both)
         held = self._held(context)
         dcm = divergent_component(com[:2], com_vel[:2], omega)
         hands, wrenches = self._hand_load(context, held[_WRENCHES])
@@ -232,7 +238,7 @@ class BalanceStabilizer(LeafSystem):
                     step.zmp_desired,
                     dcm,
                     [float(step.zmp_saturated), float(step.offset_saturated)],
-                    dcm_excess(self._hull(feet), dcm),
+                    dcm_excess(both, dcm),
                     wrenches,
                 )
             ),
