@@ -268,10 +268,12 @@ def test_projection_is_the_nearest_point_of_the_shrunk_polygon_by_a_qp():
         normal = np.stack((-edge[:, 1], edge[:, 0]), axis=1) / np.linalg.norm(edge, axis=1)[:, None]
         offset = np.sum(normal * polygon, axis=1) + margin
         qp = minimize(
-            lambda x: float((x - point) @ (x - point)),
+            lambda x, p=point: float((x - p) @ (x - p)),
             polygon.mean(axis=0),
-            jac=lambda x: 2.0 * (x - point),
-            constraints=[{"type": "ineq", "fun": lambda x: normal @ x - offset, "jac": lambda x: normal}],
+            jac=lambda x, p=point: 2.0 * (x - p),
+            constraints=[
+                {"type": "ineq", "fun": lambda x, n=normal, o=offset: n @ x - o, "jac": lambda x, n=normal: n}
+            ],
             method="SLSQP",
             options={"ftol": 1e-14, "maxiter": 200},
         )
