@@ -43,8 +43,10 @@ them that walk fell at 23.2 s (measured once, not yet understood); without them 
 The replay shows the robot, the board and, as translucent blue spheres (``GHOSTS``), the
 operator's hands: the handles' positions ``MasterSite.hands`` = x_S + x_Δ (eq. 9; the operator's
 hands hold the handles), in the master's world, identified with the slave's; they lead the
-robot's hands by the delay. The co-operator is not drawn (they hold the board's far end); the
-two-process mode's slave has no master, hence no ghosts.
+robot's hands by the delay. The co-operator is drawn as a translucent orange sphere
+(``COOPERATOR_GHOST``) where their hand means the board's far end to be (their impedance's
+target, ``Partner.targets``, logged as ``cooperator_target``). The two-process mode's slave has
+no master, hence no operator ghosts.
 
 Why the walk fell before, measured (the operator leading fell at 15 s, the co-operator leading
 at 10 s, with the balance stabilizer on):
@@ -190,6 +192,9 @@ MASTER_ADMITTANCE = {"mass": 2.0, "damping": 60.0, "stiffness": 400.0}
 #: The operator's hands in the replay: Meshcat paths [right, left], radius [m], colour.
 GHOSTS = {"paths": ("/drake_sot/operator/right_hand", "/drake_sot/operator/left_hand"), "radius": 0.04}
 GHOST_COLOUR = Rgba(0.2, 0.45, 0.95, 0.35)
+#: The co-operator drawn in the replay: their hand where they mean the board's far end to be.
+COOPERATOR_GHOST = {"path": "/drake_sot/cooperator/hand", "radius": 0.05}
+COOPERATOR_COLOUR = Rgba(0.95, 0.55, 0.15, 0.45)
 STEP_LIMITS = StepLimits(max_stride=0.2)
 STEP_THRESHOLD = 0.05
 WALK_AT = INTERACT_AT + 2 * LIFT / SPEED  # [s] the leader starts walking
@@ -357,6 +362,17 @@ def add_ghosts(builder: DiagramBuilder, meshcat: Meshcat, hands: OutputPort) -> 
     for k, path in enumerate(GHOSTS["paths"]):
         ghost = builder.AddSystem(MeshcatMarker(meshcat, path, radius=GHOSTS["radius"], rgba=GHOST_COLOUR))
         builder.Connect(split.get_output_port(k), ghost.GetInputPort("position"))
+
+
+def add_cooperator_ghost(builder: DiagramBuilder, meshcat: Meshcat, target: OutputPort) -> None:
+    """The co-operator's hand drawn as a translucent orange sphere (``COOPERATOR_GHOST``) at
+    ``target`` (3,) [m], where their impedance pulls the board's far end (``Partner.targets``)."""
+    ghost = builder.AddSystem(
+        MeshcatMarker(
+            meshcat, COOPERATOR_GHOST["path"], radius=COOPERATOR_GHOST["radius"], rgba=COOPERATOR_COLOUR
+        )
+    )
+    builder.Connect(target, ghost.GetInputPort("position"))
 
 
 # --- end of the master site ---
@@ -545,6 +561,8 @@ def build(
         b.plant.get_body_spatial_velocities_output_port(), cooperator.GetInputPort("body_spatial_velocities")
     )
     b.apply_spatial_forces(cooperator.GetOutputPort("spatial_forces"))
+    if meshcat is not None:
+        add_cooperator_ghost(builder, meshcat, cooperator.GetOutputPort("targets"))
 
     # --- logs ----------------------------------------------------------------------------------
     board_instance = b.plant.GetModelInstanceByName("board")
@@ -554,6 +572,7 @@ def build(
         ("foot_forces", zmp.GetOutputPort("foot_forces")),
         ("board_state", b.plant.get_state_output_port(board_instance)),
         ("cooperator_force", cooperator.GetOutputPort("forces")),
+        ("cooperator_target", cooperator.GetOutputPort("targets")),
         *link_logs,  # (two-process mode: the master's logs are the master's)
         ("robot_hands", hand_positions.GetOutputPort("positions")),
         ("step_error", decider.GetOutputPort("error")),

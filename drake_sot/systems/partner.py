@@ -76,6 +76,9 @@ class Partner(LeafSystem):
         spatial_forces: abstract ``list[ExternallyAppliedSpatialForce]`` for the plant's
             ``applied_spatial_force`` input, applied at each body's point.
         forces: (3·k,) [N] the force on each body, in the order of ``script``, for logging.
+        targets: (3·k,) [m] where the partner's hand means each gripped point to be (world
+            frame): a :class:`Hold`'s grip origin plus its keyframed offset, at the last update;
+            the point itself while no :class:`Hold` is active (zeros before the first update).
 
     Args:
         plant: the simulated plant (finalized).
@@ -121,6 +124,7 @@ class Partner(LeafSystem):
         )
         # State: the force on each body (discrete) and the grip origins of Hold segments (abstract, tiny).
         self._force = self.DeclareDiscreteState(np.zeros(3 * k))
+        self._targets = self.DeclareDiscreteState(np.zeros(3 * k))
         self._grips = self.DeclareAbstractState(Value[object](()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
         self.DeclareAbstractOutputPort(
@@ -130,6 +134,7 @@ class Partner(LeafSystem):
             prerequisites_of_calc={self.discrete_state_ticket(self._force)},
         )
         self.DeclareStateOutputPort("forces", self._force)
+        self.DeclareStateOutputPort("targets", self._targets)
 
     def _active(self, segments, t: float):
         for s in segments:
@@ -143,19 +148,23 @@ class Partner(LeafSystem):
         velocities = self._velocities.Eval(context)
         grips = dict(context.get_abstract_state(self._grips).get_value())
         forces = np.zeros((len(self._bodies), 3))
+        targets = np.zeros((len(self._bodies), 3))
         for i, (body, segments, p_B) in enumerate(zip(self._bodies, self._script, self._points, strict=True)):
             segment = self._active(segments, t)
+            X_WB = poses[int(body.index())]
+            p = X_WB @ p_B
+            targets[i] = p
             if isinstance(segment, ConstantForce):
                 forces[i] = segment.force
             elif isinstance(segment, Hold):
-                X_WB, V_WB = poses[int(body.index())], velocities[int(body.index())]
-                p = X_WB @ p_B
+                V_WB = velocities[int(body.index())]
                 v = V_WB.Shift(X_WB.rotation() @ p_B).translational()
                 origin = grips.setdefault((i, segment.start), tuple(p))
                 grip, grip_velocity = _interpolate(segment.keyframes, t - segment.start)
-                target = np.array(origin) + grip
-                forces[i] = segment.stiffness * (target - p) + segment.damping * (grip_velocity - v)
+                targets[i] = np.array(origin) + grip
+                forces[i] = segment.stiffness * (targets[i] - p) + segment.damping * (grip_velocity - v)
         state.get_mutable_discrete_state(self._force).SetFromVector(forces.reshape(-1))
+        state.get_mutable_discrete_state(self._targets).SetFromVector(targets.reshape(-1))
         state.get_mutable_abstract_state(self._grips).set_value(tuple(grips.items()))
 
     def _calc_spatial_forces(self, context: Context, value: AbstractValue) -> None:
