@@ -409,6 +409,19 @@ def test_weighted_admittance_standing_meets_the_same_bounds_as_the_plain_one(wei
 
 
 # --- the operator's hands as ghosts in the replay ---------------------------------------------------
+def _drawn_sphere(messages: list[dict], path: str) -> tuple[dict, dict, np.ndarray, np.ndarray, float]:
+    """The recorded sphere at ``path``: its material, its geometry, and its animation track as
+    times [s] (k,) and positions (k, 3) [m], with the recording's frames per second."""
+    (drawn,) = [m for m in messages if m.get("type") == "set_object" and m["path"] == path]
+    (material,) = drawn["object"]["materials"]
+    (geometry,) = drawn["object"]["geometries"]
+    (animation,) = [m for m in messages if m.get("type") == "set_animation"]
+    (clip,) = [track["clip"] for track in animation["animations"] if track["path"] == path]
+    (position,) = [track for track in clip["tracks"] if track["name"] == ".position"]
+    times = np.array([key["time"] for key in position["keys"]]) / clip["fps"]
+    return material, geometry, times, np.array([key["value"] for key in position["keys"]]), clip["fps"]
+
+
 def test_the_replay_draws_the_operators_hands_as_translucent_ghosts_that_move_as_logged(recorded):
     """The recorded page holds a translucent sphere per operator hand (``tc.GHOSTS``) and an
     animation track for each whose keyframes are the logged ``operator_hands`` (the handles), the
@@ -417,17 +430,10 @@ def test_the_replay_draws_the_operators_hands_as_translucent_ghosts_that_move_as
 
     messages = replay_messages(recorded.files["html"])
     a = recorded.arrays
-    (animation,) = [m for m in messages if m.get("type") == "set_animation"]
     for k, path in enumerate(tc.GHOSTS["paths"]):
-        (drawn,) = [m for m in messages if m.get("type") == "set_object" and m["path"] == path]
-        (material,) = drawn["object"]["materials"]
+        material, geometry, times, drawn_at, _ = _drawn_sphere(messages, path)
         assert material["transparent"] and 0.0 < material["opacity"] < 1.0
-        (geometry,) = drawn["object"]["geometries"]
         assert geometry["type"] == "SphereGeometry" and geometry["radius"] == tc.GHOSTS["radius"]
-        (clip,) = [track["clip"] for track in animation["animations"] if track["path"] == path]
-        (position,) = [track for track in clip["tracks"] if track["name"] == ".position"]
-        times = np.array([key["time"] for key in position["keys"]]) / clip["fps"]
-        drawn_at = np.array([key["value"] for key in position["keys"]])
         assert times[-1] > 2.0  # the whole run
         logged = np.column_stack(
             [np.interp(times, a["time"], a["operator_hands"][:, 3 * k + j]) for j in range(3)]
@@ -443,23 +449,17 @@ def test_the_replay_draws_the_cooperator_where_they_pull_the_boards_far_end(reco
     from pydrake.math import RigidTransform, RotationMatrix
     from replay_html import replay_messages
 
-    messages = replay_messages(recorded.files["html"])
     a = recorded.arrays
-    path = tc.COOPERATOR_GHOST["path"]
-    (drawn,) = [m for m in messages if m.get("type") == "set_object" and m["path"] == path]
-    (material,) = drawn["object"]["materials"]
+    material, _, times, drawn_at, fps = _drawn_sphere(
+        replay_messages(recorded.files["html"]), tc.COOPERATOR_GHOST["path"]
+    )
     assert material["transparent"] and 0.0 < material["opacity"] < 1.0
-    (animation,) = [m for m in messages if m.get("type") == "set_animation"]
-    (clip,) = [track["clip"] for track in animation["animations"] if track["path"] == path]
-    (position,) = [track for track in clip["tracks"] if track["name"] == ".position"]
-    times = np.array([key["time"] for key in position["keys"]]) / clip["fps"]
-    drawn_at = np.array([key["value"] for key in position["keys"]])
     logged = np.column_stack([np.interp(times, a["time"], a["cooperator_target"][:, j]) for j in range(3)])
     # Meshcat's recording files a publish under a frame of 1/fps s (seen: the value of 2.065 s at
     # the frame of 2.033 s), so the drawn point may be the logged one up to a frame later: the
     # tolerance is the target's fastest motion over one frame.
     speed = np.max(np.abs(np.diff(a["cooperator_target"], axis=0)) / np.diff(a["time"])[:, None])
-    np.testing.assert_allclose(drawn_at, logged, atol=speed / clip["fps"] + 1e-4)  # [m]
+    np.testing.assert_allclose(drawn_at, logged, atol=speed / fps + 1e-4)  # [m]
     assert np.ptp(drawn_at[:, 2]) > 0.01  # it moves: the co-operator follows the lift
     # The target is where the co-operator's impedance pulls the far end to: their logged force is
     # k (target - far end) + b (target's rate - far end's velocity), the far end's pose and velocity
