@@ -23,8 +23,9 @@ class StepDecider(LeafSystem):
             (``PatternGenerator.planned_feet``).
 
     Output ports (direct feedthrough; the pattern generator reads them at its tick):
-        next_footprint: abstract ``Footstep`` or None (error below the threshold, or no
-            step would reduce it).
+        next_footprint: abstract tuple of at most one ``Footstep``: ``(step,)``, or ``()`` when
+            the error is below the threshold or no step would reduce it (a tuple, because a
+            Drake abstract value cannot hold None since drake 1.58).
         error: (2,) [m] the error ``(forward, lateral)`` in the waist frame over the planned
             stance.
         stance: (3,) ``[x, y, yaw]`` [m, m, rad] that planned stance's waist frame (it changes
@@ -43,8 +44,8 @@ class StepDecider(LeafSystem):
             raise TypeError(f"rule must be a HandStepRule, got {type(rule).__name__}")
         self._rule = rule
         self._hands = self.DeclareVectorInputPort("hands", 6)
-        self._planned = self.DeclareAbstractInputPort("planned_feet", Value[object](None))
-        self.DeclareAbstractOutputPort("next_footprint", lambda: Value[object](None), self._calc_next)
+        self._planned = self.DeclareAbstractInputPort("planned_feet", Value[object]((None, None, None)))
+        self.DeclareAbstractOutputPort("next_footprint", lambda: Value[object](()), self._calc_next)
         self.DeclareVectorOutputPort("error", 2, self._calc_error)
         self.DeclareVectorOutputPort("stance", 3, self._calc_stance)
 
@@ -54,7 +55,8 @@ class StepDecider(LeafSystem):
 
     def _calc_next(self, context: Context, value) -> None:
         hands, left, right, last = self._inputs(context)
-        value.set_value(self._rule.next_footprint(hands, left, right, last))
+        step = self._rule.next_footprint(hands, left, right, last)
+        value.set_value(() if step is None else (step,))
 
     def _calc_error(self, context: Context, out) -> None:
         hands, left, right, _ = self._inputs(context)

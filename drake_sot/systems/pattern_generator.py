@@ -54,12 +54,13 @@ class PatternGenerator(LeafSystem):
             planned footprint of each foot and the side of the last planned step.
 
     Input port (optional):
-        next_footprint: abstract ``Footstep`` or None. When connected (and not walking from a
-            velocity), at each tick where fewer than ``FOOTPRINTS_AHEAD`` landings lie ahead
-            the generator reads it and plans that footprint (None: no step), at most one per
-            tick: up to four footprints are kept ahead, and then one new footprint is read per
-            executed step, as in Evrard et al. 2009, III-C. The footprint must respect
-            ``limits`` (else the tick raises the limit's error).
+        next_footprint: abstract tuple of at most one ``Footstep`` (``()``: no step; a tuple,
+            because a Drake abstract value cannot hold None since drake 1.58). When connected
+            (and not walking from a velocity), at each tick where fewer than
+            ``FOOTPRINTS_AHEAD`` landings lie ahead the generator reads it and plans that
+            footprint, at most one per tick: up to four footprints are kept ahead, and then one
+            new footprint is read per executed step, as in Evrard et al. 2009, III-C. The
+            footprint must respect ``limits`` (else the tick raises the limit's error).
 
     Commands (act on a context, like the paper's ``pg.parsecmd``): :meth:`add_steps`,
     :meth:`set_velocity`, :meth:`set_timing`, :meth:`set_model`, :meth:`parsecmd`.
@@ -143,7 +144,7 @@ class PatternGenerator(LeafSystem):
             ),
             prerequisites_of_calc=ticket,
         )
-        self._next = self.DeclareAbstractInputPort("next_footprint", Value[object](None))
+        self._next = self.DeclareAbstractInputPort("next_footprint", Value[object](()))
 
     # --- the state ----------------------------------------------------------------------
     def _state(self, context: Context) -> WalkPlanner:
@@ -272,9 +273,10 @@ class PatternGenerator(LeafSystem):
             and len(planner.landings_ahead()) < FOOTPRINTS_AHEAD
             and self._next.HasValue(context)
         ):
-            step = self._next.Eval(context)
-            if step is not None:
-                planner = planner.add_steps([step])
+            steps = self._next.Eval(context)
+            if len(steps) > 1:
+                raise ValueError(f"next_footprint: at most one footprint per tick, got {len(steps)}")
+            planner = planner.add_steps(list(steps)) if steps else planner
         state.get_mutable_abstract_state(self._planner).set_value(planner)
 
 
