@@ -1,6 +1,7 @@
 # The README's two commands. Both create .venv (python3 -m venv) when it is missing.
 #   make demo   install the package, run the main scenario, write out/
-#   make test   install the test extras and the Debian packages the tests need, run ruff, then pytest
+#   make test   install the test extras and the Debian packages the tests need, run ruff, then pytest;
+#               then the compat part of the suite on each of COMPAT_PYTHONS, each in its own .venv-X.Y
 # and the benchmarks: make bench (in .venv), make bench-peers (PlaCo, in its own .venv-peers).
 PYTHON ?= python3
 VENV := .venv
@@ -20,7 +21,14 @@ define apt_need
 	fi
 endef
 
-.PHONY: demo test venv bench bench-peers clean
+# The Pythons the package claims besides the machine's python3 (pyproject's requires-python), each
+# tested in its own virtual environment with the newest drake, numpy and scipy pip resolves there.
+COMPAT_PYTHONS ?= 3.11 3.12 3.13
+# What runs there: every fast test, every scenario's construction and first ticks, the case study to
+# its end (the compat marker); the physics suite runs once, on python3.
+COMPAT_TESTS ?= not slow or compat
+
+.PHONY: demo test test-compat venv bench bench-peers clean
 
 # Create the virtual environment $(1) with an upgraded pip.
 # Debian's python3 lacks ensurepip until python3-venv is installed.
@@ -57,7 +65,23 @@ test: $(VENV)/.installed-test
 	$(BIN)/ruff format --check .
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -n 2 --dist loadfile
+	$(MAKE) --no-print-directory test-compat
 
+# pythonX.Y on PATH, else pyenv's X.Y; the one python3 already is, skipped. Not found: an error under
+# CI (it must test what the README claims), else a printed skip.
+test-compat:
+	@main=$$($(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
+	for v in $(COMPAT_PYTHONS); do \
+	  [ "$$v" = "$$main" ] && continue; \
+	  py=""; for c in python$$v $$(pyenv root 2>/dev/null)/versions/$$v*/bin/python$$v; do \
+	    "$$c" -c 'import sys' >/dev/null 2>&1 && { py=$$c; break; }; done; \
+	  if [ -z "$$py" ]; then \
+	    echo "Python $$v not found (python$$v on PATH, or pyenv): its run is skipped"; \
+	    [ -z "$$CI" ] || { echo "CI tests every Python the README claims: install Python $$v"; exit 1; }; \
+	    continue; fi; \
+	  $(MAKE) --no-print-directory PYTHON=$$py VENV=.venv-$$v .venv-$$v/.installed-test || exit 1; \
+	  .venv-$$v/bin/python -m pytest -n 2 --dist loadfile -p no:cacheprovider -m "$(COMPAT_TESTS)" || exit 1; \
+	done
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_sot.py
 	$(BIN)/python benchmarks/bench_walk.py
@@ -76,4 +100,4 @@ bench-peers: $(PEERS)/.installed
 	PYTHONPATH=$(CURDIR) $(PEERS)/bin/python benchmarks/bench_peers.py
 
 clean:
-	rm -rf $(VENV) $(PEERS) $(OUT) .pytest_cache .hypothesis
+	rm -rf $(VENV) $(VENV)-3.* $(PEERS) $(OUT) .pytest_cache .hypothesis

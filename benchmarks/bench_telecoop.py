@@ -117,7 +117,7 @@ def realtime_factors(duration: float, repeats: int) -> dict[str, tuple[float, fl
 
 
 def main(duration: float) -> None:
-    start = datetime.datetime.now(datetime.timezone.utc)
+    start = datetime.datetime.now(datetime.UTC)
     load_before = os.getloadavg()
     rows = [(admittance, delay, *coupled_run(admittance, delay, duration)) for admittance, delay in RUNS]
     factors = realtime_factors(duration, REPEATS)

@@ -1,2 +1,14 @@
 """pytest loads this file first in every worker (also under pytest-xdist), which puts tests/ on
 sys.path, so that the shared helpers here (headless, landings) import from any test directory."""
+
+import sys
+from importlib.metadata import version
+
+
+def pytest_report_header(config) -> str:
+    """The versions this run tests, first in its output (``make test`` runs the suite on several
+    Pythons, each with the newest drake, numpy and scipy pip resolves there)."""
+    return (
+        f"drake_sot on Python {sys.version.split()[0]}: drake {version('drake')}, numpy {version('numpy')}, "
+        f"scipy {version('scipy')}, daqp {version('daqp')}"
+    )

@@ -7,6 +7,9 @@ from joint_limits import limit_excess
 from drake_sot.diagrams import walk_then_interact as wti
 from drake_sot.diagrams.scenario import run_scenario
 
+# Run on every Python the package claims: the case study walks to its end there too.
+pytestmark = pytest.mark.compat
+
 
 @pytest.fixture(scope="module")
 def case_study(tmp_path_factory):
