@@ -769,8 +769,8 @@ class TaskEntity(Entity):
         return ""
 
     def _gain(self, gain: Gain, context: Context | None) -> str:
-        if context is None:
-            self.gain = validate_gain(gain, name=self.name)
+        if context is None:  # the solver will integrate the task at the builder's period
+            self.gain = validate_gain(gain, name=self.name, period=self.session.builder.control_period)
         else:
             self.system.set_gain(context, gain)
         return ""

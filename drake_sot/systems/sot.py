@@ -185,7 +185,9 @@ class StackOfTasks(LeafSystem):
         nv: size of q̇ (the model's number of velocities), >= 1.
         tasks: the tasks (their names and dimensions; inequality tasks need ``solver="hqp"``), or
             task name → dimension (the kind of each task is then known from its signal).
-        period: the control period [s], finite and > 0.
+        period: the control period [s], finite and > 0; each :class:`~drake_sot.systems.task.Task`
+            of ``tasks`` is told it (:meth:`~drake_sot.systems.task.Task.use_period`) and its gain
+            checked against it (``λ·period <= 1``, :data:`drake_sot.gains.MAX_GAIN_PERIOD`).
         rank_threshold: singular values at or below it are treated as zero (finite, >= 0;
             see :func:`~drake_sot.hierarchy.solve_strict`).
         damping: damped least-squares factor (finite, >= 0; 0 is the exact pseudo-inverse);
@@ -199,7 +201,8 @@ class StackOfTasks(LeafSystem):
 
     Raises:
         ValueError: at construction, naming the bad argument (a task name twice, a
-            task named "stack", a dimension < 1, a NaN period, ...); an initial stack
+            task named "stack", a dimension < 1, a NaN period, a task's gain too large for
+            the period, ...); an initial stack
             naming an unknown task raises :class:`~drake_sot.stack.UnknownTaskError`
             (a ValueError and a KeyError) listing the known tasks; an inequality task with
             ``solver="svd"``, a damping with ``solver="hqp"``, an unknown solver. At the tick, a
@@ -257,6 +260,9 @@ class StackOfTasks(LeafSystem):
             for task_name, m in pairs
         }
         self._period = validation.positive(f"{where}: period", period, unit="s")
+        for task in () if isinstance(tasks, Mapping) else tasks:
+            if isinstance(task, Task):  # its gain's range depends on the period (drake_sot.gains)
+                task.use_period(self._period)
         self._rank_threshold = validation.nonnegative(f"{where}: rank_threshold", rank_threshold)
         self._damping = validation.nonnegative(f"{where}: damping", damping)
         if self._damping and solver == "hqp":
