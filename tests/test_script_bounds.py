@@ -53,3 +53,53 @@ def test_a_run_time_gain_past_the_bound_fails_the_run_naming_it_and_keeps_the_ar
     ) in proc.stderr
     assert "Traceback" not in proc.stderr
     assert np.load(out / "bounds.npz")["time"][-1] == pytest.approx(0.1, abs=0.006)
+
+
+PAPER_SCRIPT = REPO / "examples" / "paper_III_B.sot"
+
+
+def test_the_papers_com_target_set_to_1e300_is_refused_on_its_line(tmp_path):
+    """``set featureComDes.errorIN [3](1e300,0,0.64)`` in the paper's script (a generic feature: no
+    unit known, the bound of every value a script sets, 1e4)."""
+    paper = PAPER_SCRIPT.read_text()
+    line = "set featureComDes.errorIN [3](0,-0,0.64)"
+    assert paper.count(line) == 1
+    number = 1 + paper[: paper.index(line)].count("\n")
+    proc, out = _script(tmp_path, paper.replace(line, "set featureComDes.errorIN [3](1e300,0,0.64)"))
+    assert proc.returncode == 2, proc.stderr
+    assert (
+        f"bounds.sot, line {number}: set featureComDes.errorIN [3](1e300,0,0.64): featureComDes.errorIN = "
+        "[1e+300, 0, 0.64]: entry [0] = 1e+300: every entry must be within ±10000"
+    ) in proc.stderr
+    assert "Traceback" not in proc.stderr and not (out / "bounds.svg").exists()
+
+
+def test_a_com_target_1_km_away_taken_from_another_feature_is_refused_in_either_order(tmp_path):
+    """A CoM feature's desired value from a generic feature's value: the value is checked as a CoM
+    (10 m), whether it was set before or after the link."""
+    value = "set d.errorIN [3](1000,0,0.8)\n"
+    link = "set f.sdes d\n"
+    head = "new FeatureCoM f\nnew FeatureGeneric d\n"
+    tail = "new Task t\nt.add f\nsot.push t\nrun 0.1\n"
+    for first, second, line in ((value, link, 4), (link, value, 4)):
+        proc, _ = _script(tmp_path, head + first + second + tail)
+        assert proc.returncode == 2, proc.stderr
+        assert f"bounds.sot, line {line}: " in proc.stderr
+        assert (
+            "'f': desired CoM = [1000, 0, 0.8] m: 1000 m from the world origin; must be within 10 m"
+            in proc.stderr
+        )
+
+
+def test_a_run_time_hand_target_1_km_away_fails_the_run_naming_it(tmp_path):
+    script = (
+        "dyn.createOpPoint rh right_hand\nnew FeaturePoint6d h\nplug dyn.rh_frame h.frame\n"
+        "new Task t\nt.add h\nsot.push t\nrun 0.1\nset h.position_des [3](1000,0,1)\nrun 0.1\n"
+    )
+    proc, out = _script(tmp_path, script)
+    assert proc.returncode == 1, proc.stderr
+    assert (
+        "the run failed at t = 0.100 s: bounds.sot, line 8: set h.position_des [3](1000,0,1): "
+        "'h': desired position = [1000, 0, 1] m: 1000 m from the world origin; must be within 10 m of it"
+    ) in proc.stderr
+    assert np.load(out / "bounds.npz")["time"][-1] == pytest.approx(0.1, abs=0.006)

@@ -115,7 +115,8 @@ def test_a_gain_input_past_the_bound_is_refused_at_evaluation_naming_the_task():
     np.testing.assert_allclose(task.GetOutputPort("task").Eval(context).edot_des, [-0.5 * BOUND])
     task.GetInputPort("gain").FixValue(context, [3.0 * BOUND])
     with pytest.raises(
-        RuntimeError, match=r"task 't': gain λ = 600 1/s .* λ·period = 3 must be <= 1 .*\(on input port 'gain'\)"
+        RuntimeError,
+        match=r"task 't': gain λ = 600 1/s .* λ·period = 3 must be <= 1 .*\(on input port 'gain'\)",
     ):
         task.GetOutputPort("task").Eval(context)
 
