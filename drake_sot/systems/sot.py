@@ -209,7 +209,9 @@ class StackOfTasks(LeafSystem):
             RuntimeError naming the task when its signal carries another task's name,
             has the wrong sizes (e, J or ė*; or the bounds), holds NaN/Inf (NaN only, in
             bounds), has a lower bound above its upper one (naming the row), or is an
-            inequality task's signal while ``solver="svd"``.
+            inequality task's signal while ``solver="svd"``; a RuntimeError of
+            :func:`~drake_sot.hierarchy.solve_hqp` (an active set that did not settle) is raised
+            again naming the system, the time, the stack and its tasks' errors (:meth:`task_errors`).
     """
 
     def __init__(
@@ -338,6 +340,24 @@ class StackOfTasks(LeafSystem):
     def error_slices(self) -> dict[str, slice]:
         """Where each task's error lies in the ``errors`` output."""
         return dict(self._slices)
+
+    def task_errors(self, context: Context) -> tuple[tuple[str, float], ...]:
+        """``(task, ‖e‖)`` for each task of the stack at the last tick, largest error first (own or
+        root context; ‖e‖ in the task's own units: m, rad, ...): a solver whose every level is
+        "optimal" may still leave a task far from its goal (a target out of reach, a lower task in
+        conflict with a higher one), and this names it and says by how much. Empty before the first
+        tick."""
+        errors = own_context(self, context).get_discrete_state(self._errors).get_value()
+        return self._error_norms(errors)
+
+    def _error_norms(self, errors: np.ndarray) -> tuple[tuple[str, float], ...]:
+        """``(task, ‖e‖)`` of the tasks whose rows of ``errors`` are not NaN, largest first."""
+        norms = [
+            (task_name, float(np.linalg.norm(errors[rows])))
+            for task_name, rows in self._slices.items()
+            if not np.isnan(errors[rows]).any()
+        ]
+        return tuple(sorted(norms, key=lambda pair: -pair[1]))
 
     def _current_stack(self, context: Context) -> Stack:
         """The stack in force for this system's own context (the input's, validated, when driven)."""
@@ -560,7 +580,16 @@ class StackOfTasks(LeafSystem):
             levels = [signals[task_name] for task_name in active]
             # Shapes, finiteness and bounds were checked above, with the task's name.
             if self._solver == "hqp":
-                result = solve_hqp(levels, names=active, rank_threshold=self._rank_threshold, validate=False)
+                try:
+                    result = solve_hqp(
+                        levels, names=active, rank_threshold=self._rank_threshold, validate=False
+                    )
+                except RuntimeError as error:  # e.g. an active set that did not settle: say where
+                    far = ", ".join(f"{n} {v:.3g}" for n, v in self._error_norms(errors))
+                    raise RuntimeError(
+                        f"{self.get_name()!r} at t = {context.get_time():.4f} s, stack {' > '.join(active)}: "
+                        f"{error}; the errors ‖e‖ of its tasks, largest first: {far}"
+                    ) from error
             else:
                 result = solve_strict(
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
