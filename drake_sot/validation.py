@@ -21,13 +21,16 @@ __all__ = [
     "bounded",
     "bounds",
     "finite",
+    "magnitude",
     "matrix",
     "nonempty_string",
     "nonnegative",
     "per_axis",
     "positive",
     "positive_int",
+    "position",
     "vector",
+    "within",
 ]
 
 Sign = Literal["any", "nonnegative", "positive"]
@@ -164,11 +167,70 @@ def bounds(name: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+#: How far from the origin of its frame a desired position may be [m]: a humanoid controlled by a
+#: stack of tasks works within a few metres of where it stands (the longest scenario walks ~2 m);
+#: a target farther than this is a typo or an attack, never a goal (its task would ask the robot
+#: for q̇ = -λ e of that size).
+WORKSPACE_RADIUS = 10.0
+
+
+def position(
+    name: str, value, *, size: int = 3, radius: float = WORKSPACE_RADIUS, origin: str = "the world origin"
+) -> np.ndarray:
+    """``value`` as a finite position (``size``,) [m] at most ``radius`` [m] from ``origin``
+    (the message names the distance and the bound)."""
+    a = vector(name, value, size)
+    distance = math.hypot(*a)  # scaled: no overflow of the squares of 1e300 entries
+    if not (distance <= radius):
+        raise ValueError(
+            f"{name} = {_values(a)} m: {distance:g} m from {origin}; must be within {radius:g} m of it"
+        )
+    return a
+
+
+def magnitude(name: str, value, limit: float, size: int | None = None, *, unit: str = "") -> np.ndarray:
+    """``value`` as a finite 1-D float array (of length ``size``) whose entries are all within
+    ``±limit``; the message names the first entry beyond it."""
+    a = vector(name, value, size)
+    ok = np.abs(a) <= limit
+    if not ok.all():
+        k = int(np.argmin(ok))
+        raise ValueError(
+            f"{name} = {_values(a)}: entry [{k}] = {float(a[k]):g}{_unit(unit)}: every entry must be within "
+            f"±{limit:g}{_unit(unit)}"
+        )
+    return a
+
+
+def within(
+    name: str, value, lower, upper, *, labels: Sequence[str] | None = None, unit: str = ""
+) -> np.ndarray:
+    """``value`` as a finite float array with ``lower[i] <= value[i] <= upper[i]`` (its length
+    that of ``lower``); the message names the first entry out of its range, by ``labels[i]``
+    when given."""
+    lo, hi = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    a = vector(name, value, lo.size)
+    ok = (lo <= a) & (a <= hi)
+    if not ok.all():
+        k = int(np.argmin(ok))
+        label = labels[k] if labels is not None else f"entry [{k}]"
+        raise ValueError(
+            f"{name}: {label} = {float(a[k]):g}{_unit(unit)}: must be in "
+            f"[{float(lo[k]):g}, {float(hi[k]):g}]{_unit(unit)}"
+        )
+    return a
+
+
 def nonempty_string(name: str, value) -> str:
     """``value`` as a non-empty ``str`` (a task, state or port name; a bytes or None is refused)."""
     if not isinstance(value, str) or not value:
         raise ValueError(f"{name} = {value!r}: must be a non-empty string")
     return value
+
+
+def _values(a: np.ndarray) -> str:
+    """A short vector as ``[1000, 0, 0.8]`` (``%g`` per entry), for messages."""
+    return "[" + ", ".join(f"{float(x):g}" for x in a) + "]"
 
 
 def _unit(unit: str) -> str:

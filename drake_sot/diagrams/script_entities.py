@@ -58,6 +58,8 @@ from drake_sot.systems.features import (
     FeaturePoint6d,
     FeaturePoint6dRelative,
     FeaturePosture,
+    check_desired_com,
+    check_desired_pose,
 )
 from drake_sot.systems.kinematics import FRAME_SUFFIX
 from drake_sot.systems.sequencer import TaskSequencer
@@ -137,13 +139,24 @@ def _numbers(args: Iterable[Value], what: str) -> np.ndarray:
     return np.array([_number(a, what) for a in args], dtype=float)
 
 
+#: The bound of every number a script gives a signal (``set``, a sequencer's output values), in the
+#: signal's own unit (m, rad, m/s, N, …): a humanoid's controller takes no quantity beyond 10⁴ in SI
+#: units (10 km, 10⁴ rad, 10 kN), and a finite value past it (1e300) would reach Drake as a target,
+#: a q̇ or a force of that size. The features whose unit is known bound their desired value further
+#: (a position within 10 m: :mod:`drake_sot.systems.features`).
+SIGNAL_VALUE_LIMIT = 1e4
+
+
 def vector_value(value: Value, what: str) -> np.ndarray:
-    """A finite vector value (a number is a vector of size 1)."""
+    """A finite vector value (a number is a vector of size 1), every entry within
+    ±:data:`SIGNAL_VALUE_LIMIT`."""
     if isinstance(value, Vector):
-        return validation.vector(what, value.array)
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return np.array([_number(value, what)])
-    raise SessionError(f"{what} takes a vector [n](…) or a number, got {format_value(value)}")
+        array = value.array
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        array = np.array([_number(value, what)])
+    else:
+        raise SessionError(f"{what} takes a vector [n](…) or a number, got {format_value(value)}")
+    return validation.magnitude(what, array, SIGNAL_VALUE_LIMIT)
 
 
 def _pose(value: Value, what: str, rotation: RotationMatrix | None) -> RigidTransform:
@@ -610,6 +623,9 @@ class FeatureCoMEntity(FeatureEntity):
     def initial_desired(self) -> object:
         return self.session.builder.initial_com()
 
+    def desired_value(self, value: Value, current: object) -> object:
+        return check_desired_com(self.name, super().desired_value(value, current))
+
     def connect(self) -> None:
         """``com`` and ``Jcom`` from dyn's unless plugged."""
         for signal in ("com", "Jcom"):
@@ -626,10 +642,11 @@ class PoseFeatureEntity(FeatureEntity):
 
     def desired_value(self, value: Value, current: object) -> object:
         rotation = current.rotation() if isinstance(current, RigidTransform) else None
-        return _pose(value, f"{self.name}.{self.DESIRED}", rotation)
+        pose = _pose(value, f"{self.name}.{self.DESIRED}", rotation)
+        return check_desired_pose(self.name, pose, origin=self.FEATURE.ORIGIN)
 
     def check_desired(self, value: Value) -> None:
-        _pose(value, f"{self.name}.{self.DESIRED}", RotationMatrix())
+        self.desired_value(value, RigidTransform())
 
     def op_pose(self, suffix: str = "") -> RigidTransform | None:
         """The pose at q0 of the ``dyn`` operational point plugged into ``position<suffix>`` (its
@@ -769,8 +786,8 @@ class TaskEntity(Entity):
         return ""
 
     def _gain(self, gain: Gain, context: Context | None) -> str:
-        if context is None:
-            self.gain = validate_gain(gain, name=self.name)
+        if context is None:  # the solver will integrate the task at the builder's period
+            self.gain = validate_gain(gain, name=self.name, period=self.session.builder.control_period)
         else:
             self.system.set_gain(context, gain)
         return ""

@@ -491,8 +491,21 @@ class ScriptSession:
                 entity.check_desired(value)
             else:
                 vector_value(value, str(signal))  # a vector input: a constant source at the build
+                self._check_as_desired(entity, name, value)
             return self._feed(entity, name, Valued(value))
+        self._check_as_desired(entity, name, value)
         return self._set_at_run_time(entity, name, value, context)
+
+    def _check_as_desired(self, entity: Entity, signal: str, value: Value) -> None:
+        """A value set on a feature's value input (``featureComDes.errorIN``) that other features take
+        as their desired value (``set featureCom.sdes featureComDes``) is checked as theirs too."""
+        if not isinstance(entity, FeatureEntity) or signal != entity.VALUE:
+            return
+        for (taker, taken), feed in self._feeds.items():
+            if isinstance(feed.how, FromFeature) and feed.how.feature == entity.name:
+                target = self.entity(taker)
+                if isinstance(target, FeatureEntity) and taken == target.DESIRED:
+                    target.check_desired(value)
 
     def _set_from_feature(self, entity: Entity, signal: str, feature: str) -> str:
         if not (isinstance(entity, FeatureEntity) and signal == entity.DESIRED):
@@ -503,6 +516,9 @@ class ScriptSession:
         other = self.entity(feature)
         if not isinstance(other, FeatureEntity):
             raise SessionError(f"{other.describe()} is not a feature")
+        value_feed = self._feeds.get((other.name, other.VALUE))
+        if value_feed is not None and isinstance(value_feed.how, Valued):  # its value is set already
+            entity.check_desired(value_feed.how.value)
         return self._feed(entity, signal, FromFeature(other.name))
 
     def _set_at_run_time(self, entity: Entity, signal: str, value: Value, context: Context) -> str:

@@ -19,6 +19,13 @@ The desired value reaches the feature's computation through a cache entry of the
 context, recomputed (converted, e.g. a pose to its rotation matrix and translation) only when
 the port's value or the parameter changes, not looked up at every tick.
 
+Bounds of a desired value (checked where it enters: the constructor and :meth:`set_desired`,
+ValueError; a value from the desired-value port when the cache entry is recomputed,
+RuntimeError naming the feature and the time): finite everywhere; a position (a pose's
+translation, a CoM) within :data:`~drake_sot.validation.WORKSPACE_RADIUS` (10 m) of the origin of
+its frame; a posture within the joint limits of the model widened by half a turn. A finite but
+absurd target (1e300 m, 1e3 m) would otherwise ask the robot for a q̇ of that size.
+
 Pose features read a frame either as one value, input ``frame`` (an
 :class:`~drake_sot.signals.OperationalPoint`, ``RobotKinematics``' ``<op>_frame`` output: one
 evaluation per tick), or as the paper's two signals ``position`` and ``Jq`` (what a script
@@ -31,6 +38,7 @@ the number of selected components.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -43,7 +51,7 @@ from pydrake.systems.framework import AbstractParameterIndex, Context, InputPort
 from drake_sot import features as fmath
 from drake_sot.signals import FeatureSignal, OperationalPoint
 from drake_sot.systems._context import own_context, settable_context
-from drake_sot.validation import nonnegative
+from drake_sot.validation import nonnegative, position, within
 
 
 class _Feature(LeafSystem):
@@ -78,13 +86,27 @@ class _Feature(LeafSystem):
             f"prepared {port_name}",
             ValueProducer(
                 allocate=lambda: AbstractValue.Make(prepared),
-                calc=lambda context, value: value.set_value(self._prepare_desired(self._desired(context))),
+                calc=self._calc_prepared_desired,
             ),
             {
                 self.input_port_ticket(self._desired_port.get_index()),
                 self.abstract_parameter_ticket(AbstractParameterIndex(self._desired_param)),
             },
         )
+
+    def _calc_prepared_desired(self, context: Context, value: AbstractValue) -> None:
+        """The cache entry of ``s*``: a value from the port is checked here (a parameter was checked
+        when it was set), then converted."""
+        desired = self._desired(context)
+        if self._desired_port.HasValue(context):
+            try:
+                desired = self._check_desired(desired)
+            except (TypeError, ValueError) as error:
+                port = self._desired_port.get_name()
+                raise RuntimeError(
+                    f"{error} (on input port {port!r} at t = {context.get_time():.4f} s)"
+                ) from None
+        value.set_value(self._prepare_desired(desired))
 
     def _prepare_desired(self, value):
         """The form of ``s*`` the per-tick computation uses (overridden per feature)."""
@@ -229,7 +251,7 @@ class FeatureCoM(FeatureGeneric):
     Input ports:
         com: CoM position (3,) [m] (``RobotKinematics.com``).
         Jcom: abstract ``ndarray`` (3, nv) (``RobotKinematics.Jcom``).
-        sdes: desired CoM (3,) [m], optional (else the parameter).
+        sdes: desired CoM (3,) [m], optional (else the parameter); within 10 m of the world origin.
         sdes_dot: desired CoM velocity (3,) [m/s], optional.
     Output ports: ``feature``, ``error``. Use ``selection="110"`` for the ground
     projection (CoM xy) of balance control.
@@ -247,14 +269,24 @@ class FeatureCoM(FeatureGeneric):
     ) -> None:
         super().__init__(3, selection=selection, name=name, desired=desired)
 
+    def _check_desired(self, value) -> np.ndarray:
+        return check_desired_com(self.get_name(), value)
 
-def _check_pose(owner: LeafSystem, value) -> RigidTransform:
+
+def check_desired_com(name: str, value) -> np.ndarray:
+    """A desired CoM (3,) [m] of the feature ``name``: finite, within ``WORKSPACE_RADIUS`` of the
+    world origin (ValueError naming the feature and the value otherwise)."""
+    return position(f"{name!r}: desired CoM", value)
+
+
+def check_desired_pose(name: str, value, *, origin: str = "the world origin") -> RigidTransform:
+    """A desired pose of the feature ``name``: a ``RigidTransform`` (else TypeError), finite, its
+    translation within ``WORKSPACE_RADIUS`` of ``origin`` (ValueError naming the feature otherwise)."""
     if not isinstance(value, RigidTransform):
-        raise TypeError(
-            f"{owner.get_name()!r}: desired pose must be a RigidTransform, got {type(value).__name__}"
-        )
+        raise TypeError(f"{name!r}: desired pose must be a RigidTransform, got {type(value).__name__}")
     if not np.all(np.isfinite(value.GetAsMatrix4())):
-        raise ValueError(f"{owner.get_name()!r}: desired pose is not finite")
+        raise ValueError(f"{name!r}: desired pose is not finite")
+    position(f"{name!r}: desired position", value.translation(), origin=origin)
     return value
 
 
@@ -262,17 +294,20 @@ class _PoseFeature(_Feature):
     """A 6D feature on an operational point: inputs ``frame`` (or ``position`` and ``Jq``),
     ``position_des``."""
 
+    #: The origin of the frame its desired pose is in (the bound on its translation is from there).
+    ORIGIN = "the world origin"
+
     def __init__(
         self, selection: fmath.SelectionLike, name: str | None, desired: RigidTransform | None
     ) -> None:
         super().__init__(6, selection, name)
         self._frame = self._declare_frame()
         self._declare_desired(
-            "position_des", _check_pose(self, RigidTransform() if desired is None else desired), None
+            "position_des", self._check_desired(RigidTransform() if desired is None else desired), None
         )
 
     def _check_desired(self, value) -> RigidTransform:
-        return _check_pose(self, value)
+        return check_desired_pose(self.get_name(), value, origin=self.ORIGIN)
 
     def _prepare_desired(self, value: RigidTransform) -> tuple[np.ndarray, np.ndarray]:
         return value.rotation().matrix(), value.translation()
@@ -289,7 +324,8 @@ class FeaturePoint6d(_PoseFeature):
             Jacobian in one value (``RobotKinematics.<op>_frame``); or, instead of it:
         position: abstract ``RigidTransform``, the frame's pose in world.
         Jq: abstract ``ndarray`` (6, nv), the frame Jacobian (rows ``[ω; v]``).
-        position_des: abstract ``RigidTransform``, desired pose, optional (else the parameter).
+        position_des: abstract ``RigidTransform``, desired pose, optional (else the parameter);
+            its translation within 10 m of the world origin.
         velocity_des: desired spatial velocity ``[v*; ω*]`` (6,) [m/s, rad/s], world
             frame, optional (else zero): the feed-forward of a moving reference.
     Output ports: ``feature``, ``error``.
@@ -327,9 +363,12 @@ class FeaturePoint6dRelative(_PoseFeature):
         positionRef: abstract ``RigidTransform``, pose of the reference frame b in world.
         JqRef: abstract ``ndarray`` (6, nv), its Jacobian.
         frameRef: both in one value, instead of ``positionRef`` and ``JqRef``.
-        position_des: abstract ``RigidTransform``, desired pose of a in b, optional.
+        position_des: abstract ``RigidTransform``, desired pose of a in b, optional; its
+            translation within 10 m of b's origin.
     Output ports: ``feature``, ``error``.
     """
+
+    ORIGIN = "the origin of the reference frame"
 
     def __init__(
         self,
@@ -421,7 +460,8 @@ class FeaturePosture(_Feature):
     Input ports:
         q: configuration (nq,) of ``plant``.
         sdes: desired configuration q* (nq,), optional (else the parameter; only the
-            selected joints are read).
+            selected joints are read, each within its joint limits widened by π
+            (:func:`posture_bounds`) [rad or m]).
     Output ports: ``feature``, ``error`` (one component per joint).
 
     Args:
@@ -454,6 +494,9 @@ class FeaturePosture(_Feature):
         self._J_full = np.zeros((len(names), plant.num_velocities()))
         self._J_full[np.arange(len(names)), [j.velocity_start() for j in joint_objs]] = 1.0
         self._nq = plant.num_positions()
+        self._limits = posture_bounds(
+            plant.GetPositionLowerLimits()[self._q_index], plant.GetPositionUpperLimits()[self._q_index]
+        )
         self._q = self.DeclareVectorInputPort("q", self._nq)
         default = plant.GetPositions(plant.CreateDefaultContext()) if desired is None else desired
         self._declare_desired("sdes", self._check_desired(default), self._nq)
@@ -463,6 +506,12 @@ class FeaturePosture(_Feature):
         value = np.asarray(value, dtype=float).reshape(-1)
         if value.shape != (self._nq,) or not np.all(np.isfinite(value[self._q_index])):
             raise ValueError(f"{self.get_name()!r}: desired configuration must be {self._nq} finite numbers")
+        within(
+            f"{self.get_name()!r}: desired configuration",
+            value[self._q_index],
+            *self._limits,
+            labels=[f"joint {j!r}" for j in self.joint_names],
+        )
         return value
 
     def _prepare_desired(self, value) -> np.ndarray:
@@ -471,6 +520,20 @@ class FeaturePosture(_Feature):
     def _compute(self, context):
         e = self._q.Eval(context)[self._q_index] - self._desired_cache.Eval(context)
         return e, self._J_full, np.zeros(self._size)
+
+
+#: How far beyond a joint's limits a posture target may be [rad, or m on a prismatic joint]: a posture
+#: task may pull toward a target outside the range (a joint-limit task above it holds the joint
+#: inside), but not by more than half a turn.
+POSTURE_MARGIN = math.pi
+
+
+def posture_bounds(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The range of a posture target per joint: its limits widened by :data:`POSTURE_MARGIN`, and
+    ``[-3π, 3π]`` on a joint without limits (a target is never more than 1.5 turns away)."""
+    lo = np.where(np.isfinite(lower), lower, -2.0 * math.pi) - POSTURE_MARGIN
+    hi = np.where(np.isfinite(upper), upper, 2.0 * math.pi) + POSTURE_MARGIN
+    return lo, hi
 
 
 def _one_dof_joint_names(plant: MultibodyPlant) -> list[str]:

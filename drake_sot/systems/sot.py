@@ -185,7 +185,9 @@ class StackOfTasks(LeafSystem):
         nv: size of q̇ (the model's number of velocities), >= 1.
         tasks: the tasks (their names and dimensions; inequality tasks need ``solver="hqp"``), or
             task name → dimension (the kind of each task is then known from its signal).
-        period: the control period [s], finite and > 0.
+        period: the control period [s], finite and > 0; each :class:`~drake_sot.systems.task.Task`
+            of ``tasks`` is told it (:meth:`~drake_sot.systems.task.Task.use_period`) and its gain
+            checked against it (``λ·period <= 1``, :data:`drake_sot.gains.MAX_GAIN_PERIOD`).
         rank_threshold: singular values at or below it are treated as zero (finite, >= 0;
             see :func:`~drake_sot.hierarchy.solve_strict`).
         damping: damped least-squares factor (finite, >= 0; 0 is the exact pseudo-inverse);
@@ -199,14 +201,17 @@ class StackOfTasks(LeafSystem):
 
     Raises:
         ValueError: at construction, naming the bad argument (a task name twice, a
-            task named "stack", a dimension < 1, a NaN period, ...); an initial stack
+            task named "stack", a dimension < 1, a NaN period, a task's gain too large for
+            the period, ...); an initial stack
             naming an unknown task raises :class:`~drake_sot.stack.UnknownTaskError`
             (a ValueError and a KeyError) listing the known tasks; an inequality task with
             ``solver="svd"``, a damping with ``solver="hqp"``, an unknown solver. At the tick, a
             RuntimeError naming the task when its signal carries another task's name,
             has the wrong sizes (e, J or ė*; or the bounds), holds NaN/Inf (NaN only, in
             bounds), has a lower bound above its upper one (naming the row), or is an
-            inequality task's signal while ``solver="svd"``.
+            inequality task's signal while ``solver="svd"``; a RuntimeError of
+            :func:`~drake_sot.hierarchy.solve_hqp` (an active set that did not settle) is raised
+            again naming the system, the time, the stack and its tasks' errors (:meth:`task_errors`).
     """
 
     def __init__(
@@ -257,6 +262,9 @@ class StackOfTasks(LeafSystem):
             for task_name, m in pairs
         }
         self._period = validation.positive(f"{where}: period", period, unit="s")
+        for task in () if isinstance(tasks, Mapping) else tasks:
+            if isinstance(task, Task):  # its gain's range depends on the period (drake_sot.gains)
+                task.use_period(self._period)
         self._rank_threshold = validation.nonnegative(f"{where}: rank_threshold", rank_threshold)
         self._damping = validation.nonnegative(f"{where}: damping", damping)
         if self._damping and solver == "hqp":
@@ -332,6 +340,24 @@ class StackOfTasks(LeafSystem):
     def error_slices(self) -> dict[str, slice]:
         """Where each task's error lies in the ``errors`` output."""
         return dict(self._slices)
+
+    def task_errors(self, context: Context) -> tuple[tuple[str, float], ...]:
+        """``(task, ‖e‖)`` for each task of the stack at the last tick, largest error first (own or
+        root context; ‖e‖ in the task's own units: m, rad, ...): a solver whose every level is
+        "optimal" may still leave a task far from its goal (a target out of reach, a lower task in
+        conflict with a higher one), and this names it and says by how much. Empty before the first
+        tick."""
+        errors = own_context(self, context).get_discrete_state(self._errors).get_value()
+        return self._error_norms(errors)
+
+    def _error_norms(self, errors: np.ndarray) -> tuple[tuple[str, float], ...]:
+        """``(task, ‖e‖)`` of the tasks whose rows of ``errors`` are not NaN, largest first."""
+        norms = [
+            (task_name, float(np.linalg.norm(errors[rows])))
+            for task_name, rows in self._slices.items()
+            if not np.isnan(errors[rows]).any()
+        ]
+        return tuple(sorted(norms, key=lambda pair: -pair[1]))
 
     def _current_stack(self, context: Context) -> Stack:
         """The stack in force for this system's own context (the input's, validated, when driven)."""
@@ -554,7 +580,16 @@ class StackOfTasks(LeafSystem):
             levels = [signals[task_name] for task_name in active]
             # Shapes, finiteness and bounds were checked above, with the task's name.
             if self._solver == "hqp":
-                result = solve_hqp(levels, names=active, rank_threshold=self._rank_threshold, validate=False)
+                try:
+                    result = solve_hqp(
+                        levels, names=active, rank_threshold=self._rank_threshold, validate=False
+                    )
+                except RuntimeError as error:  # e.g. an active set that did not settle: say where
+                    far = ", ".join(f"{n} {v:.3g}" for n, v in self._error_norms(errors))
+                    raise RuntimeError(
+                        f"{self.get_name()!r} at t = {context.get_time():.4f} s, stack {' > '.join(active)}: "
+                        f"{error}; the errors ‖e‖ of its tasks, largest first: {far}"
+                    ) from error
             else:
                 result = solve_strict(
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False

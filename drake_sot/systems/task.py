@@ -11,10 +11,11 @@ from pydrake.systems.framework import Context, InputPort, LeafSystem
 
 from drake_sot import features as fmath
 from drake_sot.features import SelectionLike
-from drake_sot.gains import AdaptiveGain, Gain, validate_gain
+from drake_sot.gains import MAX_GAIN_PERIOD, AdaptiveGain, Gain, check_gain_period, validate_gain
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.features import _Feature
+from drake_sot.validation import positive
 
 #: Name of the optional input port that drives λ.
 GAIN_PORT = "gain"
@@ -31,10 +32,16 @@ class Task(LeafSystem):
     :class:`~drake_sot.systems.sequencer.TaskSequencer` output) and :meth:`set_gain` is
     refused, not ignored.
 
+    The range of λ: finite and > 0 [1/s], and, once the task knows the control period ``dt``
+    at which its law is integrated (``period``, or :meth:`use_period`, which the
+    ``StackOfTasks`` it feeds calls with its own period), ``λ·dt <=``
+    :data:`~drake_sot.gains.MAX_GAIN_PERIOD` (1: beyond it, explicit Euler's
+    ``e_{k+1} = (1 - λ dt) e_k`` overshoots the goal at every tick; see :mod:`drake_sot.gains`).
+
     Input ports:
-        gain: optional (1,), λ [1/s]; when connected it must be finite and > 0 (else a
-            RuntimeError naming the task when the task is evaluated). "gain" is
-            therefore not a valid feature name.
+        gain: optional (1,), λ [1/s]; when connected it must be finite, > 0 and within the
+            range above (else a RuntimeError naming the task when the task is evaluated).
+            "gain" is therefore not a valid feature name.
         <feature name>: one per feature added with :meth:`add`, abstract
             :class:`~drake_sot.signals.FeatureSignal` (plug the feature's ``feature`` output).
     Output ports:
@@ -46,13 +53,16 @@ class Task(LeafSystem):
         builder.Connect(feature_com.GetOutputPort("feature"), task_com.add(feature_com))
     """
 
-    def __init__(self, name: str, *, gain: Gain = 1.0) -> None:
+    def __init__(self, name: str, *, gain: Gain = 1.0, period: float | None = None) -> None:
         super().__init__()
         self.set_name(name)
+        gain = validate_gain(gain, name=name, period=period)
+        self._period: float | None = None if period is None else float(period)
         # (input port, dimension, rows of the feature's output the task keeps or None for all)
         self._features: list[tuple[InputPort, int, np.ndarray | slice | None]] = []
         # Value[object]: the parameter holds a float or an AdaptiveGain.
-        self._gain = self.DeclareAbstractParameter(Value[object](validate_gain(gain, name=name)))
+        self._gain = self.DeclareAbstractParameter(Value[object](gain))
+        self._default_gain = gain
         self._gain_input = self.DeclareVectorInputPort(GAIN_PORT, 1)
         self.DeclareAbstractOutputPort(
             "task",
@@ -98,11 +108,31 @@ class Task(LeafSystem):
         self._features.append((port, feature.dimension if rows is None else _count(rows), rows))
         return port
 
+    @property
+    def period(self) -> float | None:
+        """The control period [s] at which the task's law is integrated (None: not known yet)."""
+        return self._period
+
+    def use_period(self, period: float) -> None:
+        """Declare the control period ``period`` [s] at which a solver integrates this task's law
+        (``StackOfTasks`` calls it with its own): the constructor's gain is checked against it
+        (``λ·period <= MAX_GAIN_PERIOD``) and so is every later one. Raises ValueError naming the
+        task when the gain is out of that range, or when the task already has another period."""
+        period = positive(f"task {self.get_name()!r}: control period", period, unit="s")
+        if self._period is not None and self._period != period:
+            raise ValueError(
+                f"task {self.get_name()!r}: control period {float(period):g} s, but the task is "
+                f"integrated at {self._period:g} s already (one solver, one period)"
+            )
+        check_gain_period(self._default_gain, period, name=self.get_name())
+        self._period = period
+
     def set_gain(self, context: Context, gain: Gain) -> None:
-        """Change λ at run time (own or root context); refused when the ``gain`` input is connected."""
+        """Change λ at run time (own or root context); refused when the ``gain`` input is connected,
+        and out of the range of the class docstring (ValueError naming the task, λ and the period)."""
         context = settable_context(self, context, self._gain_input, command="set_gain", what="the gain")
         context.get_mutable_abstract_parameter(self._gain).set_value(
-            validate_gain(gain, name=self.get_name())
+            validate_gain(gain, name=self.get_name(), period=self._period)
         )
 
     def gain(self, context: Context) -> Gain:
@@ -117,6 +147,11 @@ class Task(LeafSystem):
                     f"task {self.get_name()!r}: gain {value} on input port {GAIN_PORT!r} "
                     "must be finite and > 0"
                 )
+            if self._period is not None and not (value * self._period <= MAX_GAIN_PERIOD):
+                try:  # the check's message, built only when it fails
+                    check_gain_period(value, self._period, name=self.get_name())
+                except ValueError as error:
+                    raise RuntimeError(f"{error} (on input port {GAIN_PORT!r})") from None
             return value
         return context.get_abstract_parameter(self._gain).get_value()
 
