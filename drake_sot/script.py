@@ -23,8 +23,8 @@ end of the line; spaces and tabs separate tokens)::
     SIGNAL   := NAME "." NAME                  (entity, signal)
     NAME     := [A-Za-z_][A-Za-z0-9_]*
     value    := number | vector | matrix | string | verb | word
-    number   := [+-] (digits ["." digits] | "." digits) [(e|E) [+-] digits]   finite; an int
-                without "." or exponent
+    number   := [+-] (digits ["." digits] | "." digits) [(e|E) [+-] digits]   finite, within
+                float range (±1.8e308, an integer too); an int without "." or exponent
     vector   := "[" n "]" "(" number {"," number} ")"                   exactly n >= 1 numbers
     matrix   := "[" r "," c "]" "(" row {"," row} ")"                     r rows of c numbers
     row      := "(" number {"," number} ")"
@@ -582,9 +582,13 @@ def _atom_value(text: str, lexer: _Lexer, start: int) -> int | float | None:
     """A number's value, None for a word; ScriptError for an atom that is neither."""
     if _INTEGER.match(text):
         try:
-            return int(text)
+            value = int(text)
+            float(value)  # every number of the dialect is a float somewhere: refuse one beyond range now
         except ValueError:  # beyond Python's limit on the digits of an int read from text
             raise lexer.error("a number of at most 4300 digits", start, _describe(text)) from None
+        except OverflowError:
+            raise lexer.error("a number within float range (±1.8e308)", start, _describe(text)) from None
+        return value
     if _NUMBER.match(text):
         return _finite(text, lexer, start)
     if text[0] in "0123456789+-":
