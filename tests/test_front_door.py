@@ -2,8 +2,15 @@
 (integers beyond float range, 1e400) gives the documented error, never an OverflowError; from a
 ``drake-sot script`` run and from a client of ``drake-sot serve`` (another process) too."""
 
+import json
 import math
+import os
+import resource
+import select
+import socket
 import subprocess
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +18,7 @@ from served import DRAKE_SOT, REPO, start, stop
 
 from drake_sot import validation
 from drake_sot.remote import Client, RemoteError
+from drake_sot.remote.network import ACCEPT_BACKOFF, MAX_CONNECTIONS
 from drake_sot.script import ScriptError, parse_line
 
 HUGE = "1" + "0" * 400  # 10**400: an int Python reads, beyond float range (max ~1.8e308)
@@ -126,3 +134,128 @@ def test_a_served_line_with_a_number_beyond_float_range_is_refused_and_the_run_g
         while client.t < before + 0.1:  # the simulation goes on, and answers
             assert len(client.read("dyn.com")) == 3
     assert proc.poll() is None
+
+
+# --- the network thread: nothing a client sends ends it ----------------------------------------
+
+
+def _answered(host, port, token=None):
+    """A fresh client is answered (the network thread lives) with the simulated time going on."""
+    with Client(host, port, token=token) as client:
+        return len(client.read("dyn.com")) == 3 and client.t > 0
+
+
+@pytest.mark.parametrize(
+    "line, named",
+    [
+        (
+            b'{"id": 1, "op": "write", "signal": "taskRH.position_des", "value": [1' + b"0" * 5000 + b"]}",
+            "more than 4300 digits",
+        ),
+        (b'{"id": 1' + b"0" * 5000 + b', "op": "list"}', "more than 4300 digits"),
+        (
+            b'{"id": 2, "op": "write", "signal": "taskRH.position_des", "value": [0, 1'
+            + b"0" * 400
+            + b", 0]}",
+            "value[1]: a number, got an integer of 401 digits, beyond float range",
+        ),
+        (b'{"id": 3, "op": "subscribe", "signal": "dyn.com", "period": 1' + b"0" * 400 + b"}", "period"),
+        (b'{"id": 4, "op": "run", "cmd": "sot.push \\ud800"}', "cmd: a lone surrogate"),
+        (b'{"id": "\\udfff", "op": "list"}', "id: a lone surrogate"),
+        (b"[" * 60000 + b"]" * 5000, "invalid JSON"),
+    ],
+    ids=[
+        "json-int-5000-digits",
+        "id-5000-digits",
+        "int-beyond-float",
+        "period-beyond-float",
+        "surrogate-cmd",
+        "surrogate-id",
+        "deep-nesting",
+    ],
+)
+def test_a_line_the_json_reader_or_the_floats_cannot_hold_gets_an_error_and_the_server_serves_on(
+    server, line, named
+):
+    _, host, port = server
+    with Client(host, port) as client:
+        client.send_raw(line + b"\n")
+        reply = client.receive()
+        assert not reply["ok"] and named in reply["error"], reply
+        assert len(client.read("dyn.com")) == 3  # the same connection is served on
+    assert _answered(host, port)
+
+
+def test_a_lone_surrogate_token_is_refused_and_the_token_server_serves_on():
+    token = "s3cret"
+    proc, host, port = start("--port", "0", "--duration", "120", env={**os.environ, "DRAKE_SOT_TOKEN": token})
+    try:
+        with Client(host, port) as stranger:
+            stranger.send_raw(b'{"id": 1, "op": "auth", "token": "\\ud800"}\n')
+            reply = stranger.receive()
+            assert not reply["ok"] and "not authenticated" in reply["error"]
+            with pytest.raises(RemoteError, match="wrong token"):
+                stranger.request("auth", token="s3cret\u00e9")  # encodable, wrong
+        assert _answered(host, port, token=token)
+    finally:
+        stop(proc)
+
+
+def test_connections_beyond_the_cap_are_refused_with_an_error_and_the_others_served(server):
+    _, host, port = server
+    with Client(host, port) as first:
+        first.read("dyn.com")
+        extra = []
+        try:
+            for _ in range(MAX_CONNECTIONS + 5):
+                extra.append(socket.create_connection((host, port), timeout=30))
+            # the first MAX_CONNECTIONS - 1 others are served, the rest get one error line then the end
+            refused = []
+            for sock in extra[MAX_CONNECTIONS - 1 :]:
+                data = sock.makefile("rb").read()  # up to the server's close
+                refused.append(json.loads(data))
+            assert len(refused) == 6
+            assert all(not r["ok"] and f"at most {MAX_CONNECTIONS}" in r["error"] for r in refused)
+            assert len(first.read("dyn.com")) == 3
+        finally:
+            for sock in extra:
+                sock.close()
+    deadline = time.monotonic() + 30
+    while True:  # the server saw the closes: a new client is served again
+        try:
+            assert _answered(host, port)
+            break
+        except ConnectionError:
+            assert time.monotonic() < deadline
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc to count a process's descriptors")
+def test_accept_failing_for_want_of_descriptors_leaves_the_connected_clients_served(server):
+    """The server's descriptor limit is lowered (prlimit) to what it has open + 1: the second of two
+    new clients makes ``accept`` fail with EMFILE; the connected client is answered meanwhile, and
+    the waiting one once a descriptor is free again."""
+    proc, host, port = server
+    first = Client(host, port)
+    soft, hard = resource.prlimit(proc.pid, resource.RLIMIT_NOFILE)
+    try:
+        first.read("dyn.com")
+        time.sleep(0.5)
+        resource.prlimit(
+            proc.pid, resource.RLIMIT_NOFILE, (len(os.listdir(f"/proc/{proc.pid}/fd")) + 1, hard)
+        )
+        second = Client(host, port)  # takes the last descriptor
+        assert len(second.read("dyn.com")) == 3
+        third = socket.create_connection((host, port), timeout=60)  # in the backlog: accept fails
+        third.sendall(b'{"id": 3, "op": "read", "signal": "dyn.com"}\n')
+        for _ in range(5):  # across several of the listener's rests
+            time.sleep(ACCEPT_BACKOFF)
+            assert len(first.read("dyn.com")) == 3 and len(second.read("dyn.com")) == 3
+        assert not select.select([third], [], [], 0.0)[0]  # not accepted: no reply yet
+        second.close()  # frees a descriptor: the third is accepted and answered
+        with third, third.makefile("rb") as replies:
+            reply = json.loads(replies.readline())
+        assert reply["id"] == 3 and reply["ok"] and len(reply["result"]) == 3
+    finally:
+        resource.prlimit(proc.pid, resource.RLIMIT_NOFILE, (soft, hard))
+        first.close()
+    assert _answered(host, port)

@@ -10,6 +10,13 @@ bytes (a longer one gets one error reply and is skipped up to its newline); at m
 ``rate`` requests per second (a token bucket of ``burst``; the others get an error
 reply); a client that leaves more than :data:`MAX_OUTBOX` bytes of replies unread is
 disconnected; a partial line left when the client disconnects is dropped, so it changes nothing.
+At most :data:`MAX_CONNECTIONS` connections at once: one more is answered with an error line and
+closed. When ``accept`` fails (no file descriptor left: EMFILE, ENFILE), the listener rests
+:data:`ACCEPT_BACKOFF` s and tries again (the client waits in the backlog); the connections
+open are served meanwhile. Whatever a line holds, it gets an error reply
+(:func:`~drake_sot.remote.protocol.parse_request` raises nothing but ProtocolError); should
+handling a connection raise all the same, that connection gets an error line naming the
+exception and is closed, and the thread serves the others on.
 With a token, nothing but ``{"op": "auth"}`` is accepted until it matches (compared with
 ``hmac.compare_digest``, in constant time).
 
@@ -38,6 +45,10 @@ from drake_sot.remote.protocol import MAX_LINE, ProtocolError, Request, encode, 
 _CHUNK = 65536
 #: Bytes waiting for a client beyond which it is disconnected (it reads nothing).
 MAX_OUTBOX = 16 * 1024 * 1024
+#: Connections open at once; one more gets an error line and is closed.
+MAX_CONNECTIONS = 64
+#: [s] the listener rests after ``accept`` failed for want of a descriptor (EMFILE, ENFILE...).
+ACCEPT_BACKOFF = 0.2
 
 
 @dataclass
@@ -94,6 +105,7 @@ class NetworkThread:
         self._paced = threading.Condition()  # guards the two below
         self._horizons: dict[int, float] = {}  # connection -> the largest horizon it wrote [s]
         self._pacer_left: int | None = None  # a connection that wrote a horizon, then closed
+        self._resting_until: float | None = None  # accept failed: the listener is back at this time
 
     def start(self) -> None:
         self._selector.register(self._listener, selectors.EVENT_READ, "listen")
@@ -125,7 +137,8 @@ class NetworkThread:
 
     def _loop(self) -> None:
         while not self._stop.is_set():
-            for key, events in self._selector.select(timeout=0.5):
+            resting = self._resting_until is not None
+            for key, events in self._selector.select(timeout=ACCEPT_BACKOFF if resting else 0.5):
                 if key.data == "listen":
                     self._accept()
                 elif key.data == "wake":
@@ -134,21 +147,50 @@ class NetworkThread:
                     except BlockingIOError:
                         pass
                 else:
-                    if events & selectors.EVENT_READ:
-                        self._read(key.data)
-                    if events & selectors.EVENT_WRITE and key.data in self._connections:
-                        self._flush(key.data)
+                    self._guarded(key.data, events)
             while self._pending:
                 cid, data = self._pending.popleft()
                 conn = self._connections.get(cid)
                 if conn is not None:
                     conn.outbox += data
-                    self._flush(cid)
+                    self._guarded(cid, selectors.EVENT_WRITE)
+            if self._resting_until is not None and time.monotonic() >= self._resting_until:
+                self._resting_until = None
+                self._selector.register(self._listener, selectors.EVENT_READ, "listen")
+
+    def _guarded(self, cid: int, events: int) -> None:
+        """Read from and write to connection ``cid``; should that raise, tell the client and close it."""
+        try:
+            if events & selectors.EVENT_READ:
+                self._read(cid)
+            if events & selectors.EVENT_WRITE and cid in self._connections:
+                self._flush(cid)
+        except Exception as exc:  # noqa: BLE001 - one connection must not end the thread serving all
+            conn = self._connections.get(cid)
+            if conn is not None:
+                try:
+                    conn.sock.send(
+                        encode(error(None, f"closing the connection: {type(exc).__name__}: {exc}"))
+                    )
+                except OSError:
+                    pass
+                self._drop(cid)
 
     def _accept(self) -> None:
         try:
             sock, _ = self._listener.accept()
-        except BlockingIOError:
+        except (BlockingIOError, InterruptedError, ConnectionAbortedError):
+            return
+        except OSError:  # no descriptor left (EMFILE, ENFILE) or no buffer: rest, then try again
+            self._selector.unregister(self._listener)
+            self._resting_until = time.monotonic() + ACCEPT_BACKOFF
+            return
+        if len(self._connections) >= MAX_CONNECTIONS:
+            try:
+                sock.send(encode(error(None, f"too many connections: at most {MAX_CONNECTIONS} at once")))
+            except OSError:
+                pass
+            sock.close()
             return
         sock.setblocking(False)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
