@@ -60,6 +60,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drake_sot.validation import shown
+
 __all__ = [
     "KEYWORDS",
     "Call",
@@ -305,6 +307,11 @@ class Call:
 #: names each takes.
 STACK_COMMAND_TASKS = {"push": 1, "pop": 0, "rm": 1, "up": 1, "down": 1, "clear": 0}
 
+#: The longest transition time of a stack command [s]. The paper's transitions last a fraction of
+#: a second to a few seconds; a change blended over more than a minute is, for a controller that
+#: runs at a few ms, a change that never happens (and 1e308 s one that never ends).
+MAX_TRANSITION = 60.0
+
 
 def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
     """``(task names, transition [s])`` of a stack command ``SOT.COMMAND [TASK] [SECONDS]``.
@@ -317,8 +324,8 @@ def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
     Raises:
         ValueError: ``call.command`` is not a stack command (:data:`STACK_COMMAND_TASKS`), a task
             name is missing or not a name (a word or a string), an extra argument, or a time
-            that is not a number, finite and >= 0 (the message names the command and what it
-            takes).
+            that is not a number in [0, :data:`MAX_TRANSITION`] s (the message names the command,
+            what it takes and the bound).
     """
     takes = STACK_COMMAND_TASKS.get(call.command)
     if takes is None:
@@ -335,10 +342,13 @@ def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
         return names, 0.0
     seconds = args[takes]
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
-        shown = repr(seconds) if isinstance(seconds, bool) else format_value(seconds)  # no script bool
-        raise ValueError(f"{usage}: the transition time must be a number of seconds, got {shown}")
-    if not (math.isfinite(seconds) and seconds >= 0.0):
-        raise ValueError(f"{usage}: transition = {seconds!r} s: must be finite and >= 0")
+        text = repr(seconds) if isinstance(seconds, bool) else format_value(seconds)  # no script bool
+        raise ValueError(f"{usage}: the transition time must be a number of seconds, got {text}")
+    if not (0.0 <= seconds <= MAX_TRANSITION):  # NaN fails it
+        raise ValueError(
+            f"{usage}: transition = {shown(seconds)} s: must be finite and >= 0, and at most "
+            f"{MAX_TRANSITION:g} s (MAX_TRANSITION)"
+        )
     return names, float(seconds)
 
 

@@ -17,9 +17,10 @@ import pytest
 from served import DRAKE_SOT, REPO, start, stop
 
 from drake_sot import validation
+from drake_sot.diagrams.script_session import MAX_INCLUDE_DEPTH, SessionError, load_script
 from drake_sot.remote import Client, RemoteError
-from drake_sot.remote.network import ACCEPT_BACKOFF, MAX_CONNECTIONS
-from drake_sot.script import ScriptError, parse_line
+from drake_sot.remote.network import ACCEPT_BACKOFF, MAX_CONNECTIONS, NetworkThread, _is_loopback
+from drake_sot.script import MAX_TRANSITION, ScriptError, parse_line, stack_arguments
 
 HUGE = "1" + "0" * 400  # 10**400: an int Python reads, beyond float range (max ~1.8e308)
 assert math.isinf(float("1e400")) and int(HUGE).bit_length() > 1024
@@ -259,3 +260,132 @@ def test_accept_failing_for_want_of_descriptors_leaves_the_connected_clients_ser
         resource.prlimit(proc.pid, resource.RLIMIT_NOFILE, (soft, hard))
         first.close()
     assert _answered(host, port)
+
+
+# --- the server, smaller: half-close, timed host writes, up/down at the ends, bounds -----------
+
+
+def test_a_request_followed_by_a_half_close_still_gets_its_reply(server):
+    _, host, port = server
+    with socket.create_connection((host, port), timeout=60) as sock:
+        sock.sendall(
+            b'{"id": 1, "op": "read", "signal": "dyn.com"}\n'
+            b'{"id": 2, "op": "run", "cmd": "sot.list"}\n'  # answered by the host after the tick
+            b'{"id": 3, "op": "run", "cmd": "sot.list"'  # a partial line: dropped, changes nothing
+        )
+        sock.shutdown(socket.SHUT_WR)
+        with sock.makefile("rb") as replies:
+            received = [json.loads(line) for line in replies]  # up to the server's close
+    assert [r["id"] for r in received] == [1, 2] and all(r["ok"] for r in received), received
+    assert len(received[0]["result"]) == 3 and "taskPosture" in received[1]["result"].split()
+
+
+def test_a_timed_write_to_a_signal_the_host_applies_is_refused_not_applied_at_once(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        client.read("dyn.com")
+        t = client.t
+        with pytest.raises(
+            RemoteError, match=r"timed write \('at'\) is applied only to the signals declared"
+        ):
+            client.request("write", signal="taskRH.position_des", value=[0.3, -0.25, 0.9], t=t, at=t + 5.0)
+
+
+def test_up_of_the_top_task_and_down_of_the_bottom_one_are_refused_and_change_nothing(server):
+    _, host, port = server
+    with Client(host, port) as client:
+        stack = client.run("sot.list").split()
+        with pytest.raises(RemoteError, match=rf"up {stack[0]}: already at the top of the stack"):
+            client.run(f"sot.up {stack[0]}")
+        with pytest.raises(RemoteError, match=rf"down {stack[-1]}: already at the bottom of the stack"):
+            client.run(f"sot.down {stack[-1]}")
+        assert client.run("sot.list").split() == stack
+
+
+def test_an_absurd_transition_time_is_refused_naming_the_bound(server):
+    assert MAX_TRANSITION == 60.0
+    with pytest.raises(
+        ValueError, match=r"transition = 1e\+308 s: must be finite and >= 0, and at most 60 s"
+    ):
+        stack_arguments(parse_line("sot.push taskLH 1e308"))
+    assert stack_arguments(parse_line("sot.push taskLH 60")) == (("taskLH",), 60.0)
+    _, host, port = server
+    with Client(host, port) as client:
+        with pytest.raises(RemoteError, match="at most 60 s"):
+            client.run("sot.push taskLH 1e308")
+        assert "taskLH" not in client.run("sot.list").split()
+
+
+def _nested_scripts(directory: Path, depth: int) -> Path:
+    """``s0.sot`` runs ``s1.sot``, which runs ... ``s{depth}.sot`` (a comment): ``depth`` nested runs."""
+    for k in range(depth):
+        (directory / f"s{k}.sot").write_text(f"run s{k + 1}.sot\n")
+    (directory / f"s{depth}.sot").write_text("# the innermost script\n")
+    return directory / "s0.sot"
+
+
+def test_nested_run_file_includes_have_a_depth_bound_named_in_the_error(tmp_path):
+    assert load_script(_nested_scripts(tmp_path, MAX_INCLUDE_DEPTH)).statements == ()
+    deeper = tmp_path / "deeper"
+    deeper.mkdir()
+    with pytest.raises(
+        SessionError, match=rf"nested {MAX_INCLUDE_DEPTH + 1} deep .*at most {MAX_INCLUDE_DEPTH}"
+    ):
+        load_script(_nested_scripts(deeper, MAX_INCLUDE_DEPTH + 1))
+    proc = subprocess.run(
+        [*DRAKE_SOT, "script", str(_nested_scripts(deeper, 200)), "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=300,
+    )
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert f"at most {MAX_INCLUDE_DEPTH}" in proc.stderr
+
+
+@pytest.mark.parametrize(
+    "host, loopback",
+    [
+        ("127.0.0.1", True),
+        ("127.5.6.7", True),
+        ("::1", True),
+        ("localhost", True),
+        ("127.example.com", False),
+        ("127.0.0.1.nip.io", False),
+        ("0.0.0.0", False),
+        ("::", False),
+        ("10.0.0.1", False),
+    ],
+)
+def test_loopback_is_decided_by_reading_the_address(host, loopback):
+    assert _is_loopback(host) is loopback
+    if not loopback:
+        with pytest.raises(ValueError, match="token is required"):
+            NetworkThread(host, 0)
+
+
+def _ipv6_loopback() -> bool:
+    try:
+        socket.create_server(("::1", 0), family=socket.AF_INET6).close()
+    except OSError:
+        return False
+    return True
+
+
+@pytest.mark.skipif(not _ipv6_loopback(), reason="this machine cannot bind ::1 (no IPv6 loopback)")
+def test_serve_on_the_ipv6_loopback_binds_and_answers():
+    proc, host, port = start("--host", "::1", "--port", "0", "--duration", "60")
+    try:
+        assert host == "::1"
+        with Client(host, port) as client:
+            assert len(client.read("dyn.com")) == 3
+    finally:
+        stop(proc)
+
+
+def test_the_token_option_says_it_shows_in_ps_and_names_the_environment_variable():
+    for command in (["serve", "--help"], ["shell", "--help"]):
+        proc = subprocess.run([*DRAKE_SOT, *command], capture_output=True, text=True, cwd=REPO, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        token_help = " ".join(proc.stdout.split("\n  --token T", 1)[1].split("\n\n")[0].split())
+        assert "$DRAKE_SOT_TOKEN" in token_help and "`ps`" in token_help, token_help

@@ -10,6 +10,8 @@ bytes (a longer one gets one error reply and is skipped up to its newline); at m
 ``rate`` requests per second (a token bucket of ``burst``; the others get an error
 reply); a client that leaves more than :data:`MAX_OUTBOX` bytes of replies unread is
 disconnected; a partial line left when the client disconnects is dropped, so it changes nothing.
+A client that half-closes (``shutdown(SHUT_WR)`` after its last request) still gets the replies
+of the requests it sent: the connection is closed once they are all sent.
 At most :data:`MAX_CONNECTIONS` connections at once: one more is answered with an error line and
 closed. When ``accept`` fails (no file descriptor left: EMFILE, ENFILE), the listener rests
 :data:`ACCEPT_BACKOFF` s and tries again (the client waits in the backlog); the connections
@@ -29,6 +31,7 @@ then are in the queue.
 from __future__ import annotations
 
 import hmac
+import ipaddress
 import math
 import queue
 import selectors
@@ -58,6 +61,9 @@ class _Connection:
     inbox: bytearray = field(default_factory=bytearray)
     outbox: bytearray = field(default_factory=bytearray)
     skipping: bool = False  # inside a line over the limit: drop up to its newline
+    ended: bool = False  # the client half-closed (sent EOF): closed once its replies are sent
+    unanswered: int = 0  # requests queued for the serving loop and not answered yet
+    watched: int = selectors.EVENT_READ  # the events the selector watches (0: unregistered)
     allowance: float = 0.0
     last: float = field(default_factory=time.monotonic)
 
@@ -66,7 +72,8 @@ class NetworkThread:
     """Accepts connections on ``host:port`` (``port`` 0: a free one, see :attr:`address`).
 
     Args:
-        host: the address to bind; anything but loopback requires ``token``.
+        host: the address to bind, IPv4 or IPv6 (``::1``) or a name; anything but a loopback
+            address (127.0.0.0/8, ``::1``, or the name ``localhost``) requires ``token``.
         port: the TCP port, 0 for a free one.
         token: the shared secret clients send with ``auth``; None: no authentication.
         rate: requests per second accepted from a connection (sustained), > 0.
@@ -88,7 +95,7 @@ class NetworkThread:
             )
         self._token = token.encode() if token is not None else None
         self._rate, self._burst = float(rate), float(burst)
-        self._listener = socket.create_server((host, port))
+        self._listener = socket.create_server((host, port), family=_family(host))
         self._listener.setblocking(False)
         self.address: tuple[str, int] = self._listener.getsockname()[:2]
         self.requests: queue.Queue[tuple[int, Request | None]] = queue.Queue()
@@ -125,8 +132,9 @@ class NetworkThread:
         self._wake_w.close()
 
     def send(self, connection: int, message: dict[str, Any]) -> None:
-        """Queue ``message`` for ``connection`` (from any thread); dropped if it is gone."""
-        self._pending.append((connection, encode(message)))
+        """Queue ``message`` (the reply of a request the connection sent, or a stream message) for
+        ``connection`` (from any thread); dropped if it is gone."""
+        self._pending.append((connection, encode(message), "ok" in message))
         self._wake()
 
     def _wake(self) -> None:
@@ -149,10 +157,11 @@ class NetworkThread:
                 else:
                     self._guarded(key.data, events)
             while self._pending:
-                cid, data = self._pending.popleft()
+                cid, data, reply = self._pending.popleft()
                 conn = self._connections.get(cid)
                 if conn is not None:
                     conn.outbox += data
+                    conn.unanswered -= reply
                     self._guarded(cid, selectors.EVENT_WRITE)
             if self._resting_until is not None and time.monotonic() >= self._resting_until:
                 self._resting_until = None
@@ -203,9 +212,15 @@ class NetworkThread:
         conn = self._connections.pop(cid, None)
         if conn is None:
             return
-        self._selector.unregister(conn.sock)
+        if conn.watched:
+            self._selector.unregister(conn.sock)
         conn.sock.close()
         self.requests.put((cid, None))  # the serving loop forgets its subscriptions
+        self._sends_no_more(cid)
+
+    def _sends_no_more(self, cid: int) -> None:
+        """Connection ``cid`` will send no more requests (EOF, or closed): a client that paced the
+        run has left, since its horizon cannot move on."""
         with self._paced:
             if cid in self._horizons and self._pacer_left is None:
                 self._pacer_left = cid
@@ -219,8 +234,11 @@ class NetworkThread:
             return
         except OSError:
             data = b""
-        if not data:
-            self._drop(cid)  # a partial line in the inbox is dropped with it
+        if not data:  # the client closed, or half-closed: answer what it sent, then close
+            conn.ended = True
+            conn.inbox.clear()  # a partial line is dropped: it changes nothing
+            self._sends_no_more(cid)
+            self._close_when_answered(cid)
             return
         conn.inbox += data
         with self._batch:  # the requests of one read reach the serving loop together
@@ -284,6 +302,7 @@ class NetworkThread:
         if not conn.authed:
             self._reply(cid, error(None, 'not authenticated: send {"op": "auth", "token": ...} first'))
             return
+        conn.unanswered += 1
         self.requests.put((cid, request))
         if request.horizon is not None:
             with self._paced:
@@ -320,9 +339,47 @@ class NetworkThread:
         if len(conn.outbox) > MAX_OUTBOX:
             self._drop(cid)  # a client that does not read its replies and streams
             return
-        events = selectors.EVENT_READ | (selectors.EVENT_WRITE if conn.outbox else 0)
-        self._selector.modify(conn.sock, events, cid)
+        if conn.ended:
+            self._close_when_answered(cid)
+            return
+        self._watch(cid, conn)
+
+    def _watch(self, cid: int, conn: _Connection) -> None:
+        """Watch ``conn`` for reading until its client's EOF, and for writing while replies wait."""
+        events = (0 if conn.ended else selectors.EVENT_READ) | (selectors.EVENT_WRITE if conn.outbox else 0)
+        if events == conn.watched:
+            return
+        if not conn.watched:
+            self._selector.register(conn.sock, events, cid)
+        elif not events:
+            self._selector.unregister(conn.sock)
+        else:
+            self._selector.modify(conn.sock, events, cid)
+        conn.watched = events
+
+    def _close_when_answered(self, cid: int) -> None:
+        """A connection whose client sent EOF: closed once every reply is sent."""
+        conn = self._connections[cid]
+        if conn.unanswered <= 0 and not conn.outbox:
+            self._drop(cid)
+        else:
+            self._watch(cid, conn)
 
 
 def _is_loopback(host: str) -> bool:
-    return host in ("localhost", "::1") or host.startswith("127.")
+    """True for a loopback address, read as an address (``127.0.0.0/8``, ``::1``), or the name
+    ``localhost``; any other name (``127.example.com``) is not."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _family(host: str) -> socket.AddressFamily:
+    """The socket family that binds ``host``: IPv6 for an IPv6 address, else IPv4."""
+    try:
+        return socket.AF_INET6 if ipaddress.ip_address(host).version == 6 else socket.AF_INET
+    except ValueError:
+        return socket.AF_INET  # a name: create_server resolves it

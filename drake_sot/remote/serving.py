@@ -263,6 +263,12 @@ class Serving:
             self._port(request.signal)
             return self._read(request.signal), False
         if request.op == "write":
+            if request.timed:  # the host applies after a tick: it cannot honour an ``at``
+                declared = ", ".join(f"{self._server.get_name()}.{n}" for n in self._server.writables)
+                raise ValueError(
+                    f"{request.signal}: a timed write ('at') is applied only to the signals declared on "
+                    f"the command server ({declared or 'none here'}); send this one without 't' and 'at'"
+                )
             return self._write(request.signal, request.value, context), True
         if request.op == "run":
             return self._run(request.cmd, context)
