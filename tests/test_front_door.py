@@ -5,6 +5,7 @@
 import json
 import math
 import os
+import re
 import resource
 import select
 import socket
@@ -14,12 +15,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pydrake.systems.framework import DiagramBuilder
 from served import DRAKE_SOT, REPO, start, stop
 
 from drake_sot import validation
 from drake_sot.diagrams.script_session import MAX_INCLUDE_DEPTH, SessionError, load_script
-from drake_sot.remote import Client, RemoteError
+from drake_sot.remote import Client, RemoteError, serving
+from drake_sot.remote import server as server_module
 from drake_sot.remote.network import ACCEPT_BACKOFF, MAX_CONNECTIONS, NetworkThread, _is_loopback
+from drake_sot.remote.server import RemoteCommandServer
+from drake_sot.remote.serving import REACH_BOUND
 from drake_sot.script import MAX_TRANSITION, ScriptError, parse_line, stack_arguments
 
 HUGE = "1" + "0" * 400  # 10**400: an int Python reads, beyond float range (max ~1.8e308)
@@ -389,3 +394,49 @@ def test_the_token_option_says_it_shows_in_ps_and_names_the_environment_variable
         assert proc.returncode == 0, proc.stderr
         token_help = " ".join(proc.stdout.split("\n  --token T", 1)[1].split("\n\n")[0].split())
         assert "$DRAKE_SOT_TOKEN" in token_help and "`ps`" in token_help, token_help
+
+
+# --- every writable declares its bounds; one Writable type, one check ---------------------------
+
+
+@pytest.mark.parametrize(
+    "value, named",
+    [
+        ([1e300, 0.0, 0.0], "value[0] = 1e+300: beyond the bound |x| <= 10 (m, world frame)"),
+        ([0.3, -10.5, 0.9], "value[1] = -10.5: beyond the bound |x| <= 10 (m, world frame)"),
+        ([0.3, 0.1, 1e3], "value[2] = 1000.0: beyond the bound |x| <= 10 (m, world frame)"),
+    ],
+    ids=["1e300", "10.5m", "1km"],
+)
+def test_a_target_position_beyond_the_reach_bound_is_refused_naming_it(server, value, named):
+    _, host, port = server
+    with Client(host, port) as client:
+        assert client.list()["writable"]["taskRH.position_des"] == {
+            "size": 3,
+            "units": "m, world frame",
+            "bound": REACH_BOUND,
+        }
+        with pytest.raises(RemoteError, match=re.escape(f"taskRH.position_des: {named}")):
+            client.write("taskRH.position_des", value)
+        assert len(client.read("dyn.com")) == 3
+
+
+def test_a_declared_writable_has_a_bound_checked_by_the_one_check():
+    assert REACH_BOUND == 10.0
+    assert serving.Writable is server_module.Writable  # one type: the host's and the server's
+    builder = DiagramBuilder()
+    remote = builder.AddSystem(RemoteCommandServer(0.005))
+    with pytest.raises(TypeError, match="bound"):
+        remote.declare_writable("gain", 2, "1/s")  # a writable without its bound is not declared
+    with pytest.raises(ValueError, match=r"Writable.bound = nan 1/s: must be finite and > 0"):
+        remote.declare_writable("gain", 2, "1/s", bound=float("nan"))
+    with pytest.raises(
+        ValueError, match=r"initial: value\[1\] = 200.0: beyond the bound \|x\| <= 100 \(1/s\)"
+    ):
+        remote.declare_writable("gain", 2, "1/s", np.array([1.0, 200.0]), bound=100.0)
+    remote.declare_writable("gain", 2, "1/s", bound=100.0)
+    writable = remote.writables["gain"]
+    assert writable.check("remote.gain", (100.0, -100.0)) is None  # the bound itself is allowed
+    assert writable.check("remote.gain", (100.0, -100.5)) == (
+        "remote.gain: value[1] = -100.5: beyond the bound |x| <= 100 (1/s)"
+    )
