@@ -169,6 +169,7 @@ def _answered(host, port, token=None):
         (b'{"id": 4, "op": "run", "cmd": "sot.push \\ud800"}', "cmd: a lone surrogate"),
         (b'{"id": "\\udfff", "op": "list"}', "id: a lone surrogate"),
         (b"[" * 60000 + b"]" * 5000, "invalid JSON"),
+        (b'{"id": 5, "op": ["list"]}', 'op = ["list"]: unknown'),  # unhashable: a TypeError before
     ],
     ids=[
         "json-int-5000-digits",
@@ -178,6 +179,7 @@ def _answered(host, port, token=None):
         "surrogate-cmd",
         "surrogate-id",
         "deep-nesting",
+        "op-a-list",
     ],
 )
 def test_a_line_the_json_reader_or_the_floats_cannot_hold_gets_an_error_and_the_server_serves_on(

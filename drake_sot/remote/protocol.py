@@ -121,8 +121,9 @@ def parse_request(line: bytes) -> Request:
     if isinstance(request_id, str) and not _is_unicode(request_id):
         raise ProtocolError("id: a lone surrogate (not Unicode text)")
     op = message.get("op")
-    if op not in OPS:
-        raise ProtocolError(f"op = {op!r}: unknown; ops: {', '.join(OPS)}", request_id)
+    if not isinstance(op, str) or op not in OPS:  # a list or an object is unhashable: test the type first
+        shown = repr(op) if isinstance(op, str) else _shown(op)
+        raise ProtocolError(f"op = {shown}: unknown; ops: {', '.join(OPS)}", request_id)
     missing = [name for name in OPS[op] if name not in message]
     if missing:
         raise ProtocolError(f"op {op!r} needs field {missing[0]!r}", request_id)
@@ -188,8 +189,11 @@ def _is_number(x: Any) -> bool:
 
 
 def _shown(x: Any) -> str:
-    """``x`` as JSON for a message, at most 40 characters."""
-    text = json.dumps(x)
+    """``x`` as JSON for a message, at most 40 characters (a nest too deep to write: its type)."""
+    try:
+        text = json.dumps(x)
+    except (RecursionError, ValueError):
+        return f"a {type(x).__name__}"
     return text if len(text) <= 40 else text[:40] + "…"
 
 
