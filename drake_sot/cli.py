@@ -303,7 +303,8 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         "--token",
         default=None,
         metavar="T",
-        help=f"with --connect: the server's shared secret (default: ${TOKEN_ENV})",
+        help=f"with --connect: the server's shared secret; give it in ${TOKEN_ENV} instead (the "
+        "default): a --token value shows in `ps` to every user of the machine",
     )
     # --- end two-process mode ---
     run.add_argument(
@@ -420,7 +421,13 @@ def _address_options(parser: argparse.ArgumentParser, host_help: str) -> None:
         metavar="P",
         help=f"TCP port (default {DEFAULT_PORT}; 0 for a free one when serving)",
     )
-    parser.add_argument("--token", default=None, metavar="T", help=f"shared secret (default: ${TOKEN_ENV})")
+    parser.add_argument(
+        "--token",
+        default=None,
+        metavar="T",
+        help=f"shared secret; give it in ${TOKEN_ENV} instead (the default): a --token value shows in "
+        "`ps` to every user of the machine",
+    )
 
 
 def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> None:

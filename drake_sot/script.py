@@ -23,8 +23,8 @@ end of the line; spaces and tabs separate tokens)::
     SIGNAL   := NAME "." NAME                  (entity, signal)
     NAME     := [A-Za-z_][A-Za-z0-9_]*
     value    := number | vector | matrix | string | verb | word
-    number   := [+-] (digits ["." digits] | "." digits) [(e|E) [+-] digits]   finite; an int
-                without "." or exponent
+    number   := [+-] (digits ["." digits] | "." digits) [(e|E) [+-] digits]   finite, within
+                float range (±1.8e308, an integer too); an int without "." or exponent
     vector   := "[" n "]" "(" number {"," number} ")"                   exactly n >= 1 numbers
     matrix   := "[" r "," c "]" "(" row {"," row} ")"                     r rows of c numbers
     row      := "(" number {"," number} ")"
@@ -59,6 +59,8 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+
+from drake_sot.validation import shown
 
 __all__ = [
     "KEYWORDS",
@@ -305,6 +307,11 @@ class Call:
 #: names each takes.
 STACK_COMMAND_TASKS = {"push": 1, "pop": 0, "rm": 1, "up": 1, "down": 1, "clear": 0}
 
+#: The longest transition time of a stack command [s]. The paper's transitions last a fraction of
+#: a second to a few seconds; a change blended over more than a minute is, for a controller that
+#: runs at a few ms, a change that never happens (and 1e308 s one that never ends).
+MAX_TRANSITION = 60.0
+
 
 def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
     """``(task names, transition [s])`` of a stack command ``SOT.COMMAND [TASK] [SECONDS]``.
@@ -317,8 +324,8 @@ def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
     Raises:
         ValueError: ``call.command`` is not a stack command (:data:`STACK_COMMAND_TASKS`), a task
             name is missing or not a name (a word or a string), an extra argument, or a time
-            that is not a number, finite and >= 0 (the message names the command and what it
-            takes).
+            that is not a number in [0, :data:`MAX_TRANSITION`] s (the message names the command,
+            what it takes and the bound).
     """
     takes = STACK_COMMAND_TASKS.get(call.command)
     if takes is None:
@@ -335,10 +342,13 @@ def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
         return names, 0.0
     seconds = args[takes]
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
-        shown = repr(seconds) if isinstance(seconds, bool) else format_value(seconds)  # no script bool
-        raise ValueError(f"{usage}: the transition time must be a number of seconds, got {shown}")
-    if not (math.isfinite(seconds) and seconds >= 0.0):
-        raise ValueError(f"{usage}: transition = {seconds!r} s: must be finite and >= 0")
+        text = repr(seconds) if isinstance(seconds, bool) else format_value(seconds)  # no script bool
+        raise ValueError(f"{usage}: the transition time must be a number of seconds, got {text}")
+    if not (0.0 <= seconds <= MAX_TRANSITION):  # NaN fails it
+        raise ValueError(
+            f"{usage}: transition = {shown(seconds)} s: must be finite and >= 0, and at most "
+            f"{MAX_TRANSITION:g} s (MAX_TRANSITION)"
+        )
     return names, float(seconds)
 
 
@@ -582,9 +592,13 @@ def _atom_value(text: str, lexer: _Lexer, start: int) -> int | float | None:
     """A number's value, None for a word; ScriptError for an atom that is neither."""
     if _INTEGER.match(text):
         try:
-            return int(text)
+            value = int(text)
+            float(value)  # every number of the dialect is a float somewhere: refuse one beyond range now
         except ValueError:  # beyond Python's limit on the digits of an int read from text
             raise lexer.error("a number of at most 4300 digits", start, _describe(text)) from None
+        except OverflowError:
+            raise lexer.error("a number within float range (±1.8e308)", start, _describe(text)) from None
+        return value
     if _NUMBER.match(text):
         return _finite(text, lexer, start)
     if text[0] in "0123456789+-":

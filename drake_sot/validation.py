@@ -6,7 +6,9 @@ written so that NaN fails them — ``not (v > 0)``, never ``v <= 0`` — because
 comparison with NaN is False. Values are checked here, before they reach Drake: a
 Drake assertion on a bad value raises ``SystemExit``, which ends the interpreter.
 
-Conventions of the messages: ``"{name} = {value!r}: must be ..."``.
+Conventions of the messages: ``"{name} = {value!r}: must be ..."`` (:func:`shown`: an integer
+too long to quote is shown by its number of digits). An integer beyond float range (more than
+308 digits) is refused like any other bad value: ValueError, never OverflowError.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ __all__ = [
     "positive",
     "positive_int",
     "position",
+    "shown",
     "vector",
     "within",
 ]
@@ -36,21 +39,41 @@ __all__ = [
 Sign = Literal["any", "nonnegative", "positive"]
 
 
+def shown(value) -> str:
+    """``repr(value)`` for a message; an integer of more than 128 bits (about 39 digits) as its
+    sign and its number of digits: its ``repr`` is unreadable, and raises beyond 4300 digits."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 128:
+        digits = int(value.bit_length() * math.log10(2)) + 1  # exact to within one digit
+        return f"{'-' if value < 0 else ''}an integer of ~{digits} digits"
+    return repr(value)
+
+
 def _scalar(name: str, value) -> float:
-    """``value`` as a float, or ValueError naming ``name`` (strings, arrays of size > 1, None)."""
+    """``value`` as a float, or ValueError naming ``name`` (strings, arrays of size > 1, None, an
+    integer beyond float range)."""
     if isinstance(value, bool) or isinstance(value, str):
-        raise ValueError(f"{name} = {value!r}: must be a number")
+        raise ValueError(f"{name} = {shown(value)}: must be a number")
     try:
         return float(value)
+    except OverflowError:
+        raise ValueError(f"{name} = {shown(value)}: must be a number within float range (±1.8e308)") from None
     except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r}: must be a number") from None
+        raise ValueError(f"{name} = {shown(value)}: must be a number") from None
+
+
+def _array(name: str, value) -> np.ndarray:
+    """``value`` as a float array; ValueError naming ``name`` for an integer beyond float range."""
+    try:
+        return np.asarray(value, dtype=float)
+    except OverflowError:
+        raise ValueError(f"{name}: an entry is an integer beyond float range (±1.8e308)") from None
 
 
 def finite(name: str, value) -> float:
     """``value`` as a finite float (not NaN, not ±inf)."""
     v = _scalar(name, value)
     if not math.isfinite(v):
-        raise ValueError(f"{name} = {value!r}: must be a finite number")
+        raise ValueError(f"{name} = {shown(value)}: must be a finite number")
     return v
 
 
@@ -58,7 +81,7 @@ def positive(name: str, value, *, unit: str = "") -> float:
     """``value`` as a finite float > 0."""
     v = _scalar(name, value)
     if not (math.isfinite(v) and v > 0.0):
-        raise ValueError(f"{name} = {value!r}{_unit(unit)}: must be finite and > 0")
+        raise ValueError(f"{name} = {shown(value)}{_unit(unit)}: must be finite and > 0")
     return v
 
 
@@ -66,7 +89,7 @@ def nonnegative(name: str, value, *, unit: str = "") -> float:
     """``value`` as a finite float >= 0."""
     v = _scalar(name, value)
     if not (math.isfinite(v) and v >= 0.0):
-        raise ValueError(f"{name} = {value!r}{_unit(unit)}: must be finite and >= 0")
+        raise ValueError(f"{name} = {shown(value)}{_unit(unit)}: must be finite and >= 0")
     return v
 
 
@@ -74,26 +97,26 @@ def bounded(name: str, value, low: float, high: float, *, unit: str = "") -> flo
     """``value`` as a finite float in [``low``, ``high``]; the message names the bound."""
     v = _scalar(name, value)
     if not (low <= v <= high):
-        raise ValueError(f"{name} = {value!r}{_unit(unit)}: must be in [{low:g}, {high:g}]{_unit(unit)}")
+        raise ValueError(f"{name} = {shown(value)}{_unit(unit)}: must be in [{low:g}, {high:g}]{_unit(unit)}")
     return v
 
 
 def positive_int(name: str, value, *, minimum: int = 1) -> int:
     """``value`` as an int >= ``minimum`` (a float with an integer value is accepted, a bool is not)."""
     if isinstance(value, bool):
-        raise ValueError(f"{name} = {value!r}: must be an integer >= {minimum}")
+        raise ValueError(f"{name} = {shown(value)}: must be an integer >= {minimum}")
     try:
         v = int(value)
     except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{name} = {value!r}: must be an integer >= {minimum}") from None
+        raise ValueError(f"{name} = {shown(value)}: must be an integer >= {minimum}") from None
     if v != value or not (v >= minimum):
-        raise ValueError(f"{name} = {value!r}: must be an integer >= {minimum}")
+        raise ValueError(f"{name} = {shown(value)}: must be an integer >= {minimum}")
     return v
 
 
 def vector(name: str, value, size: int | None = None) -> np.ndarray:
     """``value`` as a finite 1-D float array, of length ``size`` when given."""
-    a = np.asarray(value, dtype=float)
+    a = _array(name, value)
     if a.ndim != 1 or (size is not None and a.shape[0] != size):
         raise ValueError(f"{name} must have shape {_shape((size,))}, got shape {a.shape}")
     if not np.isfinite(a).all():
@@ -103,7 +126,7 @@ def vector(name: str, value, size: int | None = None) -> np.ndarray:
 
 def matrix(name: str, value, shape: Sequence[int | None] | None = None) -> np.ndarray:
     """``value`` as a finite 2-D float array; ``shape`` may fix either dimension (None: any)."""
-    a = np.asarray(value, dtype=float)
+    a = _array(name, value)
     want = tuple(shape) if shape is not None else (None, None)
     if a.ndim != 2 or any(w is not None and w != s for w, s in zip(want, a.shape, strict=False)):
         raise ValueError(f"{name} must be a matrix of shape {_shape(want)}, got shape {a.shape}")
@@ -121,7 +144,7 @@ def per_axis(name: str, value, n: int, *, sign: Sign = "any", allow_inf: bool = 
     value to be > 0 (``"positive"``) or >= 0 (``"nonnegative"``); ``allow_inf`` lets
     ``+inf`` through (e.g. "no saturation"); NaN never passes.
     """
-    a = np.asarray(value, dtype=float).reshape(-1)
+    a = _array(name, value).reshape(-1)
     if a.size == 1:
         a = np.full(n, a[0])
     elif a.size == 2 and n == 6:
@@ -149,8 +172,8 @@ def bounds(name: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndarray]:
     ``upper = +inf``: no upper bound); NaN, ``lower = +inf`` and ``upper = -inf`` are
     not. The message names the row.
     """
-    lo = np.asarray(lower, dtype=float)
-    hi = np.asarray(upper, dtype=float)
+    lo = _array(f"{name}: lower", lower)
+    hi = _array(f"{name}: upper", upper)
     for side, a in (("lower", lo), ("upper", hi)):
         if a.shape != (size,):
             raise ValueError(f"{name}: {side} must have shape ({size},), got shape {a.shape}")
@@ -224,7 +247,7 @@ def within(
 def nonempty_string(name: str, value) -> str:
     """``value`` as a non-empty ``str`` (a task, state or port name; a bytes or None is refused)."""
     if not isinstance(value, str) or not value:
-        raise ValueError(f"{name} = {value!r}: must be a non-empty string")
+        raise ValueError(f"{name} = {shown(value)}: must be a non-empty string")
     return value
 
 

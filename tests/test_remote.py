@@ -9,19 +9,18 @@ import queue
 import random
 import re
 import subprocess
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
+from served import DRAKE_SOT, REPO
+from served import start as _start
+from served import stop as _stop
 
 from drake_sot.remote import Client, RemoteError
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import MAX_LINE, ProtocolError, decode_vector, encode, parse_request
 
-REPO = Path(__file__).resolve().parents[1]
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
 TOKEN = "s3cret-token"
 STACK_OF_REACH = ("taskJL", "taskLF", "taskRF", "taskCom", "taskRH", "taskPosture")  # its docstring
 
@@ -117,33 +116,6 @@ def test_a_non_loopback_address_needs_a_token():
 
 
 # --- a served scenario, from another process ----------------------------------------------
-
-
-def _start(*args, env=None):
-    proc = subprocess.Popen(
-        [*DRAKE_SOT, "serve", "reach", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=REPO,
-        env=env,
-    )
-    first = proc.stdout.readline()
-    match = re.fullmatch(r"serving on (\S+):(\d+)\n", first)
-    if match is None:
-        proc.kill()
-        pytest.fail(f"first line {first!r}; stderr: {proc.stderr.read()}")
-    proc.view = proc.stdout.readline()  # the live view's address, second
-    return proc, match.group(1), int(match.group(2))
-
-
-def _stop(proc):
-    proc.terminate()
-    try:
-        proc.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
 
 
 @pytest.fixture(scope="module")

@@ -48,7 +48,7 @@ def served():
         source = builder.AddSystem(ConstantValueSource(AbstractValue.Make(signal)))
         builder.Connect(source.get_output_port(), sot.GetInputPort(name))
     server = builder.AddSystem(RemoteCommandServer(PERIOD))
-    gain = server.declare_writable("gain", 2, "1/s", np.array([1.0, 1.0]))
+    gain = server.declare_writable("gain", 2, "1/s", np.array([1.0, 1.0]), bound=100.0)
     builder.Connect(server.GetOutputPort("commands"), sot.GetInputPort("commands"))
     log = builder.AddSystem(VectorLogSink(2))
     builder.Connect(gain, log.get_input_port())
@@ -158,7 +158,7 @@ def test_without_an_inbox_the_server_takes_nothing(served):
     _tick(simulator, 2)
     assert server.taken(simulator.get_context()).serial == 0 and sot.list(simulator.get_context()) == ()
     with pytest.raises(ValueError, match="declared already"):
-        server.declare_writable("gain", 1, "1/s")
+        server.declare_writable("gain", 1, "1/s", bound=100.0)
 
 
 def test_with_a_driven_stack_the_commands_act_on_it_until_its_source_changes(served):

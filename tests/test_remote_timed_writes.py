@@ -15,7 +15,7 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import ProtocolError, Request, parse_request
 from drake_sot.remote.server import DONE, RemoteCommandServer
-from drake_sot.systems.telecoop import MASTER_SIGNALS
+from drake_sot.systems.telecoop import MASTER_BOUNDS, MASTER_SIGNALS
 
 PERIOD = 0.01
 
@@ -67,7 +67,7 @@ def slave_like():
     builder = DiagramBuilder()
     server = builder.AddSystem(RemoteCommandServer(PERIOD))
     for name, (size, units) in MASTER_SIGNALS.items():
-        server.declare_writable(name, size, units)
+        server.declare_writable(name, size, units, bound=MASTER_BOUNDS[name])
     simulator = Simulator(builder.Build())
     simulator.Initialize()
     inbox = Inbox()
@@ -95,9 +95,9 @@ def _errors(simulator, server):
 def test_a_timed_write_acts_at_the_first_tick_at_or_after_its_at_the_newest_sent_winning(slave_like):
     simulator, server, inbox = slave_like
     inbox.put(
-        _write("remote.head", (1.0, 2.0), sent_at=0.0, at=0.025),
-        _write("remote.head", (3.0, 4.0), sent_at=0.005, at=0.022),  # sent later, arrives first
-        _write("remote.head", (5.0, 6.0), sent_at=0.001, at=0.021),
+        _write("remote.head", (0.1, 0.2), sent_at=0.0, at=0.025),  # angles [rad], within ±π
+        _write("remote.head", (0.3, 0.4), sent_at=0.005, at=0.022),  # sent later, arrives first
+        _write("remote.head", (0.5, 0.6), sent_at=0.001, at=0.021),
         _write("remote.gripper", (0.7,), sent_at=0.0, at=math.inf),  # lost on the emulated link
     )
     seen = []
@@ -108,7 +108,7 @@ def test_a_timed_write_acts_at_the_first_tick_at_or_after_its_at_the_newest_sent
         seen.append((_value(simulator, server, "head"), _value(simulator, server, "gripper")))
     # due at 0.021-0.025: none by the tick of 0.02; at the tick of 0.03 all are, and the newest
     # by sending time (0.005) is held, whatever the order they came or arrive in
-    assert [h for h, _ in seen] == [[0.0, 0.0]] * 3 + [[3.0, 4.0]] * 3
+    assert [h for h, _ in seen] == [[0.0, 0.0]] * 3 + [[0.3, 0.4]] * 3
     assert all(g == [0.0] for _, g in seen)  # a lost write never acts
 
 

@@ -79,12 +79,12 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         return self._server
 
     def declare_writable(
-        self, name: str, size: int, units: str, initial: np.ndarray | None = None
+        self, name: str, size: int, units: str, initial: np.ndarray | None = None, *, bound: float
     ) -> OutputPort:
-        """A signal remote clients may write, ``remote.<name>`` of ``size`` [``units``]: the
-        output port to wire into what it drives (see
+        """A signal remote clients may write, ``remote.<name>`` of ``size`` [``units``], each entry
+        within ``±bound``: the output port to wire into what it drives (see
         :meth:`~drake_sot.remote.server.RemoteCommandServer.declare_writable`)."""
-        return self.command_server().declare_writable(name, size, units, initial)
+        return self.command_server().declare_writable(name, size, units, initial, bound=bound)
 
     def build(
         self,

@@ -748,11 +748,21 @@ def _inside(root: Path, name: str, what: str) -> Path:
     return path
 
 
+#: How deep ``run FILE`` lines may nest (a script that runs one that runs one...).
+MAX_INCLUDE_DEPTH = 16
+
+
 def _expand(path: Path, root: Path, chain: tuple[Path, ...]) -> tuple[Statement, ...]:
     """The statements of a script file with its ``run FILE`` lines replaced by the files'
-    statements (read relative to the including file, inside ``root``)."""
+    statements (read relative to the including file, inside ``root``), nested at most
+    :data:`MAX_INCLUDE_DEPTH` deep."""
     if path in chain:
         raise SessionError(f"{path.name} runs itself: {' -> '.join(p.name for p in (*chain, path))}")
+    if len(chain) > MAX_INCLUDE_DEPTH:
+        raise SessionError(
+            f"run {path.name}: scripts nested {len(chain)} deep ({chain[0].name} -> ... -> "
+            f"{chain[-1].name}); at most {MAX_INCLUDE_DEPTH}"
+        )
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:

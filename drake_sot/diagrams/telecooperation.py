@@ -143,7 +143,13 @@ from drake_sot.systems.marker import MeshcatMarker
 from drake_sot.systems.master import MasterSite, Operator
 from drake_sot.systems.partner import Hold, Partner
 from drake_sot.systems.sequencer import TaskSequencer
-from drake_sot.systems.telecoop import MASTER_SIGNALS, MASTER_SIZE, HandPositions, SlaveReferences
+from drake_sot.systems.telecoop import (
+    MASTER_BOUNDS,
+    MASTER_SIGNALS,
+    MASTER_SIZE,
+    HandPositions,
+    SlaveReferences,
+)
 
 LEADERS = ("operator", "cooperator")
 #: The hands' admittance (III-B): ``plain``, eq. 4 with the fixed virtual mass of
@@ -500,7 +506,7 @@ def build(
     if remote:  # the master site is another process (telecoop_master): it writes, and delays
         for name, value in initial_master_values().items():
             size, units = MASTER_SIGNALS[name]
-            received[name] = b.declare_writable(name, size, units, value)
+            received[name] = b.declare_writable(name, size, units, value, bound=MASTER_BOUNDS[name])
         link_logs = ()
         extras: dict = {"wait_for_client": True, "paced_by_client": True}
     else:

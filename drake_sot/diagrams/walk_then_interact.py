@@ -130,7 +130,7 @@ def _build_remote(
     meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool, robot: str
 ) -> ScenarioSetup:
     b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
-    active = b.declare_writable("force_active", 1, "1 on, 0 off", np.zeros(1))
+    active = b.declare_writable("force_active", 1, "1 on, 0 off", np.zeros(1), bound=1.0)
     for admittance in admittances.values():
         b.builder.Connect(active, admittance.GetInputPort("active"))
     decision = {

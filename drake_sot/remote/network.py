@@ -10,6 +10,15 @@ bytes (a longer one gets one error reply and is skipped up to its newline); at m
 ``rate`` requests per second (a token bucket of ``burst``; the others get an error
 reply); a client that leaves more than :data:`MAX_OUTBOX` bytes of replies unread is
 disconnected; a partial line left when the client disconnects is dropped, so it changes nothing.
+A client that half-closes (``shutdown(SHUT_WR)`` after its last request) still gets the replies
+of the requests it sent: the connection is closed once they are all sent.
+At most :data:`MAX_CONNECTIONS` connections at once: one more is answered with an error line and
+closed. When ``accept`` fails (no file descriptor left: EMFILE, ENFILE), the listener rests
+:data:`ACCEPT_BACKOFF` s and tries again (the client waits in the backlog); the connections
+open are served meanwhile. Whatever a line holds, it gets an error reply
+(:func:`~drake_sot.remote.protocol.parse_request` raises nothing but ProtocolError); should
+handling a connection raise all the same, that connection gets an error line naming the
+exception and is closed, and the thread serves the others on.
 With a token, nothing but ``{"op": "auth"}`` is accepted until it matches (compared with
 ``hmac.compare_digest``, in constant time).
 
@@ -22,6 +31,7 @@ then are in the queue.
 from __future__ import annotations
 
 import hmac
+import ipaddress
 import math
 import queue
 import selectors
@@ -38,6 +48,10 @@ from drake_sot.remote.protocol import MAX_LINE, ProtocolError, Request, encode, 
 _CHUNK = 65536
 #: Bytes waiting for a client beyond which it is disconnected (it reads nothing).
 MAX_OUTBOX = 16 * 1024 * 1024
+#: Connections open at once; one more gets an error line and is closed.
+MAX_CONNECTIONS = 64
+#: [s] the listener rests after ``accept`` failed for want of a descriptor (EMFILE, ENFILE...).
+ACCEPT_BACKOFF = 0.2
 
 
 @dataclass
@@ -47,6 +61,9 @@ class _Connection:
     inbox: bytearray = field(default_factory=bytearray)
     outbox: bytearray = field(default_factory=bytearray)
     skipping: bool = False  # inside a line over the limit: drop up to its newline
+    ended: bool = False  # the client half-closed (sent EOF): closed once its replies are sent
+    unanswered: int = 0  # requests queued for the serving loop and not answered yet
+    watched: int = selectors.EVENT_READ  # the events the selector watches (0: unregistered)
     allowance: float = 0.0
     last: float = field(default_factory=time.monotonic)
 
@@ -55,7 +72,8 @@ class NetworkThread:
     """Accepts connections on ``host:port`` (``port`` 0: a free one, see :attr:`address`).
 
     Args:
-        host: the address to bind; anything but loopback requires ``token``.
+        host: the address to bind, IPv4 or IPv6 (``::1``) or a name; anything but a loopback
+            address (127.0.0.0/8, ``::1``, or the name ``localhost``) requires ``token``.
         port: the TCP port, 0 for a free one.
         token: the shared secret clients send with ``auth``; None: no authentication.
         rate: requests per second accepted from a connection (sustained), > 0.
@@ -77,7 +95,7 @@ class NetworkThread:
             )
         self._token = token.encode() if token is not None else None
         self._rate, self._burst = float(rate), float(burst)
-        self._listener = socket.create_server((host, port))
+        self._listener = socket.create_server((host, port), family=_family(host))
         self._listener.setblocking(False)
         self.address: tuple[str, int] = self._listener.getsockname()[:2]
         self.requests: queue.Queue[tuple[int, Request | None]] = queue.Queue()
@@ -94,6 +112,7 @@ class NetworkThread:
         self._paced = threading.Condition()  # guards the two below
         self._horizons: dict[int, float] = {}  # connection -> the largest horizon it wrote [s]
         self._pacer_left: int | None = None  # a connection that wrote a horizon, then closed
+        self._resting_until: float | None = None  # accept failed: the listener is back at this time
 
     def start(self) -> None:
         self._selector.register(self._listener, selectors.EVENT_READ, "listen")
@@ -113,8 +132,9 @@ class NetworkThread:
         self._wake_w.close()
 
     def send(self, connection: int, message: dict[str, Any]) -> None:
-        """Queue ``message`` for ``connection`` (from any thread); dropped if it is gone."""
-        self._pending.append((connection, encode(message)))
+        """Queue ``message`` (the reply of a request the connection sent, or a stream message) for
+        ``connection`` (from any thread); dropped if it is gone."""
+        self._pending.append((connection, encode(message), "ok" in message))
         self._wake()
 
     def _wake(self) -> None:
@@ -125,7 +145,8 @@ class NetworkThread:
 
     def _loop(self) -> None:
         while not self._stop.is_set():
-            for key, events in self._selector.select(timeout=0.5):
+            resting = self._resting_until is not None
+            for key, events in self._selector.select(timeout=ACCEPT_BACKOFF if resting else 0.5):
                 if key.data == "listen":
                     self._accept()
                 elif key.data == "wake":
@@ -134,21 +155,51 @@ class NetworkThread:
                     except BlockingIOError:
                         pass
                 else:
-                    if events & selectors.EVENT_READ:
-                        self._read(key.data)
-                    if events & selectors.EVENT_WRITE and key.data in self._connections:
-                        self._flush(key.data)
+                    self._guarded(key.data, events)
             while self._pending:
-                cid, data = self._pending.popleft()
+                cid, data, reply = self._pending.popleft()
                 conn = self._connections.get(cid)
                 if conn is not None:
                     conn.outbox += data
-                    self._flush(cid)
+                    conn.unanswered -= reply
+                    self._guarded(cid, selectors.EVENT_WRITE)
+            if self._resting_until is not None and time.monotonic() >= self._resting_until:
+                self._resting_until = None
+                self._selector.register(self._listener, selectors.EVENT_READ, "listen")
+
+    def _guarded(self, cid: int, events: int) -> None:
+        """Read from and write to connection ``cid``; should that raise, tell the client and close it."""
+        try:
+            if events & selectors.EVENT_READ:
+                self._read(cid)
+            if events & selectors.EVENT_WRITE and cid in self._connections:
+                self._flush(cid)
+        except Exception as exc:  # noqa: BLE001 - one connection must not end the thread serving all
+            conn = self._connections.get(cid)
+            if conn is not None:
+                try:
+                    conn.sock.send(
+                        encode(error(None, f"closing the connection: {type(exc).__name__}: {exc}"))
+                    )
+                except OSError:
+                    pass
+                self._drop(cid)
 
     def _accept(self) -> None:
         try:
             sock, _ = self._listener.accept()
-        except BlockingIOError:
+        except (BlockingIOError, InterruptedError, ConnectionAbortedError):
+            return
+        except OSError:  # no descriptor left (EMFILE, ENFILE) or no buffer: rest, then try again
+            self._selector.unregister(self._listener)
+            self._resting_until = time.monotonic() + ACCEPT_BACKOFF
+            return
+        if len(self._connections) >= MAX_CONNECTIONS:
+            try:
+                sock.send(encode(error(None, f"too many connections: at most {MAX_CONNECTIONS} at once")))
+            except OSError:
+                pass
+            sock.close()
             return
         sock.setblocking(False)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -161,9 +212,15 @@ class NetworkThread:
         conn = self._connections.pop(cid, None)
         if conn is None:
             return
-        self._selector.unregister(conn.sock)
+        if conn.watched:
+            self._selector.unregister(conn.sock)
         conn.sock.close()
         self.requests.put((cid, None))  # the serving loop forgets its subscriptions
+        self._sends_no_more(cid)
+
+    def _sends_no_more(self, cid: int) -> None:
+        """Connection ``cid`` will send no more requests (EOF, or closed): a client that paced the
+        run has left, since its horizon cannot move on."""
         with self._paced:
             if cid in self._horizons and self._pacer_left is None:
                 self._pacer_left = cid
@@ -177,8 +234,11 @@ class NetworkThread:
             return
         except OSError:
             data = b""
-        if not data:
-            self._drop(cid)  # a partial line in the inbox is dropped with it
+        if not data:  # the client closed, or half-closed: answer what it sent, then close
+            conn.ended = True
+            conn.inbox.clear()  # a partial line is dropped: it changes nothing
+            self._sends_no_more(cid)
+            self._close_when_answered(cid)
             return
         conn.inbox += data
         with self._batch:  # the requests of one read reach the serving loop together
@@ -242,6 +302,7 @@ class NetworkThread:
         if not conn.authed:
             self._reply(cid, error(None, 'not authenticated: send {"op": "auth", "token": ...} first'))
             return
+        conn.unanswered += 1
         self.requests.put((cid, request))
         if request.horizon is not None:
             with self._paced:
@@ -278,9 +339,47 @@ class NetworkThread:
         if len(conn.outbox) > MAX_OUTBOX:
             self._drop(cid)  # a client that does not read its replies and streams
             return
-        events = selectors.EVENT_READ | (selectors.EVENT_WRITE if conn.outbox else 0)
-        self._selector.modify(conn.sock, events, cid)
+        if conn.ended:
+            self._close_when_answered(cid)
+            return
+        self._watch(cid, conn)
+
+    def _watch(self, cid: int, conn: _Connection) -> None:
+        """Watch ``conn`` for reading until its client's EOF, and for writing while replies wait."""
+        events = (0 if conn.ended else selectors.EVENT_READ) | (selectors.EVENT_WRITE if conn.outbox else 0)
+        if events == conn.watched:
+            return
+        if not conn.watched:
+            self._selector.register(conn.sock, events, cid)
+        elif not events:
+            self._selector.unregister(conn.sock)
+        else:
+            self._selector.modify(conn.sock, events, cid)
+        conn.watched = events
+
+    def _close_when_answered(self, cid: int) -> None:
+        """A connection whose client sent EOF: closed once every reply is sent."""
+        conn = self._connections[cid]
+        if conn.unanswered <= 0 and not conn.outbox:
+            self._drop(cid)
+        else:
+            self._watch(cid, conn)
 
 
 def _is_loopback(host: str) -> bool:
-    return host in ("localhost", "::1") or host.startswith("127.")
+    """True for a loopback address, read as an address (``127.0.0.0/8``, ``::1``), or the name
+    ``localhost``; any other name (``127.example.com``) is not."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _family(host: str) -> socket.AddressFamily:
+    """The socket family that binds ``host``: IPv6 for an IPv6 address, else IPv4."""
+    try:
+        return socket.AF_INET6 if ipaddress.ip_address(host).version == 6 else socket.AF_INET
+    except ValueError:
+        return socket.AF_INET  # a name: create_server resolves it

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from dataclasses import dataclass
 from typing import Any
 
@@ -87,9 +88,12 @@ def parse_request(line: bytes) -> Request:
     """The request on one line (without its newline).
 
     Raises:
-        ProtocolError: too long, not UTF-8, not a JSON object, unknown ``op``, a missing
-            field or a field of the wrong type (the message names it). Value checks that
-            need the diagram (sizes, finiteness, the allowlist) are the server's.
+        ProtocolError: too long, not UTF-8, not a JSON object (or nested too deeply, or an
+            integer of more than 4300 digits), unknown ``op``, a missing field or a field of the
+            wrong type: a number beyond float range, a string holding a lone surrogate
+            (``"\\ud800"``); the message names it. Nothing else is raised, whatever the line.
+            Value checks that need the diagram (sizes, finiteness, bounds, the allowlist) are
+            the server's.
     """
     if len(line) >= MAX_LINE:
         raise ProtocolError(f"line of {len(line)} bytes: at most {MAX_LINE - 1} before the newline")
@@ -99,9 +103,14 @@ def parse_request(line: bytes) -> Request:
         raise ProtocolError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
     try:
         message = json.loads(text)
-    except (json.JSONDecodeError, RecursionError) as exc:
-        where = f" at column {exc.colno}" if isinstance(exc, json.JSONDecodeError) else ""
-        raise ProtocolError(f"invalid JSON{where}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise ProtocolError(f"invalid JSON at column {exc.colno}: {exc}") from None
+    except RecursionError:
+        raise ProtocolError("invalid JSON: nested too deeply") from None
+    except ValueError:  # the one other error of json.loads: an integer of more digits than int() reads
+        raise ProtocolError(
+            f"invalid JSON: an integer of more than {sys.get_int_max_str_digits()} digits"
+        ) from None
     if not isinstance(message, dict):
         raise ProtocolError(f"a request is a JSON object, got {type(message).__name__}")
     request_id = message.get("id")
@@ -109,9 +118,12 @@ def parse_request(line: bytes) -> Request:
         request_id is None or isinstance(request_id, (str, int, float)) and not isinstance(request_id, bool)
     ):
         raise ProtocolError(f"id: a string, a number or null, got {type(request_id).__name__}")
+    if isinstance(request_id, str) and not _is_unicode(request_id):
+        raise ProtocolError("id: a lone surrogate (not Unicode text)")
     op = message.get("op")
-    if op not in OPS:
-        raise ProtocolError(f"op = {op!r}: unknown; ops: {', '.join(OPS)}", request_id)
+    if not isinstance(op, str) or op not in OPS:  # a list or an object is unhashable: test the type first
+        shown = repr(op) if isinstance(op, str) else _shown(op)
+        raise ProtocolError(f"op = {shown}: unknown; ops: {', '.join(OPS)}", request_id)
     missing = [name for name in OPS[op] if name not in message]
     if missing:
         raise ProtocolError(f"op {op!r} needs field {missing[0]!r}", request_id)
@@ -120,6 +132,8 @@ def parse_request(line: bytes) -> Request:
         if name in OPS[op]:
             if not isinstance(message[name], str):
                 raise ProtocolError(f"{name}: a string, got {type(message[name]).__name__}", request_id)
+            if not _is_unicode(message[name]):
+                raise ProtocolError(f"{name}: a lone surrogate (not Unicode text)", request_id)
             fields[name] = message[name]
     if "value" in OPS[op]:
         value = message["value"]
@@ -127,12 +141,10 @@ def parse_request(line: bytes) -> Request:
             raise ProtocolError(f"value: a list of numbers, got {type(value).__name__}", request_id)
         bad = [i for i, x in enumerate(value) if not _is_number(x)]
         if bad:
-            raise ProtocolError(f"value[{bad[0]}] = {json.dumps(value[bad[0]])}: not a number", request_id)
-        fields["value"] = tuple(float(x) for x in value)
+            raise ProtocolError(f"value[{bad[0]}] = {_shown(value[bad[0]])}: not a number", request_id)
+        fields["value"] = tuple(_float(f"value[{i}]", x, request_id) for i, x in enumerate(value))
     if "period" in OPS[op]:
-        if not _is_number(message["period"]):
-            raise ProtocolError(f"period: a number [s], got {message['period']!r}", request_id)
-        fields["period"] = float(message["period"])
+        fields["period"] = _float("period", message["period"], request_id, "a number [s]")
     if op == "write":
         fields.update(_timing(message, request_id))
     return Request(op=op, id=request_id, **fields)
@@ -149,17 +161,49 @@ def _timing(message: dict[str, Any], request_id: Any) -> dict[str, float]:
         x = message[name]
         if name == "at" and x is None:
             fields[key] = math.inf
-        elif not _is_number(x) or not math.isfinite(x):
+            continue
+        fields[key] = _float(name, x, request_id, "a finite number [s]")
+        if not math.isfinite(fields[key]):
             raise ProtocolError(f"{name}: a finite number [s], got {json.dumps(x)}", request_id)
-        else:
-            fields[key] = float(x)
     if "at" in fields and fields["at"] < fields["sent_at"]:
         raise ProtocolError(f"at = {fields['at']!r}: before t = {fields['sent_at']!r}", request_id)
     return fields
 
 
+def _float(name: str, x: Any, request_id: Any, expected: str = "a number") -> float:
+    """The JSON number ``x`` as a float; ProtocolError naming ``name`` for anything else, an
+    integer beyond float range included (JSON integers are unbounded)."""
+    if not _is_number(x):
+        raise ProtocolError(f"{name}: {expected}, got {_shown(x)}", request_id)
+    try:
+        return float(x)
+    except OverflowError:
+        raise ProtocolError(
+            f"{name}: {expected}, got an integer of {len(str(abs(x)))} digits, beyond float range (±1.8e308)",
+            request_id,
+        ) from None
+
+
 def _is_number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _shown(x: Any) -> str:
+    """``x`` as JSON for a message, at most 40 characters (a nest too deep to write: its type)."""
+    try:
+        text = json.dumps(x)
+    except (RecursionError, ValueError):
+        return f"a {type(x).__name__}"
+    return text if len(text) <= 40 else text[:40] + "…"
+
+
+def _is_unicode(text: str) -> bool:
+    """False for a string holding a lone surrogate (``"\\ud800"`` in JSON): not encodable as UTF-8."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
 
 
 def _jsonable(value: Any) -> Any:

@@ -13,8 +13,9 @@ own state what a Drake system may change — its own outputs:
   :class:`~drake_sot.systems.sot.StackOfTasks` made with ``commands_input=True`` applies at
   the same tick (after its held stack; its ``command_results`` says, per command, if it acted);
 - **writable signals** declared with :meth:`declare_writable` when the diagram is built (the
-  explicit allowlist): each is a vector output port holding the last value written (finite and
-  of the declared size, else refused), wired by the diagram into what it drives. A *timed* write
+  explicit allowlist): each is a vector output port holding the last value written (of the
+  declared size, finite and within the declared bound, else refused: :meth:`Writable.check`, the
+  one check of every remote write), wired by the diagram into what it drives. A *timed* write
   (``at``, see :mod:`~drake_sot.remote.protocol`) is applied at the first tick at or after its
   ``at`` instead, the newest by its sending time ``t`` winning (a
   :class:`~drake_sot.channel.Link`'s receiving end per signal); one that comes after the tick it
@@ -35,7 +36,7 @@ tick for the few a client reads, and could not reach the signals nobody wired.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,10 +63,38 @@ Inbox = Callable[[], list[tuple[int, Request | None]]]
 
 @dataclass(frozen=True)
 class Writable:
-    """A signal clients may write: its size and units (what ``list`` shows)."""
+    """A signal clients may write, the one type of them: its ``size``, ``units``, ``bound`` (the
+    largest magnitude of each entry, in its units: a finite value can still be absurd, and one
+    beyond what the signal can mean is refused before it reaches Drake) and, for a parameter of
+    another system that the host applies after a tick (a 6D task's ``position_des``), ``apply``
+    (called with the root context and the value; None: the command server's own output port,
+    declared with :meth:`RemoteCommandServer.declare_writable`). ``list`` shows size, units and
+    bound.
+
+    Raises:
+        ValueError: a size < 1, or a bound not finite and > 0.
+    """
 
     size: int
     units: str
+    bound: float
+    apply: Callable[[Context, np.ndarray], None] | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "size", validation.positive_int("Writable.size", self.size))
+        object.__setattr__(self, "bound", validation.positive("Writable.bound", self.bound, unit=self.units))
+
+    def check(self, signal: str, value: Sequence[float]) -> str | None:
+        """Why writing ``value`` to ``signal`` is refused — not ``size`` values, an entry not
+        finite, or beyond ``bound`` (each named) — or None."""
+        if len(value) != self.size:
+            return f"{signal}: {len(value)} values, expected {self.size}"
+        for i, x in enumerate(value):
+            if not math.isfinite(x):
+                return f"{signal}: value[{i}] = {x!r}: not finite"
+            if not (abs(x) <= self.bound):
+                return f"{signal}: value[{i}] = {x!r}: beyond the bound |x| <= {self.bound:g} ({self.units})"
+        return None
 
 
 @dataclass(frozen=True)
@@ -124,26 +153,34 @@ class RemoteCommandServer(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(self.period, 0.0, self._tick)
 
     def declare_writable(
-        self, name: str, size: int, units: str, initial: np.ndarray | None = None
+        self, name: str, size: int, units: str, initial: np.ndarray | None = None, *, bound: float
     ) -> OutputPort:
         """Allow clients to write ``<system>.<name>``: a vector output port of ``size`` [``units``]
-        starting at ``initial`` (zeros by default). Call before the diagram is built.
+        starting at ``initial`` (zeros by default), each entry of a written value within
+        ``±bound`` [``units``] (see :class:`Writable`). Call before the diagram is built.
 
         Raises:
-            ValueError: a name taken by another port, a size < 1, an initial value of another
-                size or not finite.
+            ValueError: a name taken by another port, a size < 1, a bound not finite and > 0, an
+                initial value of another size, not finite or beyond the bound.
         """
         if name in self._writables or name == "commands":
             raise ValueError(f"{self.get_name()}: writable {name!r} is declared already")
-        size = validation.positive_int(f"writable {name!r}: size", size)
-        value = np.zeros(size) if initial is None else validation.vector(f"writable {name!r}", initial, size)
+        writable = Writable(validation.positive_int(f"writable {name!r}: size", size), units, bound)
+        value = (
+            np.zeros(writable.size)
+            if initial is None
+            else validation.vector(f"writable {name!r}", initial, writable.size)
+        )
+        refused = writable.check(f"writable {name!r}: initial", value.tolist())
+        if refused is not None:
+            raise ValueError(refused)
         index = self.DeclareDiscreteState(value)
-        self._writables[name] = (Writable(size, units), index)
+        self._writables[name] = (writable, index)
         return self.DeclareStateOutputPort(name, index)
 
     @property
     def writables(self) -> dict[str, Writable]:
-        """Declared name (without the system's name) → its size and units."""
+        """Declared name (without the system's name) → its size, units and bound."""
         return {name: writable for name, (writable, _) in self._writables.items()}
 
     def attach(self, inbox: Inbox | None) -> None:
@@ -245,13 +282,7 @@ class RemoteCommandServer(LeafSystem):
         if name not in self._writables:
             allowed = ", ".join(f"{self.get_name()}.{n}" for n in self._writables) or "none"
             return f"signal = {self.get_name()}.{name!r}: not writable (declared: {allowed})"
-        writable, _ = self._writables[name]
-        if len(value) != writable.size:
-            return f"{self.get_name()}.{name}: {len(value)} values, expected {writable.size}"
-        bad = [i for i, x in enumerate(value) if not math.isfinite(x)]
-        if bad:
-            return f"{self.get_name()}.{name}: value[{bad[0]}] = {value[bad[0]]!r}: not finite"
-        return None
+        return self._writables[name][0].check(f"{self.get_name()}.{name}", value)
 
 
 def _host_changes_context(request: Request | None) -> bool:

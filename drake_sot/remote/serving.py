@@ -22,8 +22,10 @@ scenario's tasks and pattern generator as the script dialect has them (``taskRH.
 at the next tick and are answered after it (the server holds what came after them until then,
 so that the changes act in arrival order). Then it sleeps to hold ``realtime`` × real time.
 
-A written value must be finite and of the declared size; only the declared signals and the
-6D tasks' ``position_des`` can be written.
+A written value must be of the declared size, finite and within the declared bound (one check,
+:meth:`~drake_sot.remote.server.Writable.check`, of one :class:`~drake_sot.remote.server.Writable`
+type); only the declared signals and the 6D tasks' ``position_des`` (within ±:data:`REACH_BOUND`)
+can be written.
 
 **Paced by its client** (``paced=True``; the two-process tele-cooperation's slave). A client
 that simulates too (the master site) writes timed values (``at``, applied at that simulated time
@@ -43,8 +45,9 @@ import math
 import subprocess
 import sys
 import time as wallclock
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -58,7 +61,7 @@ from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, P
 from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
-from drake_sot.remote.server import DONE, STACK, RemoteCommandServer, TakenRequest
+from drake_sot.remote.server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
 from drake_sot.remote.status import MeshcatStatus
 from drake_sot.script import Call, Get, parse_line
 from drake_sot.systems.features import FeaturePoint6d
@@ -73,17 +76,10 @@ MAX_SUBSCRIPTIONS = 16
 CLIENT_TIMEOUT = 60.0
 #: Times within this of a tick count as that tick [s].
 _EPS = 1e-9
-
-
-@dataclass(frozen=True)
-class Writable:
-    """A signal clients may write: its name, size, units, and how a value is applied to the
-    root context (called by the serving loop only)."""
-
-    signal: str
-    size: int
-    units: str
-    apply: Callable[[Context, np.ndarray], None]
+#: The largest coordinate of a target position a client may write [m, world frame]: a humanoid's
+#: hand or foot target, in a scenario that walks a few metres from the origin, lies well within
+#: 10 m; a target beyond is no target (1e300 m reached Drake and ended the run).
+REACH_BOUND = 10.0
 
 
 class NotServable(ValueError):
@@ -113,8 +109,10 @@ class Serving:
         simulator: an initialized simulator of a diagram holding ``server``.
         server: the diagram's command server, attached to ``network`` here.
         network: the socket thread whose requests are served.
-        writable: the allowlist of the signals the host applies (parameters of other systems);
-            the server's declared signals are allowed besides.
+        writable: the allowlist of the signals the host applies (parameters of other systems),
+            by signal name, each with its ``apply``; the server's declared signals are allowed
+            besides. A write is checked by :meth:`~drake_sot.remote.server.Writable.check`, as
+            the server checks its own.
         realtime: the pace, > 0 (inf: as fast as possible).
         on_tick: called with the root context after each tick (e.g. a
             :class:`~drake_sot.remote.status.MeshcatStatus` update).
@@ -130,7 +128,7 @@ class Serving:
         server: RemoteCommandServer,
         network: NetworkThread,
         *,
-        writable: Sequence[Writable] = (),
+        writable: Mapping[str, Writable] = MappingProxyType({}),
         realtime: float = 1.0,
         on_tick: Callable[[Context], None] | None = None,
         session: ScriptSession | None = None,
@@ -144,7 +142,7 @@ class Serving:
         self._session = session
         self.period = server.period
         self._realtime = positive("realtime", realtime)
-        self._writable = {w.signal: w for w in writable}
+        self._writable = dict(writable)
         diagram = simulator.get_system()
         self._readable = _readable_ports(diagram)
         self._sots = {s.get_name(): s for s in _systems(diagram) if isinstance(s, StackOfTasks)}
@@ -263,6 +261,12 @@ class Serving:
             self._port(request.signal)
             return self._read(request.signal), False
         if request.op == "write":
+            if request.timed:  # the host applies after a tick: it cannot honour an ``at``
+                declared = ", ".join(f"{self._server.get_name()}.{n}" for n in self._server.writables)
+                raise ValueError(
+                    f"{request.signal}: a timed write ('at') is applied only to the signals declared on "
+                    f"the command server ({declared or 'none here'}); send this one without 't' and 'at'"
+                )
             return self._write(request.signal, request.value, context), True
         if request.op == "run":
             return self._run(request.cmd, context)
@@ -301,11 +305,9 @@ class Serving:
             server = self._server.get_name()
             allowed = [*self._writable, *(f"{server}.{name}" for name in self._server.writables)]
             raise ValueError(f"signal = {signal!r}: not writable (writable: {', '.join(allowed) or 'none'})")
-        if len(value) != writable.size:
-            raise ValueError(f"{signal}: {len(value)} values, expected {writable.size}")
-        bad = [i for i, x in enumerate(value) if not math.isfinite(x)]
-        if bad:
-            raise ValueError(f"{signal}: value[{bad[0]}] = {value[bad[0]]!r}: not finite")
+        refused = writable.check(signal, value)
+        if refused is not None:
+            raise ValueError(refused)
         writable.apply(context, np.array(value))
         return signal
 
@@ -368,15 +370,12 @@ class Serving:
 
     def _list(self) -> dict[str, Any]:
         server = self._server.get_name()
-        declared = {
-            f"{server}.{name}": {"size": w.size, "units": w.units}
-            for name, w in self._server.writables.items()
-        }
+        declared = {f"{server}.{name}": _listed(w) for name, w in self._server.writables.items()}
         return {
             "systems": sorted({name.split(".")[0] for name in self._readable}),
             "readable": {name: port.size() for name, (_, port) in self._readable.items()},
             "writable": {
-                **{w.signal: {"size": w.size, "units": w.units} for w in self._writable.values()},
+                **{name: _listed(w) for name, w in self._writable.items()},
                 **declared,
             },
             "commands": self._help(),
@@ -408,6 +407,11 @@ def _runnable(entity: Entity) -> list[str]:
     return [name for name, spec in type(entity)._commands.items() if spec.phase in (Phase.RUN, Phase.BOTH)]
 
 
+def _listed(writable: Writable) -> dict[str, Any]:
+    """A writable as ``list`` shows it."""
+    return {"size": writable.size, "units": writable.units, "bound": writable.bound}
+
+
 def _resolve(result: Any) -> Any:
     return result() if callable(result) else result
 
@@ -428,10 +432,11 @@ def _readable_ports(diagram: Diagram) -> dict[str, tuple[System, Any]]:
     return ports
 
 
-def desired_position_writables(features: dict[str, System]) -> list[Writable]:
-    """The allowlist of a scenario: ``TASK.position_des`` [3] (m, world frame) of each
-    ``FeaturePoint6d``; a write moves the target, keeping its orientation (refused, with the
-    feature's reason, when its desired pose is fed by another system)."""
+def desired_position_writables(features: dict[str, System]) -> dict[str, Writable]:
+    """The allowlist of a scenario: ``TASK.position_des`` [3] (m, world frame, each coordinate
+    within ±:data:`REACH_BOUND`) of each ``FeaturePoint6d``; a write moves the target, keeping its
+    orientation (refused, with the feature's reason, when its desired pose is fed by another
+    system)."""
 
     def setter(feature: FeaturePoint6d) -> Callable[[Context, np.ndarray], None]:
         def apply(context: Context, p: np.ndarray) -> None:
@@ -440,14 +445,14 @@ def desired_position_writables(features: dict[str, System]) -> list[Writable]:
 
         return apply
 
-    return [
-        Writable(f"{task}.position_des", 3, "m, world frame", setter(feature))
+    return {
+        f"{task}.position_des": Writable(3, "m, world frame", REACH_BOUND, setter(feature))
         for task, feature in features.items()
         if isinstance(feature, FeaturePoint6d)
-    ]
+    }
 
 
-def writables(setup: ScenarioSetup) -> list[Writable]:
+def writables(setup: ScenarioSetup) -> dict[str, Writable]:
     """The allowlist the host applies for a scenario: its 6D tasks' ``position_des`` (the
     signals its diagram declared on its command server are the server's)."""
     return desired_position_writables(setup.built.features)

@@ -480,6 +480,12 @@ class StackOfTasks(LeafSystem):
                         f"{command.command!r}: not a stack command ({', '.join(STACK_COMMANDS)})"
                     )
                 after = getattr(stack, command.command)(*command.args)
+                if command.command in ("up", "down") and after.active == stack.active:
+                    end = "top" if command.command == "up" else "bottom"
+                    raise ValueError(
+                        f"{command.command} {command.args[0]}: already at the {end} of the stack "
+                        f"({', '.join(stack.active)}): nothing to change"
+                    )
                 output = stack.active[-1] if command.command == "pop" else ""
                 stack = after.transition_from(stack, start=command.time, duration=command.transition)
                 results.append((True, output))

@@ -24,6 +24,15 @@ MASTER_SIGNALS: dict[str, tuple[int, str]] = {
     "gripper": (1, "rad, the gripper joints' angle"),
 }
 MASTER_SIZE = sum(size for size, _ in MASTER_SIGNALS.values())
+#: The largest magnitude of each entry of the master's signals, in their units, beyond which a
+#: remote write is refused: a human operator's hand force stays well below 1000 N; the head's yaw
+#: and pitch and the gripper's angle are angles, within ±π rad.
+MASTER_BOUNDS: dict[str, float] = {
+    "right_hand_force": 1000.0,
+    "left_hand_force": 1000.0,
+    "head": np.pi,
+    "gripper": np.pi,
+}
 
 
 class HandPositions(LeafSystem):
