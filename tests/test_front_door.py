@@ -450,3 +450,15 @@ def test_a_declared_writable_has_a_bound_checked_by_the_one_check():
     assert writable.check("remote.gain", (100.0, -100.5)) == (
         "remote.gain: value[1] = -100.5: beyond the bound |x| <= 100 (1/s)"
     )
+
+
+@pytest.mark.parametrize("gain", ["1e300", "1e4", "201"])
+def test_a_remote_gain_beyond_the_control_periods_bound_is_refused_and_the_gain_kept(server, gain):
+    # At the 5 ms control period, e_(k+1) = (1 - λ dt) e_k overshoots from λ dt > 1: λ <= 200 1/s.
+    _, host, port = server
+    with Client(host, port) as client:
+        with pytest.raises(RemoteError, match=r"taskRH.*λ·period = [0-9.e+]+ must be <= 1"):
+            client.run(f"taskRH.controlGain {gain}")
+        client.run("taskRH.controlGain 200")  # the bound itself: λ dt = 1, the goal in one period
+        client.run("taskRH.controlGain 1")
+        assert len(client.read("dyn.com")) == 3  # served on
