@@ -25,22 +25,23 @@ from typing import NoReturn, TextIO
 from pydrake.systems.analysis import Simulator
 
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
+from drake_sot.diagrams.alpha_sweep import check_workers
 from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.humanoid import with_command_server
-from drake_sot.diagrams.pushes import ExternalPush, check_pushes
-from drake_sot.diagrams.run import Interrupted, RunResult, SignalGuard
+from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
+from drake_sot.diagrams.run import MAX_DURATION, Interrupted, RunResult, SignalGuard, check_duration
 from drake_sot.diagrams.scenario import Scenario, ScenarioParameterError, ScenarioSetup, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
-from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.peer import PeerError
 from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT
+from drake_sot.robots.description import LOGICAL_FRAMES
 from drake_sot.script import ScriptError, Statement
-from drake_sot.validation import finite, nonnegative, positive, positive_int
+from drake_sot.validation import bounded, finite, nonnegative, positive, positive_int
 
 #: Exit status of a run in which the robot fell.
 FELL = 3
@@ -94,6 +95,8 @@ def _checked(check: Callable[..., float | int], name: str, **kwargs) -> Callable
         try:
             number = int(text)
         except ValueError:
+            number = None
+        if number is None or abs(number) > sys.float_info.max:  # 1e999 or 400 digits: ±inf
             try:
                 number = float(text)
             except ValueError:
@@ -108,7 +111,7 @@ def _checked(check: Callable[..., float | int], name: str, **kwargs) -> Callable
 
 #: The fields of ``--push`` and the check of each number (drake_sot.validation, named as the field).
 _PUSH_FIELDS: dict[str, Callable[[str, float], float] | None] = {
-    "T": lambda name, value: nonnegative(name, value, unit="s"),
+    "T": lambda name, value: bounded(name, nonnegative(name, value, unit="s"), 0.0, MAX_DURATION, unit="s"),
     "BODY": None,
     "FX": finite,
     "FY": finite,
@@ -136,11 +139,30 @@ def _push(text: str) -> ExternalPush:
             reason = str(exc) if _is_number(field) else f"{name} = {field!r}: must be a number"
             raise argparse.ArgumentTypeError(f"{text!r}: {reason}") from None
     body = fields[1]
-    if body not in FRAMES:
+    if body not in LOGICAL_FRAMES:
         raise argparse.ArgumentTypeError(
-            f"{text!r}: BODY = {body!r}: unknown frame; known: {', '.join(FRAMES)}"
+            f"{text!r}: BODY = {body!r}: unknown frame; known: {', '.join(LOGICAL_FRAMES)}"
         )
-    return ExternalPush(values["T"], body, (values["FX"], values["FY"], values["FZ"]), values["DURATION"])
+    try:
+        return ExternalPush(values["T"], body, (values["FX"], values["FY"], values["FZ"]), values["DURATION"])
+    except ValueError as exc:  # a force beyond the bound
+        raise argparse.ArgumentTypeError(f"{text!r}: {exc}") from None
+
+
+def _joined_option_values(argv: Sequence[str], options: Sequence[str] = ("--push",)) -> list[str]:
+    """``argv`` with ``OPTION VALUE`` written ``OPTION=VALUE`` when VALUE starts with '-' and
+    holds a comma (``--push -1,pelvis,...``): argparse takes such a value for an option and
+    says "expected one argument"; joined, the value is checked (and its field named) like any
+    other. No option's name holds a comma, so nothing else is joined."""
+    joined: list[str] = []
+    pending = False
+    for token in argv:
+        if pending and token.startswith("-") and "," in token:
+            joined[-1] = f"{joined[-1]}={token}"
+        else:
+            joined.append(token)
+        pending = token in options
+    return joined
 
 
 # --- two-process mode ---
@@ -231,13 +253,15 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
     )
     names = sorted(SCENARIOS) + sorted(STUDIES) + sorted(PEERS)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
-    _simulation_options(run, "simulated seconds (of each run of a study), finite and > 0")
+    _simulation_options(
+        run, f"simulated seconds (of each run of a study), finite, > 0 and at most {MAX_DURATION:g}"
+    )
     run.add_argument(
         "--workers",
-        type=_checked(positive_int, "workers"),
+        type=_checked(check_workers, "workers"),
         default=None,
         metavar="N",
-        help=f"worker processes of a study ({', '.join(sorted(STUDIES))}; default 2)",
+        help=f"worker processes of a study ({', '.join(sorted(STUDIES))}; default 2, at most 4 per core)",
     )
     run.add_argument(
         "--transition",
@@ -319,7 +343,8 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         default=[],
         metavar="T,BODY,FX,FY,FZ,DURATION",
         help="push the robot (repeatable): from T [s] for DURATION [s], a force (FX, FY, FZ) [N] in the "
-        f"world frame on the origin of BODY, one of: {', '.join(FRAMES)}",
+        f"world frame on the origin of BODY, one of: {', '.join(LOGICAL_FRAMES)}; |F| at most "
+        f"{MAX_PUSH_FORCE:g} N; T before the end of the run (a negative T as --push=T,...)",
     )
     script = sub.add_parser(
         "script",
@@ -349,11 +374,11 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
     )
     serve.add_argument(
         "--duration",
-        type=_checked(positive, "duration", unit="s"),
+        type=_checked(check_duration, "duration"),
         default=None,
         metavar="S",
-        help="simulated seconds (default: the scenario's, the script's run lines, else "
-        f"{SERVED_SCRIPT_DURATION:g})",
+        help=f"simulated seconds, at most {MAX_DURATION:g} (default: the scenario's, the script's run "
+        f"lines, else {SERVED_SCRIPT_DURATION:g})",
     )
     serve.add_argument(
         "--realtime",
@@ -427,12 +452,14 @@ def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> 
     """``--duration S``, ``--out DIR`` and ``--no-record``."""
     parser.add_argument(
         "--duration",
-        type=_checked(positive, "duration", unit="s"),
+        type=_checked(check_duration, "duration"),
         default=None,
         metavar="S",
         help=duration_help,
     )
-    parser.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
+    parser.add_argument(
+        "--out", default="out", metavar="DIR", help="output directory, not empty (default: out/)"
+    )
     parser.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
 
 
@@ -448,7 +475,7 @@ def exit_status(result: RunResult) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser, run, script = _parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_joined_option_values(sys.argv[1:] if argv is None else argv))
     if args.command == "script":
         return _script(args, script)
     if args.command in ("serve", "shell"):
@@ -501,7 +528,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
     _check_robot(run, args.robot)
     try:
-        check_pushes(args.push, FRAMES)
+        check_pushes(args.push, LOGICAL_FRAMES)
     except ValueError as exc:
         run.error(f"--push: {exc}")
     try:

@@ -30,9 +30,12 @@ def output_directory(path: str | Path) -> Path:
     when missing, then probed by creating and deleting a temporary file in it.
 
     Raises:
-        OSError: naming ``path`` and the reason (an existing file, a path under a file, no
-            write permission, a read-only file system...).
+        OSError: naming ``path`` and the reason (an empty name, which would be the current
+            directory; an existing file, a path under a file, no write permission, a read-only
+            file system...).
     """
+    if not str(path):
+        raise FileNotFoundError("output directory '': empty; name a directory (e.g. 'out')")
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"{str(out)!r} is a file, not a directory")

@@ -23,10 +23,25 @@ from pydrake.systems.analysis import Simulator, SimulatorStatus
 from pydrake.systems.framework import Context, Diagram, System
 
 from drake_sot.systems.fall_monitor import Fall, FallMonitor
-from drake_sot.validation import positive
+from drake_sot.validation import bounded, positive
 
 #: The signals that stop a run: Ctrl-C and the polite "terminate" of ``kill``, job schedulers, systemd.
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+#: The longest run [s] of simulated time: one hour. The loggers keep every sample in memory
+#: until the run's logs are written (the embedded humanoid's walk logs ~2 kB per 5 ms control
+#: tick: ~1.4 GB per simulated hour), and at the walk's real-time factor (0.25-0.65) an hour
+#: already takes 1.5-4 hours of wall time; a longer value is a typo (``--duration 1e300`` ran
+#: until it was killed).
+MAX_DURATION = 3600.0
+
+
+def check_duration(name: str, value: float) -> float:
+    """``value`` as a run's duration [s]: finite, > 0 and at most :data:`MAX_DURATION`.
+
+    Raises:
+        ValueError: naming ``name``, the value and the bound it breaks.
+    """
+    return bounded(name, positive(name, value, unit="s"), 0.0, MAX_DURATION, unit="s")
 
 
 @dataclass(frozen=True)
@@ -182,17 +197,18 @@ def simulate(
 
     Args:
         simulator: an initialized simulator.
-        duration: the simulated time to reach [s], finite and > 0.
+        duration: the simulated time to reach [s], finite, > 0 and at most :data:`MAX_DURATION`.
         commands: applied when the simulation reaches their time; those after ``duration``
             are listed in ``not_reached``.
         progress: called after each step of at most ``chunk`` [s] (finite, > 0), at the multiples
             of ``chunk`` (and at the commands' times).
 
     Raises:
-        ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0 (checked before Drake
-            sees it: a Drake assertion ends the interpreter).
+        ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0, or ``duration`` above
+            :data:`MAX_DURATION` (checked before Drake sees it: a Drake assertion ends the
+            interpreter).
     """
-    duration = positive("duration", duration, unit="s")
+    duration = check_duration("duration", duration)
     chunk = positive("chunk", chunk, unit="s")
     if guard is None:
         with SignalGuard() as own:

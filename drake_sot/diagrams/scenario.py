@@ -19,12 +19,11 @@ from drake_sot.diagrams.artifacts import (
     write_replay,
     write_svg,
 )
-from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
+from drake_sot.diagrams.pushes import ExternalPush, check_push_times
+from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.plots import plot_task_errors
 from drake_sot.systems.stack_history import stack_changes
-from drake_sot.validation import positive
 
 
 @dataclass
@@ -108,7 +107,8 @@ def run_scenario(
     Args:
         scenario: what to run.
         out_dir: the output directory, created if needed.
-        duration: simulated time [s], finite and > 0; None for the scenario's own.
+        duration: simulated time [s], finite, > 0 and at most
+            :data:`~drake_sot.diagrams.run.MAX_DURATION`; None for the scenario's own.
         record: record the Meshcat replay.
         progress: called as the simulation advances (see :func:`simulate`).
         parameters: keyword arguments of the scenario's ``build`` (only those it declares).
@@ -118,12 +118,12 @@ def run_scenario(
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
-            :class:`ScenarioParameterError` when ``build`` refuses a parameter's value (before
-            anything is simulated).
+            :class:`ScenarioParameterError` when ``build`` refuses a parameter's value or a
+            push starts after the run's end (before anything is simulated).
         OSError: ``out_dir`` cannot be written (before anything is built).
     """
     if duration is not None:
-        duration = positive("duration", duration, unit="s")
+        duration = check_duration("duration", duration)
     unknown = sorted(set(parameters or {}) - set(scenario.parameters))
     if unknown:
         raise ValueError(
@@ -136,13 +136,17 @@ def run_scenario(
     except ValueError as exc:
         raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
     built = setup.built
+    duration = setup.duration if duration is None else duration
+    try:
+        check_push_times(built.pushes, duration)
+    except ValueError as exc:
+        raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
     files = {"svg": out / f"{scenario.name}.svg"}
     write_svg(built.diagram, files["svg"])
     simulator = built.create_simulator()
     if built.visualizer is not None:
         built.visualizer.StartRecording(set_transforms_while_recording=False)
     with SignalGuard() as guard:
-        duration = setup.duration if duration is None else duration
         if runner is None:
             result = simulate(simulator, duration, setup.commands, progress=progress, guard=guard)
         else:
