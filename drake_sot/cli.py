@@ -752,8 +752,9 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
     elif result.failure is not None:
         print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
     elif result.fell is not None:
+        after = "" if result.after_fall is None else f" (ended by, after the fall: {result.after_fall})"
         print(
-            f"the robot {result.fell}; the run stopped at t = {result.end_time:.3f} s and the "
+            f"the robot {result.fell}; the run stopped at t = {result.end_time:.3f} s{after} and the "
             "artefacts cover the simulated part",
             file=sys.stderr,
         )
