@@ -4,10 +4,13 @@
 ``drake-sot shell``.
 
 Exit status of ``run``, ``script`` and ``serve``: 0 the run completed, 1 it failed (the exception on
-stderr), 2 bad arguments or a script that cannot be built (one line on stderr, nothing
-simulated), 3 the robot fell (when, on stderr), 130 interrupted by SIGINT (Ctrl-C), 143 by
-SIGTERM. Interrupted, failed or fallen, the artefacts of the simulated part are written; a
-signal that comes while they are written waits until they all are.
+stderr), 2 bad arguments, a script that cannot be built or a robot file that is missing or
+broken (one line on stderr naming it, nothing simulated), 3 the robot fell (when, on stderr),
+4 the run ended but an artefact could not be written (a full disk: one line on stderr naming
+the files; every other one was written), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM.
+Interrupted, failed or fallen, the artefacts of the simulated part are written; a signal that
+comes while they are written waits until they all are. ``list --robots`` exits with 2 when a
+robot's files are installed but one is missing or broken.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from types import FrameType
 from typing import NoReturn, TextIO
@@ -37,7 +40,7 @@ from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.peer import PeerError
 from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
-from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
+from drake_sot.robots import ROBOTS, RobotDataMissing, RobotFileError, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT
 from drake_sot.robots.description import LOGICAL_FRAMES
 from drake_sot.script import ScriptError, Statement
@@ -45,6 +48,8 @@ from drake_sot.validation import bounded, finite, nonnegative, positive, positiv
 
 #: Exit status of a run in which the robot fell.
 FELL = 3
+#: Exit status of a run whose artefacts were not all written (a full disk).
+UNWRITTEN = 4
 #: Simulated seconds ``serve FILE`` runs a script without ``run SECONDS`` lines (and no --duration).
 SERVED_SCRIPT_DURATION = 3600.0
 
@@ -248,8 +253,8 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
     run = sub.add_parser(
         "run",
         help="simulate a scenario and write its artefacts",
-        epilog="exit status: 0 completed, 1 failed, 2 bad arguments, 3 the robot fell, "
-        "130 interrupted (Ctrl-C), 143 SIGTERM",
+        epilog="exit status: 0 completed, 1 failed, 2 bad arguments or robot files, 3 the robot fell, "
+        "4 an artefact not written (a full disk), 130 interrupted (Ctrl-C), 143 SIGTERM",
     )
     names = sorted(SCENARIOS) + sorted(STUDIES) + sorted(PEERS)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
@@ -418,22 +423,30 @@ def _robot_option(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_robot(parser: argparse.ArgumentParser, name: str | None) -> None:
-    """Refuse (exit 2) a robot whose models are not installed, saying how to install them."""
+    """Refuse (exit 2) a robot whose models are not installed, saying how to install them, or
+    whose files are missing or broken, naming the file."""
     if name is not None:
         try:
             get_robot(name)
-        except RobotDataMissing as exc:
+        except (RobotDataMissing, RobotFileError) as exc:
             parser.error(f"--robot {name}: {exc}")
 
 
 def _list_robots() -> int:
+    """The robots and their titles on stdout; 2 when a robot's files are installed but one is
+    missing or broken (one line on stderr naming it), else 0."""
+    status = 0
     for name in sorted(ROBOTS):
         try:
             title = get_robot(name).title
         except RobotDataMissing:
             title = f"(not installed: {INSTALL_HINT})"
+        except RobotFileError as exc:
+            title = "(installed, but a file is missing or broken: see stderr)"
+            print(f"drake-sot list: error: robot {name}: {exc}", file=sys.stderr)
+            status = 2
         print(f"{name:20s} {title}")
-    return 0
+    return status
 
 
 def _address_options(parser: argparse.ArgumentParser, host_help: str) -> None:
@@ -463,14 +476,24 @@ def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> 
     parser.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
 
 
-def exit_status(result: RunResult) -> int:
-    """0 completed, 1 failed, 3 fell, 128 + the signal's number when interrupted (130 SIGINT,
-    143 SIGTERM); a signal or a failure takes precedence over a fall."""
+def exit_status(result: RunResult, unwritten: Mapping[str, str] | None = None) -> int:
+    """0 completed, 1 failed, 3 fell, 4 (:data:`UNWRITTEN`) some of the ``unwritten`` files,
+    128 + the signal's number when interrupted (130 SIGINT, 143 SIGTERM); a signal, then a
+    failure, then unwritten files take precedence over a fall."""
     if result.interrupted_by is not None:
         return 128 + result.interrupted_by
     if result.failure is not None:
         return 1
+    if unwritten:
+        return UNWRITTEN
     return FELL if result.fell is not None else 0
+
+
+def _report_unwritten(unwritten: Mapping[str, str]) -> None:
+    """One line on stderr naming the files that could not be written, and why."""
+    if unwritten:
+        files = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
+        print(f"could not write: {files}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -624,19 +647,22 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     )
                     for path in output.files.values():
                         print(f"wrote {path}", flush=True)
+                    _report_unwritten(output.unwritten)
+                    unwritten = output.unwritten
                     result = output.result
                 else:
+                    unwritten = {}
                     setup = scenario.build(loopback_meshcat(), **parameters)
                     simulator = setup.built.create_simulator()
                     duration = setup.duration if args.duration is None else args.duration
                     with SignalGuard() as guard:
                         result = runner(setup, simulator, duration, guard=guard)
-        except (SessionError, NotServable) as exc:  # nothing served
+        except (SessionError, NotServable, RobotFileError) as exc:  # nothing served
             network.close()
             parser.error(f"serve {args.target}: {exc}")
         if result.failure is not None:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
-        return exit_status(result)
+        return exit_status(result, unwritten)
 
     return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
@@ -734,12 +760,16 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
             pushes=getattr(args, "push", None) or (),  # `script` takes no --push
             runner=decision_runner() if parameters.get("decision") == "remote" else None,
         )
-    except ScenarioParameterError as exc:  # a usage error: nothing simulated
+    except (
+        ScenarioParameterError,
+        RobotFileError,
+    ) as exc:  # a usage error, a broken robot: nothing simulated
         print(f"drake-sot: error: {exc}", file=sys.stderr)
         return 2
     result = output.result
     for path in output.files.values():
         print(f"wrote {path}")
+    _report_unwritten(output.unwritten)
     print(
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"
@@ -761,7 +791,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
     elif result.not_reached:
         later = ", ".join(f"{label!r} at {t:g} s" for t, label in result.not_reached)
         print(f"after the end of the run, not applied: {later}", file=sys.stderr)
-    return exit_status(result)
+    return exit_status(result, output.unwritten)
 
 
 if __name__ == "__main__":
