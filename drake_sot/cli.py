@@ -19,6 +19,7 @@ import argparse
 import os
 import signal
 import sys
+import tempfile
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -396,7 +397,8 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         "--out",
         default=None,
         metavar="DIR",
-        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg)",
+        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg); a served "
+        "script's pool.writegraph writes there too, else into a fresh temporary directory (on stderr)",
     )
     _robot_option(serve)
     # --- two-process mode ---
@@ -681,7 +683,10 @@ def _served(
     except (ScriptError, SessionError) as exc:
         parser.error(str(exc))
     duration = program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
-    scenario = script_scenario(program, output_dir=out or ".", echo=_echo_stderr, robot=robot or "embedded")
+    if out is None:  # the script's files (pool.writegraph) go to a fresh directory, never the working one
+        out = tempfile.mkdtemp(prefix=f"drake_sot_{program.path.stem}_")
+        print(f"the script writes its files (pool.writegraph) into {out}", file=sys.stderr, flush=True)
+    scenario = script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
     return scenario, duration
 
 
