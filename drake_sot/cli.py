@@ -350,7 +350,7 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         metavar="T,BODY,FX,FY,FZ,DURATION",
         help="push the robot (repeatable): from T [s] for DURATION [s], a force (FX, FY, FZ) [N] in the "
         f"world frame on the origin of BODY, one of: {', '.join(LOGICAL_FRAMES)}; |F| at most "
-        f"{MAX_PUSH_FORCE:g} N; T before the end of the run (a negative T as --push=T,...)",
+        f"{MAX_PUSH_FORCE:g} N; T before the end of the run",
     )
     script = sub.add_parser(
         "script",
