@@ -4,10 +4,13 @@
 ``drake-sot shell``.
 
 Exit status of ``run``, ``script`` and ``serve``: 0 the run completed, 1 it failed (the exception on
-stderr), 2 bad arguments or a script that cannot be built (one line on stderr, nothing
-simulated), 3 the robot fell (when, on stderr), 130 interrupted by SIGINT (Ctrl-C), 143 by
-SIGTERM. Interrupted, failed or fallen, the artefacts of the simulated part are written; a
-signal that comes while they are written waits until they all are.
+stderr), 2 bad arguments, a script that cannot be built or a robot file that is missing or
+broken (one line on stderr naming it, nothing simulated), 3 the robot fell (when, on stderr),
+4 the run ended but an artefact could not be written (a full disk: one line on stderr naming
+the files; every other one was written), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM.
+Interrupted, failed or fallen, the artefacts of the simulated part are written; a signal that
+comes while they are written waits until they all are. ``list --robots`` exits with 2 when a
+robot's files are installed but one is missing or broken.
 """
 
 from __future__ import annotations
@@ -16,8 +19,9 @@ import argparse
 import os
 import signal
 import sys
+import tempfile
 import threading
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from types import FrameType
 from typing import NoReturn, TextIO
@@ -25,25 +29,28 @@ from typing import NoReturn, TextIO
 from pydrake.systems.analysis import Simulator
 
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
+from drake_sot.diagrams.alpha_sweep import check_workers
 from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.humanoid import with_command_server
-from drake_sot.diagrams.pushes import ExternalPush, check_pushes
-from drake_sot.diagrams.run import Interrupted, RunResult, SignalGuard
+from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
+from drake_sot.diagrams.run import MAX_DURATION, Interrupted, RunResult, SignalGuard, check_duration
 from drake_sot.diagrams.scenario import Scenario, ScenarioParameterError, ScenarioSetup, run_scenario
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
-from drake_sot.models.humanoid import FRAMES
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.peer import PeerError
 from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
-from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
+from drake_sot.robots import ROBOTS, RobotDataMissing, RobotFileError, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT
+from drake_sot.robots.description import LOGICAL_FRAMES
 from drake_sot.script import ScriptError, Statement
-from drake_sot.validation import finite, nonnegative, positive, positive_int
+from drake_sot.validation import bounded, finite, nonnegative, positive, positive_int
 
 #: Exit status of a run in which the robot fell.
 FELL = 3
+#: Exit status of a run whose artefacts were not all written (a full disk).
+UNWRITTEN = 4
 #: Simulated seconds ``serve FILE`` runs a script without ``run SECONDS`` lines (and no --duration).
 SERVED_SCRIPT_DURATION = 3600.0
 
@@ -94,6 +101,8 @@ def _checked(check: Callable[..., float | int], name: str, **kwargs) -> Callable
         try:
             number = int(text)
         except ValueError:
+            number = None
+        if number is None or abs(number) > sys.float_info.max:  # 1e999 or 400 digits: ±inf
             try:
                 number = float(text)
             except ValueError:
@@ -108,7 +117,7 @@ def _checked(check: Callable[..., float | int], name: str, **kwargs) -> Callable
 
 #: The fields of ``--push`` and the check of each number (drake_sot.validation, named as the field).
 _PUSH_FIELDS: dict[str, Callable[[str, float], float] | None] = {
-    "T": lambda name, value: nonnegative(name, value, unit="s"),
+    "T": lambda name, value: bounded(name, nonnegative(name, value, unit="s"), 0.0, MAX_DURATION, unit="s"),
     "BODY": None,
     "FX": finite,
     "FY": finite,
@@ -136,11 +145,30 @@ def _push(text: str) -> ExternalPush:
             reason = str(exc) if _is_number(field) else f"{name} = {field!r}: must be a number"
             raise argparse.ArgumentTypeError(f"{text!r}: {reason}") from None
     body = fields[1]
-    if body not in FRAMES:
+    if body not in LOGICAL_FRAMES:
         raise argparse.ArgumentTypeError(
-            f"{text!r}: BODY = {body!r}: unknown frame; known: {', '.join(FRAMES)}"
+            f"{text!r}: BODY = {body!r}: unknown frame; known: {', '.join(LOGICAL_FRAMES)}"
         )
-    return ExternalPush(values["T"], body, (values["FX"], values["FY"], values["FZ"]), values["DURATION"])
+    try:
+        return ExternalPush(values["T"], body, (values["FX"], values["FY"], values["FZ"]), values["DURATION"])
+    except ValueError as exc:  # a force beyond the bound
+        raise argparse.ArgumentTypeError(f"{text!r}: {exc}") from None
+
+
+def _joined_option_values(argv: Sequence[str], options: Sequence[str] = ("--push",)) -> list[str]:
+    """``argv`` with ``OPTION VALUE`` written ``OPTION=VALUE`` when VALUE starts with '-' and
+    holds a comma (``--push -1,pelvis,...``): argparse takes such a value for an option and
+    says "expected one argument"; joined, the value is checked (and its field named) like any
+    other. No option's name holds a comma, so nothing else is joined."""
+    joined: list[str] = []
+    pending = False
+    for token in argv:
+        if pending and token.startswith("-") and "," in token:
+            joined[-1] = f"{joined[-1]}={token}"
+        else:
+            joined.append(token)
+        pending = token in options
+    return joined
 
 
 # --- two-process mode ---
@@ -226,18 +254,20 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
     run = sub.add_parser(
         "run",
         help="simulate a scenario and write its artefacts",
-        epilog="exit status: 0 completed, 1 failed, 2 bad arguments, 3 the robot fell, "
-        "130 interrupted (Ctrl-C), 143 SIGTERM",
+        epilog="exit status: 0 completed, 1 failed, 2 bad arguments or robot files, 3 the robot fell, "
+        "4 an artefact not written (a full disk), 130 interrupted (Ctrl-C), 143 SIGTERM",
     )
     names = sorted(SCENARIOS) + sorted(STUDIES) + sorted(PEERS)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
-    _simulation_options(run, "simulated seconds (of each run of a study), finite and > 0")
+    _simulation_options(
+        run, f"simulated seconds (of each run of a study), finite, > 0 and at most {MAX_DURATION:g}"
+    )
     run.add_argument(
         "--workers",
-        type=_checked(positive_int, "workers"),
+        type=_checked(check_workers, "workers"),
         default=None,
         metavar="N",
-        help=f"worker processes of a study ({', '.join(sorted(STUDIES))}; default 2)",
+        help=f"worker processes of a study ({', '.join(sorted(STUDIES))}; default 2, at most 4 per core)",
     )
     run.add_argument(
         "--transition",
@@ -320,7 +350,8 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         default=[],
         metavar="T,BODY,FX,FY,FZ,DURATION",
         help="push the robot (repeatable): from T [s] for DURATION [s], a force (FX, FY, FZ) [N] in the "
-        f"world frame on the origin of BODY, one of: {', '.join(FRAMES)}",
+        f"world frame on the origin of BODY, one of: {', '.join(LOGICAL_FRAMES)}; |F| at most "
+        f"{MAX_PUSH_FORCE:g} N; T before the end of the run",
     )
     script = sub.add_parser(
         "script",
@@ -350,11 +381,11 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
     )
     serve.add_argument(
         "--duration",
-        type=_checked(positive, "duration", unit="s"),
+        type=_checked(check_duration, "duration"),
         default=None,
         metavar="S",
-        help="simulated seconds (default: the scenario's, the script's run lines, else "
-        f"{SERVED_SCRIPT_DURATION:g})",
+        help=f"simulated seconds, at most {MAX_DURATION:g} (default: the scenario's, the script's run "
+        f"lines, else {SERVED_SCRIPT_DURATION:g})",
     )
     serve.add_argument(
         "--realtime",
@@ -367,7 +398,8 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         "--out",
         default=None,
         metavar="DIR",
-        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg)",
+        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg); a served "
+        "script's pool.writegraph writes there too, else into a fresh temporary directory (on stderr)",
     )
     _robot_option(serve)
     # --- two-process mode ---
@@ -394,22 +426,30 @@ def _robot_option(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_robot(parser: argparse.ArgumentParser, name: str | None) -> None:
-    """Refuse (exit 2) a robot whose models are not installed, saying how to install them."""
+    """Refuse (exit 2) a robot whose models are not installed, saying how to install them, or
+    whose files are missing or broken, naming the file."""
     if name is not None:
         try:
             get_robot(name)
-        except RobotDataMissing as exc:
+        except (RobotDataMissing, RobotFileError) as exc:
             parser.error(f"--robot {name}: {exc}")
 
 
 def _list_robots() -> int:
+    """The robots and their titles on stdout; 2 when a robot's files are installed but one is
+    missing or broken (one line on stderr naming it), else 0."""
+    status = 0
     for name in sorted(ROBOTS):
         try:
             title = get_robot(name).title
         except RobotDataMissing:
             title = f"(not installed: {INSTALL_HINT})"
+        except RobotFileError as exc:
+            title = "(installed, but a file is missing or broken: see stderr)"
+            print(f"drake-sot list: error: robot {name}: {exc}", file=sys.stderr)
+            status = 2
         print(f"{name:20s} {title}")
-    return 0
+    return status
 
 
 def _address_options(parser: argparse.ArgumentParser, host_help: str) -> None:
@@ -434,28 +474,40 @@ def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> 
     """``--duration S``, ``--out DIR`` and ``--no-record``."""
     parser.add_argument(
         "--duration",
-        type=_checked(positive, "duration", unit="s"),
+        type=_checked(check_duration, "duration"),
         default=None,
         metavar="S",
         help=duration_help,
     )
-    parser.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
+    parser.add_argument(
+        "--out", default="out", metavar="DIR", help="output directory, not empty (default: out/)"
+    )
     parser.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
 
 
-def exit_status(result: RunResult) -> int:
-    """0 completed, 1 failed, 3 fell, 128 + the signal's number when interrupted (130 SIGINT,
-    143 SIGTERM); a signal or a failure takes precedence over a fall."""
+def exit_status(result: RunResult, unwritten: Mapping[str, str] | None = None) -> int:
+    """0 completed, 1 failed, 3 fell, 4 (:data:`UNWRITTEN`) some of the ``unwritten`` files,
+    128 + the signal's number when interrupted (130 SIGINT, 143 SIGTERM); a signal, then a
+    failure, then unwritten files take precedence over a fall."""
     if result.interrupted_by is not None:
         return 128 + result.interrupted_by
     if result.failure is not None:
         return 1
+    if unwritten:
+        return UNWRITTEN
     return FELL if result.fell is not None else 0
+
+
+def _report_unwritten(unwritten: Mapping[str, str]) -> None:
+    """One line on stderr naming the files that could not be written, and why."""
+    if unwritten:
+        files = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
+        print(f"could not write: {files}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser, run, script = _parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_joined_option_values(sys.argv[1:] if argv is None else argv))
     if args.command == "script":
         return _script(args, script)
     if args.command in ("serve", "shell"):
@@ -508,7 +560,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
     _check_robot(run, args.robot)
     try:
-        check_pushes(args.push, FRAMES)
+        check_pushes(args.push, LOGICAL_FRAMES)
     except ValueError as exc:
         run.error(f"--push: {exc}")
     try:
@@ -604,19 +656,22 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     )
                     for path in output.files.values():
                         print(f"wrote {path}", flush=True)
+                    _report_unwritten(output.unwritten)
+                    unwritten = output.unwritten
                     result = output.result
                 else:
+                    unwritten = {}
                     setup = scenario.build(loopback_meshcat(), **parameters)
                     simulator = setup.built.create_simulator()
                     duration = setup.duration if args.duration is None else args.duration
                     with SignalGuard() as guard:
                         result = runner(setup, simulator, duration, guard=guard)
-        except (SessionError, NotServable) as exc:  # nothing served
+        except (SessionError, NotServable, RobotFileError) as exc:  # nothing served
             network.close()
             parser.error(f"serve {args.target}: {exc}")
         if result.failure is not None:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
-        return exit_status(result)
+        return exit_status(result, unwritten)
 
     return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
@@ -635,7 +690,10 @@ def _served(
     except (ScriptError, SessionError) as exc:
         parser.error(str(exc))
     duration = program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
-    scenario = script_scenario(program, output_dir=out or ".", echo=_echo_stderr, robot=robot or "embedded")
+    if out is None:  # the script's files (pool.writegraph) go to a fresh directory, never the working one
+        out = tempfile.mkdtemp(prefix=f"drake_sot_{program.path.stem}_")
+        print(f"the script writes its files (pool.writegraph) into {out}", file=sys.stderr, flush=True)
+    scenario = script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
     return scenario, duration
 
 
@@ -714,12 +772,16 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
             pushes=getattr(args, "push", None) or (),  # `script` takes no --push
             runner=decision_runner() if parameters.get("decision") == "remote" else None,
         )
-    except ScenarioParameterError as exc:  # a usage error: nothing simulated
+    except (
+        ScenarioParameterError,
+        RobotFileError,
+    ) as exc:  # a usage error, a broken robot: nothing simulated
         print(f"drake-sot: error: {exc}", file=sys.stderr)
         return 2
     result = output.result
     for path in output.files.values():
         print(f"wrote {path}")
+    _report_unwritten(output.unwritten)
     print(
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"
@@ -732,15 +794,16 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
     elif result.failure is not None:
         print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
     elif result.fell is not None:
+        after = "" if result.after_fall is None else f" (ended by, after the fall: {result.after_fall})"
         print(
-            f"the robot {result.fell}; the run stopped at t = {result.end_time:.3f} s and the "
+            f"the robot {result.fell}; the run stopped at t = {result.end_time:.3f} s{after} and the "
             "artefacts cover the simulated part",
             file=sys.stderr,
         )
     elif result.not_reached:
         later = ", ".join(f"{label!r} at {t:g} s" for t, label in result.not_reached)
         print(f"after the end of the run, not applied: {later}", file=sys.stderr)
-    return exit_status(result)
+    return exit_status(result, output.unwritten)
 
 
 if __name__ == "__main__":

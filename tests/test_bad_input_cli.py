@@ -215,7 +215,7 @@ def test_importing_the_scenarios_leaves_the_matplotlib_backend_alone():
         ("nan,pelvis,0,300,0,0.1", "T = nan s: must be finite and >= 0"),
         (
             "1,elbow,0,300,0,0.1",
-            "BODY = 'elbow': unknown frame; known: pelvis, torso, head, head_camera, left_foot",
+            "BODY = 'elbow': unknown frame; known: pelvis, waist, torso, head, head_camera, left_foot",
         ),
         ("1,pelvis,inf,300,0,0.1", "FX = inf: must be a finite number"),
         ("1,pelvis,0,N,0,0.1", "FY = 'N': must be a number"),

@@ -28,7 +28,7 @@ def test_a_push_refuses_bad_fields(args, message):
 
 
 def test_a_push_on_an_unknown_frame_is_refused_with_the_known_ones():
-    with pytest.raises(ValueError, match="push body = 'elbow': unknown frame; known: pelvis, torso, head"):
+    with pytest.raises(ValueError, match="push body = 'elbow': unknown frame; known: pelvis, waist, torso"):
         check_pushes([ExternalPush(0.5, "elbow", (0, 1, 0), 0.1)], FRAMES)
 
 

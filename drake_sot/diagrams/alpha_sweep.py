@@ -8,6 +8,7 @@ points run in parallel worker processes.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import signal
 import time
 from collections.abc import Callable, Sequence
@@ -26,6 +27,25 @@ from drake_sot.validation import positive, positive_int
 
 GRID = tuple(np.round(np.linspace(0.0, 1.0, 6), 3))  # {0, 0.2, ..., 1}
 SETTLE = 4.0  # [s] simulated per point; errors averaged over the last second
+#: The most worker processes a study starts: four per core of this machine. A worker
+#: simulates one run at a time on one core and holds its own Drake (~0.3 GB): more only
+#: wait for a core and fill the memory (``--workers 100000`` started 225 processes and
+#: 10 GB before it was killed).
+MAX_WORKERS = 4 * (os.cpu_count() or 1)
+
+
+def check_workers(name: str, value: int) -> int:
+    """``value`` as a number of worker processes: an integer in [1, :data:`MAX_WORKERS`].
+
+    Raises:
+        ValueError: naming ``name``, the value and the bound it breaks.
+    """
+    workers = positive_int(name, value)
+    if workers > MAX_WORKERS:
+        raise ValueError(
+            f"{name} = {value!r}: at most {MAX_WORKERS} (four per core of this machine's {MAX_WORKERS // 4})"
+        )
+    return workers
 
 
 def steady_errors(
@@ -74,8 +94,8 @@ def run(
     progress: Callable[[float, float, float], None] | None = None,
     robot: str = "embedded",
 ) -> dict[str, Path]:
-    """Run the sweep on ``robot`` in ``workers`` processes; write ``alpha_sweep.npz`` and
-    ``alpha_sweep.png``. An unknown robot, or one whose models are missing, is refused
+    """Run the sweep on ``robot`` in ``workers`` processes (at most :data:`MAX_WORKERS`); write
+    ``alpha_sweep.npz`` and ``alpha_sweep.png``. An unknown robot, or one whose models are missing, is refused
     before any worker starts.
 
     Ctrl-C or SIGTERM stops the sweep: the points not yet done are cancelled (their errors
@@ -84,7 +104,7 @@ def run(
     :class:`~drake_sot.diagrams.run.Interrupted` for the caller (the command exits 130/143).
     """
     duration = positive("duration", duration, unit="s")
-    workers = positive_int("workers", workers)
+    workers = check_workers("workers", workers)
     get_robot(robot)
     out = output_directory(out_dir)
     points = [(a, b, duration, robot) for a in grid for b in grid]

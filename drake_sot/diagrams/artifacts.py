@@ -2,18 +2,21 @@
 
 Every file is written atomically: under a temporary name in the same directory, then renamed
 over the final name (``os.replace``), so a writer killed half-way leaves either the previous
-file or none, never a truncated one.
+file or none, never a truncated one. :class:`Artefacts` writes a run's files one after the
+other: one that cannot be written (a full disk) is recorded and the next is still attempted.
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import secrets
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -25,14 +28,66 @@ from drake_sot.diagrams.run import RunResult
 from drake_sot.diagrams.world import BuiltHumanoid
 
 
+class GraphvizMissing(RuntimeError):
+    """Graphviz's ``dot`` is not installed: the diagram was written as ``.dot`` source instead."""
+
+
+#: What a writer raises when its file cannot be written: the file system's errors (ENOSPC
+#: when the disk is full, EROFS, EACCES...), ``dot`` failing, or ``dot`` missing.
+WRITE_ERRORS: tuple[type[Exception], ...] = (OSError, subprocess.CalledProcessError, GraphvizMissing)
+
+
+@dataclass
+class Artefacts:
+    """The files of a run, written one after the other by :meth:`write`: one that cannot be
+    written (see :data:`WRITE_ERRORS`) is recorded in ``unwritten`` and the next is still
+    attempted, so that a full disk costs the files that no longer fit and no others.
+
+    Attributes:
+        files: key (``npz``, ``png``...) → the file written.
+        unwritten: the file (or files) that could not be written → why, in a few words.
+    """
+
+    files: dict[str, Path] = field(default_factory=dict)
+    unwritten: dict[str, str] = field(default_factory=dict)
+
+    def write(self, key: str, path: Path, writer: Callable[[Path], object]) -> None:
+        """``writer(path)``; on success ``files[key] = path``, else ``unwritten[path]`` says why."""
+        try:
+            writer(path)
+        except WRITE_ERRORS as exc:
+            self.unwritten[str(path)] = _reason(exc)
+        else:
+            self.files[key] = path
+
+    def write_several(self, what: str, writer: Callable[[], dict[str, Path]]) -> None:
+        """``writer()``, which writes several files and returns them by key; on failure
+        ``unwritten[what]`` says why (``what`` names the files, e.g. ``"out/walk_*.png"``)."""
+        try:
+            self.files.update(writer())
+        except WRITE_ERRORS as exc:
+            self.unwritten[what] = _reason(exc)
+
+
+def _reason(error: Exception) -> str:
+    if isinstance(error, OSError) and error.strerror:
+        return f"{error.strerror}, errno {errno.errorcode.get(error.errno, error.errno)}"
+    if isinstance(error, subprocess.CalledProcessError):
+        return f"{error.cmd[0]} exited with status {error.returncode}"
+    return str(error)
+
+
 def output_directory(path: str | Path) -> Path:
     """``path`` as a directory the artefacts can be written into: created (with its parents)
     when missing, then probed by creating and deleting a temporary file in it.
 
     Raises:
-        OSError: naming ``path`` and the reason (an existing file, a path under a file, no
-            write permission, a read-only file system...).
+        OSError: naming ``path`` and the reason (an empty name, which would be the current
+            directory; an existing file, a path under a file, no write permission, a read-only
+            file system...).
     """
+    if not str(path):
+        raise FileNotFoundError("output directory '': empty; name a directory (e.g. 'out')")
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"{str(out)!r} is a file, not a directory")
@@ -69,8 +124,8 @@ def write_figure(figure: Figure, path: str | Path) -> None:
 def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None:
     """Render ``diagram.GetGraphvizString`` to SVG with Graphviz's ``dot``.
 
-    Raises RuntimeError saying what to install when ``dot`` is missing (the ``.dot``
-    source is written beside the SVG path first, so nothing is lost).
+    Raises GraphvizMissing (a RuntimeError) saying what to install when ``dot`` is missing (the
+    ``.dot`` source is written beside the SVG path first, so nothing is lost).
     """
     path = Path(path)
     source = diagram.GetGraphvizString(max_depth=max_depth)
@@ -78,7 +133,7 @@ def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None
     if dot is None:
         with atomic_path(path.with_suffix(".dot")) as temporary:
             temporary.write_text(source, encoding="utf-8")
-        raise RuntimeError(
+        raise GraphvizMissing(
             f"Graphviz 'dot' not found: wrote {path.with_suffix('.dot')} instead of {path}; "
             "install it with 'apt-get install graphviz'"
         )

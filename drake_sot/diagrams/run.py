@@ -23,10 +23,25 @@ from pydrake.systems.analysis import Simulator, SimulatorStatus
 from pydrake.systems.framework import Context, Diagram, System
 
 from drake_sot.systems.fall_monitor import Fall, FallMonitor
-from drake_sot.validation import positive
+from drake_sot.validation import bounded, positive
 
 #: The signals that stop a run: Ctrl-C and the polite "terminate" of ``kill``, job schedulers, systemd.
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+#: The longest run [s] of simulated time: one hour. The loggers keep every sample in memory
+#: until the run's logs are written (the embedded humanoid's walk logs ~2 kB per 5 ms control
+#: tick: ~1.4 GB per simulated hour), and at the walk's real-time factor (0.25-0.65) an hour
+#: already takes 1.5-4 hours of wall time; a longer value is a typo (``--duration 1e300`` ran
+#: until it was killed).
+MAX_DURATION = 3600.0
+
+
+def check_duration(name: str, value: float) -> float:
+    """``value`` as a run's duration [s]: finite, > 0 and at most :data:`MAX_DURATION`.
+
+    Raises:
+        ValueError: naming ``name``, the value and the bound it breaks.
+    """
+    return bounded(name, positive(name, value, unit="s"), 0.0, MAX_DURATION, unit="s")
 
 
 @dataclass(frozen=True)
@@ -119,7 +134,9 @@ class RunResult:
     - **failed** (``failure`` is not None): an exception stopped the run; ``end_time`` says when.
     - **fell** (``fell`` is not None): a ``FallMonitor`` of the diagram detected a fall
       (time, pelvis height, tilt); the run went on for the monitor's ``stop_after`` (or
-      up to the duration, if sooner) and stopped.
+      up to the duration, if sooner) and stopped. An exception raised in that time (a
+      controller that gives up on a robot lying on the ground) ends it sooner and is kept in
+      ``after_fall``: the run still fell, it did not fail.
 
     In every state ``end_time`` is the simulated time reached and the simulator's context
     holds the logs up to it. The ``drake-sot`` command exits with 0, 130 (SIGINT), 143
@@ -133,6 +150,7 @@ class RunResult:
         interrupted_by: the signal that stopped the run, None when it was not interrupted.
         failure: the exception that stopped the run, if any.
         fell: the fall, if the robot fell (the earliest, if several monitors saw one).
+        after_fall: the exception that ended the run after the fall was detected, if any.
     """
 
     end_time: float = 0.0
@@ -142,6 +160,7 @@ class RunResult:
     interrupted_by: signal.Signals | None = None
     failure: BaseException | None = None
     fell: Fall | None = None
+    after_fall: BaseException | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -175,24 +194,27 @@ def simulate(
 
     Never raises for what happens inside the run: SIGINT (Ctrl-C) or SIGTERM sets
     ``interrupted_by``, an exception is stored in ``failure`` and a fall (seen by a
-    ``FallMonitor`` of the diagram) in ``fell``, so the caller can save the partial logs. A
+    ``FallMonitor`` of the diagram) in ``fell``, so the caller can save the partial logs. An
+    exception raised once a fall was detected is stored in ``after_fall`` instead: the run
+    ended as a fall. A
     monitor that asks the simulator to stop ends the run there; another system that does
     is a failure naming it. Signals are handled by ``guard`` (a :class:`SignalGuard` the caller has
     entered and keeps while it writes the artefacts), else by a guard of this call alone.
 
     Args:
         simulator: an initialized simulator.
-        duration: the simulated time to reach [s], finite and > 0.
+        duration: the simulated time to reach [s], finite, > 0 and at most :data:`MAX_DURATION`.
         commands: applied when the simulation reaches their time; those after ``duration``
             are listed in ``not_reached``.
         progress: called after each step of at most ``chunk`` [s] (finite, > 0), at the multiples
             of ``chunk`` (and at the commands' times).
 
     Raises:
-        ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0 (checked before Drake
-            sees it: a Drake assertion ends the interpreter).
+        ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0, or ``duration`` above
+            :data:`MAX_DURATION` (checked before Drake sees it: a Drake assertion ends the
+            interpreter).
     """
-    duration = positive("duration", duration, unit="s")
+    duration = check_duration("duration", duration)
     chunk = positive("chunk", chunk, unit="s")
     if guard is None:
         with SignalGuard() as own:
@@ -236,6 +258,9 @@ def simulate(
     result.not_reached = [(c.time, c.label) for c in late + pending]
     falls = [m.fall(m.GetMyContextFromRoot(context)) for m in fall_monitors(simulator.get_system())]
     result.fell = min((f for f in falls if f is not None), key=lambda f: f.time, default=None)
+    if result.fell is not None and result.failure is not None:
+        # the monitor's state holds the fall only from a completed step on: it came first
+        result.after_fall, result.failure = result.failure, None
     return result
 
 

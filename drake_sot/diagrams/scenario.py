@@ -12,6 +12,7 @@ from pydrake.math import RigidTransform
 from pydrake.systems.framework import Context
 
 from drake_sot.diagrams.artifacts import (
+    Artefacts,
     log_arrays,
     output_directory,
     write_figure,
@@ -19,12 +20,11 @@ from drake_sot.diagrams.artifacts import (
     write_replay,
     write_svg,
 )
-from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
+from drake_sot.diagrams.pushes import ExternalPush, check_push_times
+from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.plots import plot_task_errors
 from drake_sot.systems.stack_history import stack_changes
-from drake_sot.validation import positive
 
 
 @dataclass
@@ -70,14 +70,16 @@ Runner = Callable[..., RunResult]
 
 @dataclass
 class ScenarioOutput:
-    """What :func:`run_scenario` produced: how the run ended, the logs, the files, and
-    the scenario with its final context (to inspect the stack or the plant)."""
+    """What :func:`run_scenario` produced: how the run ended, the logs, the files written,
+    those that could not be (a full disk: file → why), and the scenario with its final context
+    (to inspect the stack or the plant)."""
 
     result: RunResult
     arrays: dict[str, np.ndarray]
     files: dict[str, Path]
     setup: ScenarioSetup
     context: Context
+    unwritten: dict[str, str] = field(default_factory=dict)
 
 
 class ScenarioParameterError(ValueError):
@@ -100,7 +102,9 @@ def run_scenario(
     before the run) into ``out_dir``.
 
     Artefacts are written even when the run is interrupted (SIGINT, SIGTERM), fails or the
-    robot falls, covering what was simulated; ``result`` says how it ended. The task-error plot
+    robot falls, covering what was simulated; ``result`` says how it ended. A file that cannot
+    be written (a full disk) is listed in the output's ``unwritten`` and the next one is still
+    attempted. The task-error plot
     marks the commands, the stack changes, the pushes and the fall. While they are written, SIGINT and SIGTERM
     are held and delivered once every file is written (see :class:`SignalGuard`); each file is
     written atomically (see :mod:`drake_sot.diagrams.artifacts`).
@@ -108,7 +112,8 @@ def run_scenario(
     Args:
         scenario: what to run.
         out_dir: the output directory, created if needed.
-        duration: simulated time [s], finite and > 0; None for the scenario's own.
+        duration: simulated time [s], finite, > 0 and at most
+            :data:`~drake_sot.diagrams.run.MAX_DURATION`; None for the scenario's own.
         record: record the Meshcat replay.
         progress: called as the simulation advances (see :func:`simulate`).
         parameters: keyword arguments of the scenario's ``build`` (only those it declares).
@@ -118,12 +123,12 @@ def run_scenario(
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
-            :class:`ScenarioParameterError` when ``build`` refuses a parameter's value (before
-            anything is simulated).
+            :class:`ScenarioParameterError` when ``build`` refuses a parameter's value or a
+            push starts after the run's end (before anything is simulated).
         OSError: ``out_dir`` cannot be written (before anything is built).
     """
     if duration is not None:
-        duration = positive("duration", duration, unit="s")
+        duration = check_duration("duration", duration)
     unknown = sorted(set(parameters or {}) - set(scenario.parameters))
     if unknown:
         raise ValueError(
@@ -136,25 +141,26 @@ def run_scenario(
     except ValueError as exc:
         raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
     built = setup.built
-    files = {"svg": out / f"{scenario.name}.svg"}
-    write_svg(built.diagram, files["svg"])
+    duration = setup.duration if duration is None else duration
+    try:
+        check_push_times(built.pushes, duration)
+    except ValueError as exc:
+        raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
+    artefacts = Artefacts()
+    artefacts.write("svg", out / f"{scenario.name}.svg", lambda path: write_svg(built.diagram, path))
     simulator = built.create_simulator()
     if built.visualizer is not None:
         built.visualizer.StartRecording(set_transforms_while_recording=False)
     with SignalGuard() as guard:
-        duration = setup.duration if duration is None else duration
         if runner is None:
             result = simulate(simulator, duration, setup.commands, progress=progress, guard=guard)
         else:
             result = runner(setup, simulator, duration, progress=progress, guard=guard)
         context = simulator.get_context()
         arrays = log_arrays(built, context, result)
-        files["npz"] = out / f"{scenario.name}.npz"
-        write_npz(arrays, files["npz"])
+        artefacts.write("npz", out / f"{scenario.name}.npz", lambda path: write_npz(arrays, path))
         if record:
-            files["html"] = out / f"{scenario.name}.html"
-            write_replay(built, files["html"])
-        files["png"] = out / f"{scenario.name}.png"
+            artefacts.write("html", out / f"{scenario.name}.html", lambda path: write_replay(built, path))
         errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
         command_times = {round(t, 6) for t, _ in result.events}
         history = built.stack_history.history(context) if built.stack_history is not None else []
@@ -164,7 +170,16 @@ def run_scenario(
         if result.fell is not None:
             marks.append((result.fell.time, str(result.fell)))
         title = f"{scenario.name}: task errors"
-        write_figure(plot_task_errors(arrays["time"], errors, marks, title=title), files["png"])
+        figure = plot_task_errors(arrays["time"], errors, marks, title=title)
+        artefacts.write("png", out / f"{scenario.name}.png", lambda path: write_figure(figure, path))
         if scenario.extra_plots is not None:
-            files.update(scenario.extra_plots(setup, arrays, out))
-    return ScenarioOutput(result=result, arrays=arrays, files=files, setup=setup, context=context)
+            extra_plots = scenario.extra_plots
+            artefacts.write_several(f"{out / scenario.name}_*.png", lambda: extra_plots(setup, arrays, out))
+    return ScenarioOutput(
+        result=result,
+        arrays=arrays,
+        files=artefacts.files,
+        setup=setup,
+        context=context,
+        unwritten=artefacts.unwritten,
+    )

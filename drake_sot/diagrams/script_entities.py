@@ -20,7 +20,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import Context, InputPort, OutputPort, System
 
 from drake_sot import validation
-from drake_sot.diagrams.artifacts import atomic_path, write_svg
+from drake_sot.diagrams.artifacts import WRITE_ERRORS, atomic_path, write_svg
 from drake_sot.diagrams.walk import add_pattern_generator
 from drake_sot.gains import AdaptiveGain, Gain, validate_gain
 from drake_sot.script import (
@@ -450,17 +450,23 @@ class PoolEntity(Entity):
         _arity(args, "listClass", 0)
         return "\n".join(f"{name}: {cls.DOC}" for name, cls in CLASSES.items())
 
-    @_command(Phase.RUN, "writegraph FILE", "the diagram's graph: Graphviz source, or SVG for *.svg")
+    @_command(
+        Phase.RUN,
+        "writegraph FILE",
+        "the diagram's graph (Graphviz source, SVG for *.svg) as FILE, a plain name, in the output directory",
+    )
     def writegraph(self, args: tuple[Value, ...], context: Context | None) -> str:
         _arity(args, "writegraph FILE", 1)
-        path = self.session.output_path(_text(args[0], "the file name"))
-        path.parent.mkdir(parents=True, exist_ok=True)
+        path = self.session.claim_output(_text(args[0], "the file name"))
         diagram = self.session.built.diagram
-        if path.suffix == ".svg":
-            write_svg(diagram, path)
-        else:
-            with atomic_path(path) as temporary:
-                temporary.write_text(diagram.GetGraphvizString(max_depth=1), encoding="utf-8")
+        try:
+            if path.suffix == ".svg":
+                write_svg(diagram, path)
+            else:
+                with atomic_path(path) as temporary:
+                    temporary.write_text(diagram.GetGraphvizString(max_depth=1), encoding="utf-8")
+        except WRITE_ERRORS as exc:
+            raise SessionError(f"pool.writegraph: cannot write {str(path)!r}: {exc}") from None
         return f"wrote {path}"
 
 

@@ -76,8 +76,11 @@ output (``plug sot.errors decision.errors``: a sequencer's guard on the task err
 connected when the build makes the solver, which is last. An entity cannot take its size from
 ``sot.errors`` (``FeatureGeneric.errorIN``): it is known only then.
 
-Files: ``run FILE`` and ``pool.writegraph FILE`` stay inside the session's script and
-output directories (a path that resolves outside them is refused).
+Files: ``run FILE`` reads inside the session's script directory (a path that resolves outside
+it is refused). ``pool.writegraph FILE`` writes a plain file name (no directory part, not
+``.`` or ``..``) into the session's output directory, creates no directory, and never replaces
+a file that this session did not write itself (the script, another user's file); without an
+output directory the session makes a fresh temporary one, never the working directory.
 
 The run-time entry point, for a command server or a shell, is
 :meth:`ScriptSession.execute`: ``session.execute("sot.push taskCom", root_context)`` returns
@@ -88,6 +91,8 @@ that owns the context, between simulation steps; it is not thread-safe.
 
 from __future__ import annotations
 
+import os
+import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -183,7 +188,8 @@ class ScriptSession:
         meshcat: a Meshcat to draw in (e.g. ``loopback_meshcat()`` to record a replay), or None.
         control_period: the controller's period [s] (5 ms, as on HRP-2).
         script_dir: where ``run FILE`` reads scripts (a file must resolve inside it).
-        output_dir: where ``pool.writegraph FILE`` writes (a file must resolve inside it).
+        output_dir: an existing directory where ``pool.writegraph FILE`` writes; None for a
+            fresh temporary directory of this session's, made on first use.
         robot: the robot, a name of ``drake_sot.robots.ROBOTS`` (its logical frames are the
             operational points the script can name).
 
@@ -207,12 +213,13 @@ class ScriptSession:
         meshcat: Meshcat | None = None,
         control_period: float = 0.005,
         script_dir: str | Path = ".",
-        output_dir: str | Path = ".",
+        output_dir: str | Path | None = None,
         robot: str = "embedded",
     ) -> None:
         self.builder = HumanoidSoTBuilder(control_period=control_period, meshcat=meshcat, robot=robot)
         self.script_dir = Path(script_dir)
-        self.output_dir = Path(output_dir)
+        self._output_dir = None if output_dir is None else Path(output_dir)
+        self._written: set[Path] = set()  # the files this session wrote (it may replace them)
         self.built: HumanoidSoT | None = None
         self._built_by: str = ""
         self._entities: dict[str, Entity] = {}
@@ -287,8 +294,33 @@ class ScriptSession:
             raise SessionError(f"{signal} is not a vector signal")
         return port.size()
 
-    def output_path(self, name: str) -> Path:
-        return _inside(self.output_dir, name, "the output directory")
+    @property
+    def output_dir(self) -> Path:
+        """Where ``pool.writegraph`` writes: the directory given, else a fresh temporary
+        directory made for this session on first use."""
+        if self._output_dir is None:
+            self._output_dir = Path(tempfile.mkdtemp(prefix="drake_sot_script_"))
+        return self._output_dir
+
+    def claim_output(self, name: str) -> Path:
+        """The file ``name`` of the output directory, which this session may now write.
+
+        Raises:
+            SessionError: ``name`` is not a plain file name (empty, ``.``, ``..``, a separator,
+                a NUL), or names a file (or link) that exists and that this session did not write.
+        """
+        if name in ("", ".", "..") or any(c in name for c in ("/", "\\", os.sep, "\0")):
+            raise SessionError(
+                f"file name {name!r}: must be a plain file name (no directory part, not '.' or '..'), "
+                f"written into the output directory {str(self.output_dir)!r}"
+            )
+        path = self.output_dir / name
+        if path not in self._written and (path.exists() or path.is_symlink()):
+            raise SessionError(
+                f"{name!r}: {str(path)!r} exists and this session did not write it: not replaced"
+            )
+        self._written.add(path)
+        return path
 
     # --- phases -----------------------------------------------------------------------------
     @property
@@ -860,11 +892,16 @@ def schedule(
 
 
 def script_scenario(
-    program: ScriptProgram, *, output_dir: str | Path, echo: Echo | None = None, robot: str = "embedded"
+    program: ScriptProgram,
+    *,
+    output_dir: str | Path | None,
+    echo: Echo | None = None,
+    robot: str = "embedded",
 ) -> Scenario:
     """The script as a scenario of :func:`~drake_sot.diagrams.scenario.run_scenario`: its name is
     the file's stem, its duration the scripted one; ``extras["session"]`` is the session.
-    ``pool.writegraph`` writes into ``output_dir``; the script drives ``robot``."""
+    ``pool.writegraph`` writes into ``output_dir`` (None: a fresh temporary directory, see
+    :class:`ScriptSession`); the script drives ``robot``."""
 
     def build(meshcat: Meshcat | None) -> ScenarioSetup:
         session = ScriptSession(

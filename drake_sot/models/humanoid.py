@@ -257,15 +257,21 @@ OPERATIONAL_FRAMES = {
 HEAD_CAMERA = RigidTransform(
     RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])), [0.09, 0.0, 0.05]
 )
-#: Logical frame names (what scenarios, tasks and pushes ask for) -> frame names.
+#: Logical frame names (what scenarios, tasks and pushes ask for; every one of
+#: :data:`drake_sot.robots.description.LOGICAL_FRAMES`) -> frame names of this model.
 FRAMES = MappingProxyType(
     {
         "pelvis": "pelvis",
+        "waist": "pelvis",
         "torso": "torso",
         "head": "head",
         "head_camera": "head_camera",
         "left_foot": "l_sole",
         "right_foot": "r_sole",
+        "left_ankle": "l_ankle_roll_link",
+        "right_ankle": "r_ankle_roll_link",
+        "left_wrist": "l_wrist_pitch_link",
+        "right_wrist": "r_wrist_pitch_link",
         "left_hand": "l_hand_tool",
         "right_hand": "r_hand_tool",
     }

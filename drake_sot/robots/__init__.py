@@ -13,6 +13,7 @@ from typing import Any
 
 from drake_sot.robots.catalog import ROBOTS, RobotDataMissing, get_robot
 from drake_sot.robots.description import CollisionShape, Drive, FrameSpec, RobotDescription
+from drake_sot.robots.errors import RobotFileError, RobotFileMissing
 
 #: The names this package gives from :mod:`drake_sot.robots.loading` (pydrake), on first use.
 _LOADING = ("add_robot_collision", "load_robot", "make_robot_control_model", "weld_robot_base")
@@ -25,6 +26,8 @@ __all__ = [
     "FrameSpec",
     "RobotDataMissing",
     "RobotDescription",
+    "RobotFileError",
+    "RobotFileMissing",
     "add_robot_collision",
     "get_robot",
     "load_robot",

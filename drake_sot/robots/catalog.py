@@ -69,13 +69,6 @@ def _embedded() -> RobotDescription:
     from drake_sot.models.humanoid import CONTACT_RADIUS, DRIVES, FRAMES, JOINTS, SENSORS, SOLE
 
     frames = {key: FrameSpec(name) for key, name in FRAMES.items()}
-    frames |= {
-        "waist": FrameSpec("pelvis"),
-        "left_ankle": FrameSpec("l_ankle_roll_link"),
-        "right_ankle": FrameSpec("r_ankle_roll_link"),
-        "left_wrist": FrameSpec("l_wrist_pitch_link"),
-        "right_wrist": FrameSpec("r_wrist_pitch_link"),
-    }
     sensors = {name: name for name, *_ in SENSORS}
     drives = {}
     for j in JOINTS:

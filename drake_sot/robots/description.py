@@ -21,6 +21,7 @@ from pathlib import Path
 from types import MappingProxyType
 
 from drake_sot.footsteps import StepLimits, StepTiming
+from drake_sot.robots.errors import RobotFileError, RobotFileMissing
 from drake_sot.robots.urdf import AddedWeld
 
 #: The logical frames every robot gives (sole = the sole plane under the ankle, x
@@ -43,6 +44,21 @@ LOGICAL_FRAMES = (
 )
 #: The force/torque sensors every robot gives.
 FORCE_SENSORS = ("left_ankle", "right_ankle", "left_wrist", "right_wrist")
+
+
+def xml_root(path: Path, what: str) -> ET.Element:
+    """The root element of the XML file ``path`` (a URDF or an SRDF, said by ``what``).
+
+    Raises:
+        RobotFileMissing: ``path`` is not a file.
+        RobotFileError: it is not well-formed XML (truncated, garbage), naming it and where.
+    """
+    if not Path(path).is_file():
+        raise RobotFileMissing(f"{what} {path} does not exist")
+    try:
+        return ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise RobotFileError(f"{what} {path}: not well-formed XML ({exc}): truncated or corrupt?") from None
 
 
 @dataclass(frozen=True)
@@ -155,28 +171,33 @@ class UrdfJoint:
 def urdf_joints(path: Path, frozen: tuple[str, ...] = ()) -> dict[str, UrdfJoint]:
     """The revolute joints of a URDF file (less ``frozen`` ones and mimic followers), in file order.
 
-    Raises FileNotFoundError naming the file when it is missing.
+    Raises RobotFileMissing naming the file when it is missing, RobotFileError when it is not
+    well-formed XML or a revolute joint has no numeric ``<limit lower upper effort>``.
     """
-    if not Path(path).is_file():
-        raise FileNotFoundError(f"robot model file {path} does not exist")
     joints = {}
-    for joint in ET.parse(path).getroot().findall("joint"):
+    for joint in xml_root(path, "robot model file").findall("joint"):
         name = joint.get("name")
         if joint.get("type") != "revolute" or name in frozen or joint.find("mimic") is not None:
             continue
         limit = joint.find("limit")
-        joints[name] = UrdfJoint(
-            float(limit.get("lower")), float(limit.get("upper")), float(limit.get("effort"))
-        )
+        try:
+            joints[name] = UrdfJoint(
+                float(limit.get("lower")), float(limit.get("upper")), float(limit.get("effort"))
+            )
+        except (AttributeError, TypeError, ValueError):  # no <limit>, or a missing or bad attribute
+            raise RobotFileError(
+                f"robot model file {path}: joint {name!r} has no numeric <limit lower upper effort>"
+            ) from None
     return joints
 
 
 def srdf_group_state(path: Path, state: str) -> dict[str, float]:
     """The joint angles [rad] of group state ``state`` of an SRDF file (one-value joints only:
-    the root joint's pose is not an angle)."""
-    if not Path(path).is_file():
-        raise FileNotFoundError(f"SRDF file {path} does not exist")
-    for element in ET.parse(path).getroot().findall("group_state"):
+    the root joint's pose is not an angle).
+
+    Raises RobotFileMissing or RobotFileError (see :func:`xml_root`) naming the file.
+    """
+    for element in xml_root(path, "SRDF file").findall("group_state"):
         if element.get("name") == state:
             angles = {}
             for joint in element.findall("joint"):

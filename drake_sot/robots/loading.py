@@ -13,6 +13,7 @@ is what every builder reads; ``info.frames`` maps logical names to the plant's f
 from __future__ import annotations
 
 import logging
+import xml.etree.ElementTree as ET
 from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
@@ -34,6 +35,7 @@ from drake_sot.models.humanoid import (
 )
 from drake_sot.robots.catalog import get_robot
 from drake_sot.robots.description import FrameSpec, RobotDescription
+from drake_sot.robots.errors import RobotFileError, RobotFileMissing
 from drake_sot.robots.meshes import cache_dir, converted_mesh
 from drake_sot.robots.urdf import prepare_urdf
 
@@ -56,24 +58,32 @@ def urdf_text(
     """The fixed URDF of ``robot`` and the fixes applied (see :func:`~drake_sot.robots.urdf.prepare_urdf`);
     visual meshes converted into ``mesh_cache`` (default the user cache) when ``geometry``.
 
-    Raises FileNotFoundError naming the model file when it is missing.
+    Raises RobotFileMissing (a FileNotFoundError) naming the model file or a mesh when it is
+    missing, RobotFileError naming the model file when it is not well-formed XML (or not
+    text), a mesh that cannot be converted or a mesh cache that cannot be written.
     """
     if robot.model_file is None:
         raise ValueError(f"robot {robot.name!r} is built in code: it has no model file")
     path = Path(robot.model_file)
     if not path.is_file():
-        raise FileNotFoundError(f"robot {robot.name!r}: model file {path} does not exist")
+        raise RobotFileMissing(f"robot {robot.name!r}: model file {path} does not exist")
 
     def mesh_file(source: Path, scale: tuple[float, float, float]) -> str:
         return f"package://{MESH_PACKAGE}/{converted_mesh(source, scale, mesh_cache).name}"
 
-    return prepare_urdf(
-        path.read_text(),
-        packages=robot.packages,
-        mesh_file=mesh_file if geometry else None,
-        frozen_joints=robot.frozen_joints,
-        added_welds=robot.added_welds,
-    )
+    try:
+        text = path.read_text()
+        return prepare_urdf(
+            text,
+            packages=robot.packages,
+            mesh_file=mesh_file if geometry else None,
+            frozen_joints=robot.frozen_joints,
+            added_welds=robot.added_welds,
+        )
+    except (ET.ParseError, UnicodeDecodeError) as exc:
+        raise RobotFileError(
+            f"robot {robot.name!r}: model file {path}: not a well-formed URDF ({exc}): truncated or corrupt?"
+        ) from None
 
 
 def load_robot(
@@ -112,7 +122,13 @@ def load_robot(
     parser = Parser(plant)
     if geometry:  # the cache directory exists: the meshes were just converted into it
         parser.package_map().Add(MESH_PACKAGE, str(cache_dir() if mesh_cache is None else mesh_cache))
-    (instance,) = parser.AddModelsFromString(text, "urdf")
+    try:
+        (instance,) = parser.AddModelsFromString(text, "urdf")
+    except RuntimeError as exc:  # Drake's parse error names no file: the text came from memory
+        reason = " ".join(str(exc).split())
+        raise RobotFileError(
+            f"robot {robot.name!r}: model file {robot.model_file}: Drake: {reason}"
+        ) from None
     for name, drive in robot.drives.items():
         joint = plant.GetJointByName(name, instance)
         joint.set_default_angle(robot.half_sitting[name])

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from drake_sot.robots.errors import RobotFileError, RobotFileMissing
+
 #: Bump when the conversion changes: every cached entry is then rebuilt.
 FORMAT_VERSION = 2
 #: A mesh with more triangles is decimated to this many (quadric decimation): the CAD
@@ -77,34 +79,55 @@ def converted_mesh(
     An .obj source with unit scale is returned as it is.
 
     Raises:
-        FileNotFoundError: ``source`` does not exist (the message names it).
-        ValueError: ``scale`` is not 3 finite non-zero factors, or the source holds no triangles.
+        RobotFileMissing: ``source`` does not exist (the message names it).
+        RobotFileError: ``source`` cannot be read as a mesh (garbage, truncated) or holds no
+            triangles; the cache ``directory`` is not a directory or cannot be written (each
+            naming the file).
+        ValueError: ``scale`` is not 3 finite non-zero factors.
     """
     source = Path(source)
     factors = np.asarray(scale, dtype=float)
     if factors.shape != (3,) or not np.all(np.isfinite(factors)) or np.any(factors == 0.0):
         raise ValueError(f"mesh {source}: scale {tuple(scale)!r} must be 3 finite non-zero factors")
     if not source.is_file():
-        raise FileNotFoundError(f"mesh file {source} does not exist")
+        raise RobotFileMissing(f"mesh file {source} does not exist")
     if source.suffix.lower() == ".obj" and np.all(factors == 1.0):
         return source
     directory = cache_dir() if directory is None else Path(directory)
+    if directory.exists() and not directory.is_dir():
+        raise RobotFileError(f"mesh cache {directory} (${CACHE_ENV} or its default) is not a directory")
     target = directory / f"{source.stem}-{cache_key(source, factors)}.obj"
     if _entry_is_complete(target):
         return target
     import trimesh  # the optional extra "robots"; imported only when a mesh must be converted
 
-    mesh = trimesh.load(source, force="mesh", process=False)
+    try:
+        mesh = trimesh.load(source, force="mesh", process=False)
+    except Exception as exc:  # noqa: BLE001 - a third-party reader of any bytes raises anything
+        raise RobotFileError(
+            f"mesh file {source}: cannot be read as a mesh ({type(exc).__name__}: {exc}): corrupt?"
+        ) from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise ValueError(f"mesh {source}: no triangles to convert")
+        raise RobotFileError(f"mesh file {source}: no triangles to convert")
     if len(mesh.faces) > MAX_FACES:
         mesh = mesh.simplify_quadric_decimation(face_count=MAX_FACES)
     mesh.apply_transform(np.diag([*factors, 1.0]))  # a mirror also flips the winding back
     text = mesh.export(file_type="obj", include_normals=False, include_texture=False, digits=5)
-    directory.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", dir=directory, suffix=".tmp", delete=False) as f:
-        f.write(f"# {source.name} scaled by {tuple(factors.tolist())}, drake_sot format {FORMAT_VERSION}\n")
-        f.write(text)
-        f.write(f"\n{_END_MARK}\n")
-    os.replace(f.name, target)
+    temporary: Path | None = None
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("w", dir=directory, suffix=".tmp", delete=False) as f:
+            temporary = Path(f.name)
+            f.write(
+                f"# {source.name} scaled by {tuple(factors.tolist())}, drake_sot format {FORMAT_VERSION}\n"
+            )
+            f.write(text)
+            f.write(f"\n{_END_MARK}\n")
+        os.replace(temporary, target)
+    except OSError as exc:  # a full disk, no permission: no half-written entry is left
+        if temporary is not None:
+            temporary.unlink(missing_ok=True)
+        raise RobotFileError(
+            f"mesh cache {directory}: cannot write {target.name}: {exc.strerror or exc}"
+        ) from None
     return target

@@ -34,6 +34,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from drake_sot.robots.errors import RobotFileMissing
+
 #: Mass [kg] and inertia [kg m^2] of an added sensor link (Drake needs a positive mass
 #: on a body at the end of a weld only for a floating one; a small one keeps it well posed).
 ADDED_LINK_MASS = 0.01
@@ -55,7 +57,7 @@ def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
     """The file of a ``package://name/relative/path`` URI through ``packages`` (name → directory).
 
     Raises ValueError for an unknown package name (listing the known ones) and
-    FileNotFoundError for a file that is not there (naming it).
+    RobotFileMissing (a FileNotFoundError) for a file that is not there (naming it).
     """
     rest = uri.removeprefix("package://").lstrip("/")
     name, _, relative = rest.partition("/")
@@ -63,7 +65,7 @@ def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
         raise ValueError(f"URI {uri!r}: unknown package {name!r}; known: {', '.join(sorted(packages))}")
     path = Path(packages[name]) / relative
     if not path.is_file():
-        raise FileNotFoundError(f"URI {uri!r}: file {path} does not exist")
+        raise RobotFileMissing(f"URI {uri!r}: file {path} does not exist")
     return path
 
 

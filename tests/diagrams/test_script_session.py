@@ -1,6 +1,7 @@
 """The script interpreter: the build phase makes the paper's diagram, the run phase acts on
 its context, and every refusal says why."""
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -289,10 +290,52 @@ def test_writegraph_writes_inside_the_output_directory(tmp_path):
     assert session.execute("pool.writegraph graph.dot") == f"wrote {tmp_path / 'graph.dot'}"
     text = (tmp_path / "graph.dot").read_text()
     assert text.startswith("digraph") and "taskCom" not in text and "f" in text
-    with pytest.raises(SessionError, match="'../graph.dot' resolves outside the output directory"):
-        session.execute("pool.writegraph ../graph.dot")
-    with pytest.raises(SessionError, match="resolves outside"):
-        session.execute(f"pool.writegraph {tmp_path.parent}/x.dot")
+    assert session.execute("pool.writegraph graph.dot") == f"wrote {tmp_path / 'graph.dot'}"  # its own file
+
+
+@pytest.mark.parametrize(
+    "name", ["../graph.dot", "sub/graph.dot", "/tmp/x.dot", "..", ".", "a\\\\b.dot", "sub/../g.dot"]
+)
+def test_writegraph_takes_only_a_plain_file_name_and_creates_no_directory(tmp_path, name):
+    out = tmp_path / "out"
+    out.mkdir()
+    session = ScriptSession(output_dir=out)
+    session.run_script("new FeatureCoM f\nnew Task t\nt.add f")
+    with pytest.raises(SessionError, match="must be a plain file name"):
+        session.execute(f'pool.writegraph "{name}"')
+    assert sorted(tmp_path.rglob("*")) == [out]  # nothing written, no directory made
+
+
+def test_writegraph_never_replaces_a_file_it_did_not_write(tmp_path):
+    (tmp_path / "served.sot").write_text("keep me")
+    (tmp_path / "link.dot").symlink_to(tmp_path / "elsewhere.txt")  # dangling: exists as a link only
+    session = ScriptSession(output_dir=tmp_path)
+    session.run_script("new FeatureCoM f\nnew Task t\nt.add f")
+    for name in ("served.sot", "link.dot"):
+        with pytest.raises(SessionError, match=f"'{name}': .* exists and this session did not write it"):
+            session.execute(f"pool.writegraph {name}")
+    assert (tmp_path / "served.sot").read_text() == "keep me"
+    assert not (tmp_path / "elsewhere.txt").exists()
+    other = ScriptSession(output_dir=tmp_path)  # a file of another session is not this one's
+    other.run_script("new FeatureCoM f\nnew Task t\nt.add f")
+    session.execute("pool.writegraph mine.dot")
+    with pytest.raises(SessionError, match="'mine.dot': .* this session did not write it"):
+        other.execute("pool.writegraph mine.dot")
+
+
+def test_without_an_output_directory_a_session_writes_into_a_fresh_one(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    temporary = tmp_path.parent / f"{tmp_path.name}_tmp"  # the temporary directories, not in the cwd
+    temporary.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temporary))
+    session = ScriptSession()
+    session.run_script("new FeatureCoM f\nnew Task t\nt.add f")
+    answer = session.execute("pool.writegraph graph.dot")
+    written = Path(answer.removeprefix("wrote "))
+    assert written.is_file() and written.parent == session.output_dir
+    assert session.output_dir.resolve() != tmp_path.resolve() and list(tmp_path.iterdir()) == []
+    assert session.output_dir.parent == temporary
+    assert ScriptSession().output_dir != session.output_dir  # one directory per session
 
 
 def test_run_file_plays_a_script_inside_the_script_directory(tmp_path):

@@ -251,8 +251,10 @@ def test_bodies_frames_and_force_sensors_exist(control):
     for body in ("pelvis", "torso", "head", "r_foot", "l_foot", "r_hand", "l_hand"):
         assert plant.HasBodyNamed(body, info.model_instance)
     assert dict(info.frames) == {
-        "pelvis": "pelvis", "torso": "torso", "head": "head", "head_camera": "head_camera",
+        "pelvis": "pelvis", "waist": "pelvis", "torso": "torso", "head": "head", "head_camera": "head_camera",
         "left_foot": "l_sole", "right_foot": "r_sole",
+        "left_ankle": "l_ankle_roll_link", "right_ankle": "r_ankle_roll_link",
+        "left_wrist": "l_wrist_pitch_link", "right_wrist": "r_wrist_pitch_link",
         "left_hand": "l_hand_tool", "right_hand": "r_hand_tool",
     }  # fmt: skip
     for frame in info.frames.values():
