@@ -24,9 +24,10 @@ endef
 # The Pythons the package claims besides the machine's python3 (pyproject's requires-python), each
 # tested in its own virtual environment with the newest drake, numpy and scipy pip resolves there.
 COMPAT_PYTHONS ?= 3.11 3.12 3.13
-# What runs there: every fast test, every scenario's construction and first ticks, the case study to
-# its end (the compat marker); the physics suite runs once, on python3.
-COMPAT_TESTS ?= not slow or compat
+# What runs there: every test but the scenario simulations and the slow ones, plus every scenario's
+# construction and first ticks and the case study to its end (the compat marker); the whole suite
+# runs once, on python3.
+COMPAT_TESTS ?= compat or not (slow or scenario)
 
 .PHONY: demo test test-compat venv bench bench-peers clean
 

@@ -12,3 +12,12 @@ def pytest_report_header(config) -> str:
         f"drake_sot on Python {sys.version.split()[0]}: drake {version('drake')}, numpy {version('numpy')}, "
         f"scipy {version('scipy')}, daqp {version('daqp')}"
     )
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """Every test of ``tests/diagrams`` (a scenario simulated in physics, seconds to minutes) carries
+    the ``scenario`` marker, so that a run on another Python can leave them out but for the
+    ``compat`` ones (``make test``: ``-m "compat or not (slow or scenario)"``)."""
+    for item in items:
+        if "diagrams" in item.path.parent.parts[-1:]:
+            item.add_marker("scenario")
