@@ -35,7 +35,7 @@ RATE = NetworkThread.__init__.__kwdefaults__["rate"]
 
 def main() -> None:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "drake_sot.cli", "serve", "reach", "--port", "0", "--duration", "600"],
+        [sys.executable, "-m", "drake_sot.app.cli", "serve", "reach", "--port", "0", "--duration", "600"],
         stdout=subprocess.PIPE,
         text=True,
         cwd=REPO,

@@ -14,12 +14,12 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import ConstantVectorSource
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.diagrams.artifacts import atomic_path
 from drake_sot.diagrams.run import simulate
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 
 
 def _refused(capsys, argv: list[str]) -> str:
@@ -196,7 +196,7 @@ def test_importing_the_scenarios_leaves_the_matplotlib_backend_alone():
     code = (
         "import sys, matplotlib\n"
         "before = matplotlib.rcParams['backend']\n"
-        "import drake_sot.diagrams, drake_sot.plots, drake_sot.cli\n"
+        "import drake_sot.diagrams, drake_sot.plots, drake_sot.app.cli\n"
         "assert 'matplotlib.pyplot' not in sys.modules, 'pyplot imported'\n"
         "print(before, matplotlib.get_backend())\n"
     )

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from headless import chromium, screenshot
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.diagrams import reach
 from drake_sot.diagrams import scenario as scenario_module
 from drake_sot.diagrams.run import STOP_SIGNALS, Command, Interrupted, RunResult, SignalGuard
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.systems.fall_monitor import Fall
 
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 
 
 def test_list_names_the_scenarios():

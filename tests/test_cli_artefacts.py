@@ -9,7 +9,7 @@ import os
 import numpy as np
 import pytest
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.diagrams import scenario
 
 

@@ -16,7 +16,7 @@ from drake_sot.diagrams.run import MAX_DURATION
 from drake_sot.models.humanoid import FRAMES
 from drake_sot.robots.description import LOGICAL_FRAMES
 
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 TIMEOUT = 300  # [s] generous: a loaded machine imports Drake slowly
 
 

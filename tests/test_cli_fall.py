@@ -10,10 +10,10 @@ import sys
 import numpy as np
 import pytest
 
-from drake_sot.cli import FELL
+from drake_sot.app.cli import FELL
 from drake_sot.systems.fall_monitor import FallCriteria
 
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 
 import pytest
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.diagrams import SCENARIOS
 
 

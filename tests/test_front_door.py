@@ -19,13 +19,14 @@ from pydrake.systems.framework import DiagramBuilder
 from served import DRAKE_SOT, REPO, start, stop
 
 from drake_sot import validation
+from drake_sot.app import serving
+from drake_sot.app.serving import REACH_BOUND
 from drake_sot.diagrams.script_session import MAX_INCLUDE_DEPTH, SessionError, load_script
-from drake_sot.remote import Client, RemoteError, serving
-from drake_sot.remote import server as server_module
+from drake_sot.remote import Client, RemoteError
 from drake_sot.remote.network import ACCEPT_BACKOFF, MAX_CONNECTIONS, NetworkThread, _is_loopback
-from drake_sot.remote.server import RemoteCommandServer
-from drake_sot.remote.serving import REACH_BOUND
 from drake_sot.script import MAX_TRANSITION, ScriptError, parse_line, stack_arguments
+from drake_sot.systems import command_server as server_module
+from drake_sot.systems.command_server import RemoteCommandServer
 
 HUGE = "1" + "0" * 400  # 10**400: an int Python reads, beyond float range (max ~1.8e308)
 assert math.isinf(float("1e400")) and int(HUGE).bit_length() > 1024

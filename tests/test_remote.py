@@ -355,9 +355,9 @@ def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
 
 
 def test_the_meshcat_controls_show_the_task_errors_and_the_stack():
+    from drake_sot.app.status import MeshcatStatus
     from drake_sot.diagrams.reach import build
     from drake_sot.diagrams.world import loopback_meshcat
-    from drake_sot.remote.status import MeshcatStatus
 
     meshcat = loopback_meshcat()
     built = build(meshcat).built

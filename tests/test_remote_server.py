@@ -10,8 +10,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource, VectorLogSink
 
 from drake_sot.remote.protocol import Request
-from drake_sot.remote.server import DONE, HOST, STACK, RemoteCommandServer
 from drake_sot.signals import TaskSignal
+from drake_sot.systems.command_server import DONE, HOST, STACK, RemoteCommandServer
 from drake_sot.systems.sot import StackOfTasks
 
 PERIOD = 0.01

@@ -14,7 +14,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import ProtocolError, Request, parse_request
-from drake_sot.remote.server import DONE, RemoteCommandServer
+from drake_sot.systems.command_server import DONE, RemoteCommandServer
 from drake_sot.systems.telecoop import MASTER_BOUNDS, MASTER_SIGNALS
 
 PERIOD = 0.01

@@ -10,12 +10,12 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.models import half_sitting_configuration, make_control_model
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER_SCRIPT = REPO / "examples" / "paper_III_B.sot"
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ import pytest
 
 from drake_sot.remote import Client, RemoteError
 
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 SCRIPT = "new FeatureCoM featureCom\nnew Task taskCom\ntaskCom.add featureCom\nsot.push taskCom\n"
 
 

@@ -29,7 +29,7 @@ from drake_sot.diagrams.telecoop_master import PERIOD
 pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[1]
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 DURATION = 10.0
 DELAY = 0.14
 TIMEOUT = 900.0  # [s] of wall time for each process (the slave runs at ~0.3 x real time here)

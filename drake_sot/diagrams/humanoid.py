@@ -27,7 +27,7 @@ from pydrake.systems.framework import OutputPort
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.diagrams.world import BuiltHumanoid
-from drake_sot.remote.server import RemoteCommandServer
+from drake_sot.systems.command_server import RemoteCommandServer
 from drake_sot.systems.device import Device
 from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.sot import StackOfTasks
@@ -50,7 +50,7 @@ _WITH_COMMAND_SERVER: ContextVar[bool] = ContextVar("with_command_server", defau
 @contextmanager
 def with_command_server() -> Iterator[None]:
     """Inside this block every :meth:`HumanoidSoTBuilder.build` adds a
-    :class:`~drake_sot.remote.server.RemoteCommandServer` driving the solver's stack commands
+    :class:`~drake_sot.systems.command_server.RemoteCommandServer` driving the solver's stack commands
     (``built.remote``), as a scenario that declares writable signals has; e.g. to serve a
     scenario built by its own function."""
     token = _WITH_COMMAND_SERVER.set(True)
@@ -73,7 +73,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
 
     def command_server(self) -> RemoteCommandServer:
         """The diagram's remote command server, added on first use (see
-        :class:`~drake_sot.remote.server.RemoteCommandServer`)."""
+        :class:`~drake_sot.systems.command_server.RemoteCommandServer`)."""
         if self._server is None:
             self._server = self.builder.AddSystem(RemoteCommandServer(self.control_period))
         return self._server
@@ -83,7 +83,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
     ) -> OutputPort:
         """A signal remote clients may write, ``remote.<name>`` of ``size`` [``units``], each entry
         within ``±bound``: the output port to wire into what it drives (see
-        :meth:`~drake_sot.remote.server.RemoteCommandServer.declare_writable`)."""
+        :meth:`~drake_sot.systems.command_server.RemoteCommandServer.declare_writable`)."""
         return self.command_server().declare_writable(name, size, units, initial, bound=bound)
 
     def build(

@@ -150,7 +150,7 @@ class StackOfTasks(LeafSystem):
             raises a RuntimeError naming them and listing the known tasks.
         commands: only with ``commands_input=True``; abstract :class:`StackCommands`, batches of
             stack commands from another system (a
-            :class:`~drake_sot.remote.server.RemoteCommandServer`). A new batch acts at the
+            :class:`~drake_sot.systems.command_server.RemoteCommandServer`). A new batch acts at the
             tick that sees it, after the stack held in the context, in its order; a command
             that cannot act (an unknown task, a push of a task in the stack) is skipped and
             reported on ``command_results``. A periodic unrestricted update commits the batch

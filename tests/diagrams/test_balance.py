@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.diagrams import telecooperation, walk, walk_then_interact
 from drake_sot.diagrams.balance import add_hip_strategy, add_stabilizer, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder

@@ -14,7 +14,7 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.diagrams import scenario as scenario_module
 from drake_sot.diagrams import walk_then_interact
 from drake_sot.diagrams.balance import add_hip_strategy, add_stabilizer

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from robot_data import robot_or_skip
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.robots import catalog
 
 

@@ -13,7 +13,7 @@ from pydrake.geometry import Mesh, Role
 from pydrake.systems.framework import DiagramBuilder
 from robot_data import robot_or_skip
 
-from drake_sot import cli
+from drake_sot.app import cli
 from drake_sot.diagrams.tasks import FALL_CRITERIA
 from drake_sot.diagrams.world import add_humanoid_plant
 from drake_sot.models.humanoid import half_sitting_configuration

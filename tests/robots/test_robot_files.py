@@ -18,7 +18,7 @@ from drake_sot.robots import RobotFileError
 from drake_sot.robots.catalog import DATA_ENV
 from drake_sot.robots.meshes import CACHE_ENV, converted_mesh
 
-DRAKE_SOT = [sys.executable, "-m", "drake_sot.cli"]
+DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 TIMEOUT = 600  # [s] generous: converting the G1's meshes on a loaded machine
 MODEL = Path("g1_description") / "urdf" / "g1_29dof_rev_1_0.urdf"
 

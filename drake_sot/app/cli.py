@@ -28,6 +28,7 @@ from typing import NoReturn, TextIO
 
 from pydrake.systems.analysis import Simulator
 
+from drake_sot.app.serving import NotServable, decision_runner, serve_run
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import check_workers
 from drake_sot.diagrams.artifacts import output_directory
@@ -39,7 +40,6 @@ from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.peer import PeerError
-from drake_sot.remote.serving import NotServable, decision_runner, serve_run
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.robots import ROBOTS, RobotDataMissing, RobotFileError, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT

@@ -25,7 +25,7 @@ A Drake event can change only its own system's context. Everything else a reques
 reads, subscriptions, ``list``, script lines that set another system's parameter
 (``task.controlGain``, ``pg.parsecmd``, ``set``, a feature's desired pose) — is left, in
 order, in :meth:`taken` for the host that owns the simulator and the root context
-(:class:`~drake_sot.remote.serving.Serving`), which answers or applies it after the tick. The
+(:class:`~drake_sot.app.serving.Serving`), which answers or applies it after the tick. The
 host's changes act at the following tick; so that every change acts in arrival order, the
 requests that come after one of them are held in the server's state and taken at that tick.
 Reads are therefore the values at the last tick, evaluated by that host on any output port

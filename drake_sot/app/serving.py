@@ -2,7 +2,7 @@
 
 Design (and why). DESIGN.md: the network never touches a context. The socket thread
 (:class:`~drake_sot.remote.network.NetworkThread`) only queues requests; the diagram's
-:class:`~drake_sot.remote.server.RemoteCommandServer` takes them at each control tick, in
+:class:`~drake_sot.systems.command_server.RemoteCommandServer` takes them at each control tick, in
 arrival order, in its own periodic event, and applies there what a Drake system may change:
 its own outputs — the stack commands, a batch the ``StackOfTasks`` applies at that tick, and
 the signals the diagram declared writable, output ports wired into what they drive.
@@ -23,9 +23,9 @@ at the next tick and are answered after it (the server holds what came after the
 so that the changes act in arrival order). Then it sleeps to hold ``realtime`` × real time.
 
 A written value must be of the declared size, finite and within the declared bound (one check,
-:meth:`~drake_sot.remote.server.Writable.check`, of one :class:`~drake_sot.remote.server.Writable`
-type); only the declared signals and the 6D tasks' ``position_des`` (within ±:data:`REACH_BOUND`)
-can be written.
+:meth:`~drake_sot.systems.command_server.Writable.check`, of one
+:class:`~drake_sot.systems.command_server.Writable` type); only the declared signals and the 6D
+tasks' ``position_des`` (within ±:data:`REACH_BOUND`) can be written.
 
 **Paced by its client** (``paced=True``; the two-process tele-cooperation's slave). A client
 that simulates too (the master site) writes timed values (``at``, applied at that simulated time
@@ -55,15 +55,15 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
+from drake_sot.app.status import MeshcatStatus
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.scenario import Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
 from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
-from drake_sot.remote.server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
-from drake_sot.remote.status import MeshcatStatus
 from drake_sot.script import Call, Get, parse_line
+from drake_sot.systems.command_server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
 from drake_sot.systems.features import FeaturePoint6d
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.sot import StackOfTasks
@@ -111,11 +111,11 @@ class Serving:
         network: the socket thread whose requests are served.
         writable: the allowlist of the signals the host applies (parameters of other systems),
             by signal name, each with its ``apply``; the server's declared signals are allowed
-            besides. A write is checked by :meth:`~drake_sot.remote.server.Writable.check`, as
+            besides. A write is checked by :meth:`~drake_sot.systems.command_server.Writable.check`, as
             the server checks its own.
         realtime: the pace, > 0 (inf: as fast as possible).
         on_tick: called with the root context after each tick (e.g. a
-            :class:`~drake_sot.remote.status.MeshcatStatus` update).
+            :class:`~drake_sot.app.status.MeshcatStatus` update).
         session: the script session of a served script: ``run`` lines it executes (set, get,
             task.controlGain, pg.parsecmd...); None: a scenario (stack commands, get, help).
         paced: simulate no tick before the client's horizon is beyond it (see the module
