@@ -38,6 +38,15 @@ def test_list_names_the_scenarios():
     ]
 
 
+def test_a_reader_closing_the_output_early_gets_no_traceback():
+    # `drake-sot list | head -1`: the reader is gone before the command writes.
+    proc = subprocess.Popen([*DRAKE_SOT, "list"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc.stdout.close()
+    _, err = proc.communicate(timeout=120)
+    assert "Traceback" not in err and "BrokenPipeError" not in err, err
+    assert proc.returncode == cli.EXIT_BROKEN_PIPE == 128 + signal.SIGPIPE
+
+
 def test_bad_arguments_are_refused(capsys):
     with pytest.raises(SystemExit) as exit_:
         cli.main(["run", "no_such_scenario"])

@@ -7,7 +7,8 @@ Exit status of ``run``, ``script`` and ``serve``: 0 the run completed, 1 it fail
 stderr), 2 bad arguments, a script that cannot be built or a robot file that is missing or
 broken (one line on stderr naming it, nothing simulated), 3 the robot fell (when, on stderr),
 4 the run ended but an artefact could not be written (a full disk: one line on stderr naming
-the files; every other one was written), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM.
+the files; every other one was written), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM;
+141 (any command) its standard output was closed by its reader (``drake-sot list | head -1``).
 Interrupted, failed or fallen, the artefacts of the simulated part are written; a signal that
 comes while they are written waits until they all are. ``list --robots`` exits with 2 when a
 robot's files are installed but one is missing or broken.
@@ -505,7 +506,24 @@ def _report_unwritten(unwritten: Mapping[str, str]) -> None:
         print(f"could not write: {files}", file=sys.stderr)
 
 
+#: The exit status of a command whose standard output's reader went away (``drake-sot list | head``),
+#: as for a process ended by SIGPIPE (128 + 13).
+EXIT_BROKEN_PIPE = 141
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``drake-sot`` command; its exit status (documented in the module docstring)."""
+    try:
+        status = _main(argv)
+        sys.stdout.flush()  # here, not at the interpreter's exit, where a broken pipe is a traceback
+        return status
+    except BrokenPipeError:
+        # No traceback for a closed reader; stdout to /dev/null so that the final flush is quiet.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser, run, script = _parser()
     args = parser.parse_args(_joined_option_values(sys.argv[1:] if argv is None else argv))
     if args.command == "script":
