@@ -327,7 +327,7 @@ def test_another_address_without_a_token_refuses_to_start():
 def test_a_scenario_without_a_command_server_is_refused():
     proc = _serve_to_the_end("table_pounding", "--port", "0")
     assert proc.returncode == 2 and "serving on" not in proc.stdout
-    assert "table_pounding" in proc.stderr and "no RemoteCommandServer" in proc.stderr
+    assert "table_pounding cannot be served" in proc.stderr and "RemoteCommandServer" in proc.stderr
     proc = _serve_to_the_end("no_such_thing", "--port", "0")
     assert proc.returncode == 2 and "'no_such_thing' is neither a scenario (" in proc.stderr
 

@@ -29,14 +29,20 @@ from typing import NoReturn, TextIO
 
 from pydrake.systems.analysis import Simulator
 
-from drake_sot.app.serving import NotServable, decision_runner, serve_run
+from drake_sot.app.serving import decision_runner, serve_run
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import check_workers
 from drake_sot.diagrams.artifacts import output_directory
-from drake_sot.diagrams.humanoid import with_command_server
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
 from drake_sot.diagrams.run import MAX_DURATION, Interrupted, RunResult, SignalGuard, check_duration
-from drake_sot.diagrams.scenario import Scenario, ScenarioParameterError, ScenarioSetup, run_scenario
+from drake_sot.diagrams.scenario import (
+    NotServable,
+    Scenario,
+    ScenarioParameterError,
+    ScenarioSetup,
+    build_scenario,
+    run_scenario,
+)
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.remote.network import NetworkThread
@@ -667,24 +673,30 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
     def serve() -> int:
         try:
-            with with_command_server():
-                if args.out is not None:  # the usual artefacts
-                    output = run_scenario(
-                        scenario, args.out, duration=args.duration, runner=runner, parameters=parameters
-                    )
-                    for path in output.files.values():
-                        print(f"wrote {path}", flush=True)
-                    _report_unwritten(output.unwritten)
-                    unwritten = output.unwritten
-                    result = output.result
-                else:
-                    unwritten = {}
-                    setup = scenario.build(loopback_meshcat(), **parameters)
-                    simulator = setup.built.create_simulator()
-                    duration = setup.duration if args.duration is None else args.duration
-                    with SignalGuard() as guard:
-                        result = runner(setup, simulator, duration, guard=guard)
-        except (SessionError, NotServable, RobotFileError) as exc:  # nothing served
+            if args.out is not None:  # the usual artefacts
+                output = run_scenario(
+                    scenario,
+                    args.out,
+                    duration=args.duration,
+                    runner=runner,
+                    parameters=parameters,
+                    command_server=True,
+                )
+                for path in output.files.values():
+                    print(f"wrote {path}", flush=True)
+                _report_unwritten(output.unwritten)
+                unwritten = output.unwritten
+                result = output.result
+            else:
+                unwritten = {}
+                setup = build_scenario(
+                    scenario, loopback_meshcat(), parameters=parameters, command_server=True
+                )
+                simulator = setup.built.create_simulator()
+                duration = setup.duration if args.duration is None else args.duration
+                with SignalGuard() as guard:
+                    result = runner(setup, simulator, duration, guard=guard)
+        except (SessionError, NotServable, ScenarioParameterError, RobotFileError) as exc:  # nothing served
             network.close()
             parser.error(f"serve {args.target}: {exc}")
         if result.failure is not None:

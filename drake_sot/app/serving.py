@@ -57,7 +57,7 @@ from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
 from drake_sot.app.status import MeshcatStatus
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
-from drake_sot.diagrams.scenario import Runner, ScenarioSetup
+from drake_sot.diagrams.scenario import NotServable, Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
 from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.remote.network import NetworkThread
@@ -80,10 +80,6 @@ _EPS = 1e-9
 #: hand or foot target, in a scenario that walks a few metres from the origin, lies well within
 #: 10 m; a target beyond is no target (1e300 m reached Drake and ended the run).
 REACH_BOUND = 10.0
-
-
-class NotServable(ValueError):
-    """A diagram without a command server."""
 
 
 @dataclass
@@ -478,8 +474,8 @@ def serve_run(
     built = setup.built
     if getattr(built, "remote", None) is None:
         raise NotServable(
-            "the diagram has no RemoteCommandServer (a kinematic SoT built by HumanoidSoTBuilder "
-            "inside drake_sot.diagrams.humanoid.with_command_server() has one)"
+            "the diagram has no RemoteCommandServer (build it with command_server=True: "
+            "drake_sot.diagrams.scenario.build_scenario)"
         )
     status = MeshcatStatus(built.meshcat, built.sot) if built.meshcat is not None else None
     serving = Serving(

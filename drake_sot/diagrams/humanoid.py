@@ -17,9 +17,7 @@ dynamics of the reference), loggers and (optionally) a recorded Meshcat replay.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
-from contextvars import ContextVar
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,23 +39,6 @@ class HumanoidSoT(BuiltHumanoid):
     sot: StackOfTasks | None = None
     device: Device | None = None
     remote: RemoteCommandServer | None = None
-
-
-# --- the remote command server in the diagram (drake_sot.remote) -------------------------------
-_WITH_COMMAND_SERVER: ContextVar[bool] = ContextVar("with_command_server", default=False)
-
-
-@contextmanager
-def with_command_server() -> Iterator[None]:
-    """Inside this block every :meth:`HumanoidSoTBuilder.build` adds a
-    :class:`~drake_sot.systems.command_server.RemoteCommandServer` driving the solver's stack commands
-    (``built.remote``), as a scenario that declares writable signals has; e.g. to serve a
-    scenario built by its own function."""
-    token = _WITH_COMMAND_SERVER.set(True)
-    try:
-        yield
-    finally:
-        _WITH_COMMAND_SERVER.reset(token)
 
 
 class HumanoidSoTBuilder(HumanoidTaskBuilder):
@@ -96,6 +77,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         stack_source: OutputPort | None = None,
         solver: str = "svd",
         wire_solver: Callable[[StackOfTasks], None] | None = None,
+        command_server: bool = False,
     ) -> HumanoidSoT:
         """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
 
@@ -115,9 +97,14 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 (also the inequality tasks, e.g. :meth:`add_joint_position_limits_task`).
             wire_solver: called with the ``StackOfTasks`` before the diagram is built, to
                 connect its outputs (``qdot``, ``errors``, ``stack``) to other systems.
+            command_server: add a :class:`~drake_sot.systems.command_server.RemoteCommandServer`
+                driving the solver's stack commands (``built.remote``), to serve the diagram; a
+                builder that declared writable signals has one whatever this says.
         """
         b = self.builder
         period = self.control_period
+        if command_server:
+            self.command_server()
         sot = b.AddSystem(
             StackOfTasks(
                 self.control_plant.num_velocities(),
@@ -125,10 +112,10 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 period=period,
                 stack=stack,
                 solver=solver,
-                commands_input=self._server is not None or _WITH_COMMAND_SERVER.get(),
+                commands_input=self._server is not None,
             )
         )
-        remote = self.command_server() if _WITH_COMMAND_SERVER.get() else self._server
+        remote = self._server
         if remote is not None:
             b.Connect(remote.GetOutputPort("commands"), sot.GetInputPort("commands"))
         for task_name, task in self.tasks.items():

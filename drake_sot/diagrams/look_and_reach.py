@@ -82,8 +82,11 @@ OBJECT_PATH = Lissajous(
 )
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """Build the ``look_and_reach`` diagram and its script, with ``pushes`` on the robot."""
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), command_server: bool = False
+) -> ScenarioSetup:
+    """Build the ``look_and_reach`` diagram and its script, with ``pushes`` on the robot;
+    ``command_server``: see :func:`~drake_sot.diagrams.scenario.build_scenario`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     target = b.builder.AddSystem(
         MovingPoint(OBJECT_PATH, orientation=b.initial_pose("right_hand").rotation(), name="object")
@@ -106,7 +109,7 @@ def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -
     if meshcat is not None:  # the object in the replay
         marker = b.builder.AddSystem(MeshcatMarker(meshcat, "/drake_sot/object", radius=0.03))
         b.builder.Connect(target.GetOutputPort("position"), marker.GetInputPort("position"))
-    built = b.build(stack=STACK, solver="hqp")
+    built = b.build(stack=STACK, solver="hqp", command_server=command_server)
     sot = built.sot
 
     def reach(context) -> None:
@@ -166,4 +169,5 @@ SCENARIO = Scenario(
     description="the head keeps a moving object centred in its camera image; the right hand reaches for it",
     build=build,
     extra_plots=write_plots,
+    servable=True,
 )

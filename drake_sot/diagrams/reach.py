@@ -37,10 +37,14 @@ def _shifted(X: RigidTransform, offset: np.ndarray) -> RigidTransform:
 
 
 def build(
-    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), robot: str = "embedded"
+    meshcat: Meshcat | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    robot: str = "embedded",
+    command_server: bool = False,
 ) -> ScenarioSetup:
     """Build the ``reach`` diagram and its script, with ``pushes`` on ``robot`` (a name of
-    ``drake_sot.robots.ROBOTS``)."""
+    ``drake_sot.robots.ROBOTS``); ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
     target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
@@ -51,7 +55,7 @@ def build(
     b.add_op_point_task("taskRH", "right_hand", gain=2.5)
     b.add_op_point_task("taskLH", "left_hand", gain=2.5, desired=target_lh)
     b.add_posture_task("taskPosture", gain=1.0)
-    built = b.build(stack=STACK, solver="hqp")
+    built = b.build(stack=STACK, solver="hqp", command_server=command_server)
     sot, feature_rh = built.sot, built.features["taskRH"]
     commands = [
         Command(1.0, "taskRH target +25 cm x, +20 cm z", lambda c: feature_rh.set_desired(c, target_rh)),
@@ -72,4 +76,5 @@ SCENARIO = Scenario(
     description="stand, reach with the right hand (t=1 s), push then rm a left-hand task (t=3 s, t=5 s)",
     build=build,
     parameters=("robot",),
+    servable=True,
 )

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import Context
 
@@ -55,13 +56,17 @@ class Scenario:
     """A scenario of the ``drake-sot`` command: a name, a one-line description, a builder,
     and optionally its own plots beside the task-error plot. ``build(meshcat, **parameters)``
     also takes ``pushes=`` (a sequence of :class:`~drake_sot.diagrams.pushes.ExternalPush`)
-    when :func:`run_scenario` is given some."""
+    when :func:`run_scenario` is given some, and, when the scenario is ``servable``,
+    ``command_server=True`` to add a
+    :class:`~drake_sot.systems.command_server.RemoteCommandServer` to the diagram (``built.remote``)
+    for a front-end to serve it. :func:`build_scenario` is the one call of ``build``."""
 
     name: str
     description: str
     build: Callable[..., ScenarioSetup]
     extra_plots: ExtraPlots | None = None
     parameters: tuple[str, ...] = ()  # keyword arguments ``build`` accepts besides the Meshcat
+    servable: bool = False  # ``build`` takes ``command_server``
 
 
 Runner = Callable[..., RunResult]
@@ -86,6 +91,49 @@ class ScenarioParameterError(ValueError):
     """A scenario's ``build`` refused the value of one of its parameters: nothing was simulated."""
 
 
+class NotServable(ValueError):
+    """A command server was asked of a scenario whose diagram cannot have one (nothing built)."""
+
+
+def _check_parameters(scenario: Scenario, parameters: dict[str, Any] | None) -> None:
+    unknown = sorted(set(parameters or {}) - set(scenario.parameters))
+    if unknown:
+        raise ValueError(
+            f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}"
+        )
+
+
+def build_scenario(
+    scenario: Scenario,
+    meshcat: Meshcat | None,
+    *,
+    parameters: dict[str, Any] | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    command_server: bool = False,
+) -> ScenarioSetup:
+    """``scenario.build`` with its declared ``parameters``, the ``pushes`` (when there are some)
+    and, with ``command_server``, a :class:`~drake_sot.systems.command_server.RemoteCommandServer`.
+
+    Raises:
+        ValueError: an undeclared parameter (nothing built).
+        NotServable: ``command_server`` for a scenario that is not ``servable`` (nothing built).
+        ScenarioParameterError: ``build`` refused a parameter's value.
+    """
+    _check_parameters(scenario, parameters)
+    if command_server and not scenario.servable:
+        raise NotServable(
+            f"{scenario.name} cannot be served: its diagram has no place for a RemoteCommandServer "
+            "(a kinematic SoT built by HumanoidSoTBuilder has one)"
+        )
+    extra: dict[str, Any] = {"pushes": tuple(pushes)} if pushes else {}
+    if command_server:
+        extra["command_server"] = True
+    try:
+        return scenario.build(meshcat, **(parameters or {}), **extra)
+    except ValueError as exc:
+        raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
+
+
 def run_scenario(
     scenario: Scenario,
     out_dir: str | Path,
@@ -96,6 +144,7 @@ def run_scenario(
     parameters: dict[str, Any] | None = None,
     pushes: Sequence[ExternalPush] = (),
     runner: Runner | None = None,
+    command_server: bool = False,
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
     ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
@@ -120,6 +169,7 @@ def run_scenario(
         pushes: disturbances applied to the robot (passed to ``build`` when there are some).
         runner: runs the simulation instead of :func:`simulate` (e.g. while serving remote
             commands), called as ``runner(setup, simulator, duration, progress=, guard=)``.
+        command_server: build the diagram with a command server (see :func:`build_scenario`).
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
@@ -129,17 +179,15 @@ def run_scenario(
     """
     if duration is not None:
         duration = check_duration("duration", duration)
-    unknown = sorted(set(parameters or {}) - set(scenario.parameters))
-    if unknown:
-        raise ValueError(
-            f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}"
-        )
+    _check_parameters(scenario, parameters)  # before the output directory is made
     out = output_directory(out_dir)
-    extra = {"pushes": tuple(pushes)} if pushes else {}
-    try:
-        setup = scenario.build(loopback_meshcat() if record else None, **(parameters or {}), **extra)
-    except ValueError as exc:
-        raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
+    setup = build_scenario(
+        scenario,
+        loopback_meshcat() if record else None,
+        parameters=parameters,
+        pushes=pushes,
+        command_server=command_server,
+    )
     built = setup.built
     duration = setup.duration if duration is None else duration
     try:

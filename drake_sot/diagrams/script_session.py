@@ -192,6 +192,9 @@ class ScriptSession:
             fresh temporary directory of this session's, made on first use.
         robot: the robot, a name of ``drake_sot.robots.ROBOTS`` (its logical frames are the
             operational points the script can name).
+        command_server: build the diagram with a
+            :class:`~drake_sot.systems.command_server.RemoteCommandServer`, to serve the session
+            (its stack commands then name the script's solver).
 
     Attributes:
         builder: the :class:`~drake_sot.diagrams.humanoid.HumanoidSoTBuilder` the build uses.
@@ -215,8 +218,10 @@ class ScriptSession:
         script_dir: str | Path = ".",
         output_dir: str | Path | None = None,
         robot: str = "embedded",
+        command_server: bool = False,
     ) -> None:
         self.builder = HumanoidSoTBuilder(control_period=control_period, meshcat=meshcat, robot=robot)
+        self._command_server = command_server
         self.script_dir = Path(script_dir)
         self._output_dir = None if output_dir is None else Path(output_dir)
         self._written: set[Path] = set()  # the files this session wrote (it may replace them)
@@ -649,6 +654,7 @@ class ScriptSession:
                 dynamic_feedforward=pg is not None,
                 stack_source=self._port(stack_feed.how.source) if stack_feed else None,
                 wire_solver=wire_solver,
+                command_server=self._command_server,
             )
         if built.remote is not None:  # served: the stack commands of its clients name this solver
             built.remote.sot_name = sot.name
@@ -903,9 +909,13 @@ def script_scenario(
     ``pool.writegraph`` writes into ``output_dir`` (None: a fresh temporary directory, see
     :class:`ScriptSession`); the script drives ``robot``."""
 
-    def build(meshcat: Meshcat | None) -> ScenarioSetup:
+    def build(meshcat: Meshcat | None, command_server: bool = False) -> ScenarioSetup:
         session = ScriptSession(
-            meshcat=meshcat, script_dir=program.path.parent, output_dir=output_dir, robot=robot
+            meshcat=meshcat,
+            script_dir=program.path.parent,
+            output_dir=output_dir,
+            robot=robot,
+            command_server=command_server,
         )
         commands, duration = schedule(session, program, echo)
         session.build()
@@ -913,4 +923,6 @@ def script_scenario(
             built=session.built, commands=commands, duration=duration, extras={"session": session}
         )
 
-    return Scenario(name=program.path.stem, description=f"the script {program.path.name}", build=build)
+    return Scenario(
+        name=program.path.stem, description=f"the script {program.path.name}", build=build, servable=True
+    )

@@ -37,10 +37,14 @@ HANDS = (("hand_positions.right", 3), ("hand_positions.left", 3))
 
 
 def build(
-    meshcat: Meshcat | None = None, leader: str = "operator", pushes: Sequence[ExternalPush] = ()
+    meshcat: Meshcat | None = None,
+    leader: str = "operator",
+    pushes: Sequence[ExternalPush] = (),
+    command_server: bool = True,
 ) -> ScenarioSetup:
     """The slave side of ``telecooperation`` (``leader`` decides the co-operator's part: the
-    lead, or following 1 s behind through a softer impedance)."""
+    lead, or following 1 s behind through a softer impedance); it always has its command server
+    (what the master writes reaches it there), whatever ``command_server`` says."""
     return telecooperation.build(meshcat, leader=leader, pushes=pushes, remote=True)
 
 
@@ -49,4 +53,5 @@ SCENARIO = Scenario(
     description="telecooperation's slave side, to serve: the master (telecoop_master) writes its forces",
     build=build,
     parameters=("leader",),
+    servable=True,
 )

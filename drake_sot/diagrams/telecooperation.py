@@ -394,6 +394,7 @@ def build(
     admittance: str = "plain",
     jitter: float = 0.0,
     loss: float = 0.0,
+    command_server: bool = False,
 ) -> ScenarioSetup:
     """Build the ``telecooperation`` diagram; ``leader`` is ``"operator"`` or ``"cooperator"``,
     ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot;
@@ -402,7 +403,8 @@ def build(
     signals ``remote.<name>`` of ``MASTER_SIGNALS`` (see ``telecoop_slave``; ``delay`` is then
     the master process's, and so are ``jitter`` and ``loss``); ``admittance``: the hands'
     admittance, one of :data:`ADMITTANCES`; ``jitter`` [s], ``loss`` (a probability in [0, 1)):
-    the link's, both directions (:func:`link_configs`)."""
+    the link's, both directions (:func:`link_configs`); ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario` (``remote=True`` has one whatever it says)."""
     if leader not in LEADERS:
         raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
     if admittance not in ADMITTANCES:
@@ -597,6 +599,7 @@ def build(
         dynamic_feedforward=True,
         stack_source=sequencer.GetOutputPort("stack"),
         solver="hqp",
+        command_server=command_server,
     )
     return ScenarioSetup(
         built=built,
@@ -642,4 +645,5 @@ SCENARIO = Scenario(
     build=build,
     extra_plots=write_plots,
     parameters=("leader", "delay", "admittance", "jitter", "loss"),
+    servable=True,
 )

@@ -176,10 +176,19 @@ def build(
     pushes: Sequence[ExternalPush] = (),
     stabilizer: bool = True,
     robot: str = "embedded",
+    command_server: bool = False,
 ) -> ScenarioSetup:
     """Build the ``walk`` diagram and its script, with ``pushes`` on ``robot`` (a name of
-    ``drake_sot.robots.ROBOTS``), with or without the balance stabilizer."""
-    return build_walk(walk_steps, meshcat=meshcat, pushes=pushes, stabilizer=stabilizer, robot=robot)
+    ``drake_sot.robots.ROBOTS``), with or without the balance stabilizer; ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    return build_walk(
+        walk_steps,
+        meshcat=meshcat,
+        pushes=pushes,
+        stabilizer=stabilizer,
+        robot=robot,
+        command_server=command_server,
+    )
 
 
 def build_walk(
@@ -190,11 +199,13 @@ def build_walk(
     anchored: bool = False,
     stabilizer: bool = True,
     robot: str = "embedded",
+    command_server: bool = False,
 ) -> ScenarioSetup:
     """A walking diagram (the ``walk`` stack, the ZMP estimator, logs) and its script: at
     ``START`` the steps ``steps_of(left, right)`` (made from the initial footprints) are given
     to the generator. ``anchored``, ``stabilizer``: see :func:`add_walking`; ``robot``: a name of
-    ``drake_sot.robots.ROBOTS``."""
+    ``drake_sot.robots.ROBOTS``; ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b, anchored=anchored, stabilizer=stabilizer)
     b.add_posture_task("taskPosture", gain=1.0)
@@ -208,7 +219,13 @@ def build_walk(
         ("phase", pg.GetOutputPort("phase")),
     ):
         b.log(name, port)
-    built = b.build(stack=STACK, load=pg.GetOutputPort("load"), dynamic_feedforward=True, solver="hqp")
+    built = b.build(
+        stack=STACK,
+        load=pg.GetOutputPort("load"),
+        dynamic_feedforward=True,
+        solver="hqp",
+        command_server=command_server,
+    )
     steps = steps_of(left, right)
     commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
     duration = START + len(steps) * b.robot.step_timing.period + 2.0
@@ -295,4 +312,5 @@ SCENARIO = Scenario(
     build=build,
     extra_plots=write_plots,
     parameters=("stabilizer", "robot"),
+    servable=True,
 )

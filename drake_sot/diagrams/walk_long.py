@@ -68,9 +68,14 @@ def long_walk_steps(left: Footstep, right: Footstep) -> list[Footstep]:
     return relative_steps(left, right, moves)
 
 
-def build(meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = ()) -> ScenarioSetup:
-    """Build the ``walk_long`` diagram and its script, with ``pushes`` on the robot."""
-    setup = build_walk(long_walk_steps, meshcat=meshcat, pushes=pushes, anchored=True)
+def build(
+    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), command_server: bool = False
+) -> ScenarioSetup:
+    """Build the ``walk_long`` diagram and its script, with ``pushes`` on the robot;
+    ``command_server``: see :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    setup = build_walk(
+        long_walk_steps, meshcat=meshcat, pushes=pushes, anchored=True, command_server=command_server
+    )
     setup.duration += SETTLE
     return setup
 
@@ -80,4 +85,5 @@ SCENARIO = Scenario(
     description="30 steps: forward, turning left and right, sideways, backward, stop (ZMP preview control)",
     build=build,
     extra_plots=zmp_plot_writer("walk_long"),
+    servable=True,
 )

@@ -70,9 +70,12 @@ def build(
     decision: str = "sequencer",
     stabilizer: bool = True,
     robot: str = "embedded",
+    command_server: bool = False,
 ) -> ScenarioSetup:
     """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on ``robot`` (a
-    name of ``drake_sot.robots.ROBOTS``).
+    name of ``drake_sot.robots.ROBOTS``); ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario` (``decision="remote"`` has one whatever it
+    says).
 
     ``decision``: ``"sequencer"`` (the DecisionServer is a ``TaskSequencer`` in the diagram)
     or ``"remote"`` (as the paper ran it: a separate program polls ``pg.in_process`` and sends
@@ -110,7 +113,14 @@ def build(
 
     b.log("transitions", sequencer.GetOutputPort("transitions"))
     return _finish(
-        b, pg, left, right, admittances, sequencer.GetOutputPort("stack"), {"sequencer": sequencer}
+        b,
+        pg,
+        left,
+        right,
+        admittances,
+        sequencer.GetOutputPort("stack"),
+        {"sequencer": sequencer},
+        command_server=command_server,
     )
 
 
@@ -150,6 +160,8 @@ def _finish(
     admittances: dict,
     stack_source: OutputPort | None,
     extras: dict,
+    *,
+    command_server: bool = False,
 ) -> ScenarioSetup:
     """The partner, the logs and the build, common to both decision layers."""
     # The partner holds the bodies below the wrist sensors (the hands).
@@ -178,6 +190,7 @@ def _finish(
         dynamic_feedforward=True,
         stack_source=stack_source,
         solver="hqp",
+        command_server=command_server,
     )
     steps = forward_steps(left, right, n=4, stride=0.15)
     return ScenarioSetup(
@@ -237,4 +250,5 @@ SCENARIO = Scenario(
     build=build,
     extra_plots=write_plots,
     parameters=("decision", "stabilizer", "robot"),
+    servable=True,
 )
