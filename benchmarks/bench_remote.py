@@ -1,6 +1,8 @@
 """Round-trip time of the remote command server, beside the control period.
 
     python benchmarks/bench_remote.py
+    python benchmarks/bench_remote.py --baseline 8074b69
+
 
 Starts ``drake-sot serve reach`` (controller at 200 Hz, paced at 1 x real time) and, from
 this process:
@@ -13,15 +15,28 @@ this process:
    request queued before a tick is applied at that tick).
 3. The simulated time the server advanced during the measurements, over the wall time: the
    pacing held (1.0) or not (< 1) while it served.
+
+With ``--baseline COMMIT``: an A/B of the round trip of 1. instead. ``serve reach`` is started
+from this tree and from ``COMMIT``'s tree (``git archive`` into a temporary directory, run with
+``PYTHONPATH`` on it: ``drake_sot.app.cli``, or ``drake_sot.cli`` in a tree from before the
+front-ends had their own package), one client each; blocks of ``read sot.errors`` alternate
+between the two (the order swapped every block), so that both see the same machine load. Prints
+each side's median and p99 and the median of the per-block ratios of medians (this tree /
+baseline).
 """
 
 from __future__ import annotations
 
+import argparse
+import contextlib
+import os
 import re
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from drake_sot.remote import Client
@@ -33,27 +48,126 @@ PERIOD = 0.005
 RATE = NetworkThread.__init__.__kwdefaults__["rate"]
 
 
-def main() -> None:
+def serve_reach(tree: Path, realtime: str = "1") -> tuple[subprocess.Popen, str, int]:
+    """``serve reach`` (free port, 600 s, paced at ``realtime`` x real time) from the ``drake_sot``
+    of ``tree``, run with ``PYTHONPATH`` on it and ``tree`` as working directory; returns the
+    process and the address it serves on."""
+    module = "drake_sot.app.cli" if (tree / "drake_sot" / "app" / "cli.py").exists() else "drake_sot.cli"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "drake_sot.app.cli", "serve", "reach", "--port", "0", "--duration", "600"],
+        [sys.executable, "-m", module, "serve", "reach", "--port", "0", "--duration", "600"]
+        + ["--realtime", realtime],
         stdout=subprocess.PIPE,
         text=True,
-        cwd=REPO,
+        cwd=tree,
+        env={**os.environ, "PYTHONPATH": str(tree)},
     )
+    line = proc.stdout.readline()
+    match = re.fullmatch(r"serving on (\S+):(\d+)\n", line)
+    if match is None:
+        proc.terminate()
+        proc.wait()
+        raise RuntimeError(f"serve reach from {tree} printed {line!r}, expected 'serving on HOST:PORT'")
+    return proc, match[1], int(match[2])
+
+
+def round_trips(client: Client, count: int) -> list[float]:
+    """``count`` round trips of ``read sot.errors``, one at a time [s]."""
+    rtt = []
+    for _ in range(count):
+        start = time.perf_counter()
+        client.read("sot.errors")
+        rtt.append(time.perf_counter() - start)
+    return rtt
+
+
+def p99(samples: list[float]) -> float:
+    """The 99th percentile of ``samples`` (the sample at rank ⌊0.99 n⌋ of the sorted list)."""
+    return sorted(samples)[int(0.99 * len(samples))]
+
+
+@contextlib.contextmanager
+def stopped(proc: subprocess.Popen) -> Iterator[subprocess.Popen]:
+    """``proc``, terminated and waited for on leaving the ``with`` block."""
     try:
-        host, port = re.fullmatch(r"serving on (\S+):(\d+)\n", proc.stdout.readline()).groups()
-        with Client(host, int(port)) as client:
+        yield proc
+    finally:
+        proc.terminate()
+        proc.wait()
+
+
+def against_baseline(commit: str, blocks: int, block: int, realtime: str, settle: float) -> None:
+    """The A/B of the module docstring: ``blocks`` alternations of ``block`` reads against a server
+    of this tree and one of ``commit``'s tree, both paced at ``realtime`` x real time, once both
+    have simulated ``settle`` seconds (the scenario's script done: both run the same stack)."""
+    with tempfile.TemporaryDirectory() as baseline, contextlib.ExitStack() as stack:
+        archive = subprocess.run(["git", "-C", str(REPO), "archive", commit], check=True, capture_output=True)
+        subprocess.run(["tar", "-x", "-C", baseline], input=archive.stdout, check=True)
+        clients = {}
+        for name, tree in (("baseline", Path(baseline)), ("tree", REPO)):
+            proc, host, port = serve_reach(tree, realtime)
+            stack.enter_context(stopped(proc))
+            clients[name] = stack.enter_context(Client(host, port))
+        for client in clients.values():
+            while not client.t >= settle:
+                client.read("sot.errors")
+        start = {name: (client.t, time.perf_counter()) for name, client in clients.items()}
+        samples: dict[str, list[float]] = {"baseline": [], "tree": []}
+        ratios = []
+        for k in range(blocks):
+            order = ("baseline", "tree") if k % 2 == 0 else ("tree", "baseline")
+            got = {name: round_trips(clients[name], block) for name in order}
+            for name, rtt in got.items():
+                samples[name] += rtt
+            ratios.append(statistics.median(got["tree"]) / statistics.median(got["baseline"]))
+        pace = {
+            name: (client.t - start[name][0]) / (time.perf_counter() - start[name][1])
+            for name, client in clients.items()
+        }
+    for name, label in (("tree", "this tree"), ("baseline", f"commit {commit}")):
+        rtt = samples[name]
+        print(
+            f"read sot.errors round trip, {label}: median {1e3 * statistics.median(rtt):.2f} ms, "
+            f"p99 {1e3 * p99(rtt):.2f} ms ({len(rtt)} reads); simulated / wall time {pace[name]:.2f}"
+        )
+    print(
+        f"this tree / baseline: {statistics.median(ratios):.3f} (median of {blocks} per-block ratios of "
+        f"medians, {block} reads a block); of all reads: "
+        f"{statistics.median(samples['tree']) / statistics.median(samples['baseline']):.3f}; "
+        f"control period {1e3 * PERIOD:.1f} ms"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
+    parser.add_argument("--baseline", metavar="COMMIT", help="A/B the round trip against COMMIT's tree")
+    parser.add_argument("--blocks", type=int, default=40, help="A/B blocks (default 40)")
+    parser.add_argument("--block", type=int, default=25, help="reads per A/B block and side (default 25)")
+    parser.add_argument(
+        "--realtime",
+        default="1",
+        metavar="R",
+        help="A/B: serve at R x real time (default 1; 1000: as fast as the machine goes)",
+    )
+    parser.add_argument(
+        "--settle",
+        type=float,
+        default=8.0,
+        metavar="S",
+        help="A/B: measure once both servers have simulated S seconds (default 8: reach's script is done)",
+    )
+    args = parser.parse_args()
+    if args.baseline:
+        against_baseline(args.baseline, args.blocks, args.block, args.realtime, args.settle)
+        return
+    proc, host, port = serve_reach(REPO)
+    with stopped(proc):
+        with Client(host, port) as client:
             client.read("sot.errors")
             t0, wall0 = client.t, time.perf_counter()
-            rtt = []
-            for _ in range(1000):
-                start = time.perf_counter()
-                client.read("sot.errors")
-                rtt.append(time.perf_counter() - start)
-            rtt.sort()
+            rtt = round_trips(client, 1000)
             print(
                 f"read sot.errors round trip: median {1e3 * statistics.median(rtt):.2f} ms, "
-                f"p99 {1e3 * rtt[int(0.99 * len(rtt))]:.2f} ms; control period {1e3 * PERIOD:.1f} ms"
+                f"p99 {1e3 * p99(rtt):.2f} ms; control period {1e3 * PERIOD:.1f} ms"
             )
             sent = received = refused = 0
             start = time.perf_counter()
@@ -76,9 +190,6 @@ def main() -> None:
             client.read("sot.errors")
             rtf = (client.t - t0) / (time.perf_counter() - wall0)
             print(f"simulated / wall time while serving: {rtf:.2f} (paced at 1.0)")
-    finally:
-        proc.terminate()
-        proc.wait()
 
 
 if __name__ == "__main__":

@@ -1,6 +1,10 @@
 """Timing of the kinematic SoT, each number beside a baseline measured in the same run.
 
     python benchmarks/bench_sot.py            (or: make bench)
+    python benchmarks/bench_sot.py --tick-baseline 8074b69 --tick-only
+
+``--tick-baseline COMMIT`` picks the tree the lock-step tick is compared with (default
+``BASELINE_COMMIT``); ``--tick-only`` runs that comparison alone and prints its figures.
 
 1. ``solve_strict`` (null-space basis form) vs the textbook projector form of paper
    000 eq. 8-9 (n x n projectors, same pseudo-inverse threshold), on the ``reach``
@@ -9,7 +13,7 @@
    joint-limit level of the scenarios on top (a 30-row box, not binding).
 2. One full control tick of ``reach`` (kinematics, 7 features and tasks, the solve)
    against the 5 ms control period, and against the same tick of the tree of
-   ``BASELINE_COMMIT`` (before the speed work of issue 13), the two trees in two
+   ``BASELINE_COMMIT`` (or ``--tick-baseline``), the two trees in two
    interpreters run in lock step (blocks of 10 ticks, alternating).
 3. The ``reach`` scenario's real-time factor against the plant alone, standing on
    constant PD set points (no controller), with the same physics settings.
@@ -17,6 +21,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import pathlib
@@ -140,8 +145,8 @@ def bench_tick(repeat: int = 300, robot: str = "embedded") -> dict[str, float]:
     }
 
 
-#: The commit whose ``reach`` tick is the baseline of the tick row: the tree before the speed work
-#: of issue 13 (solve_hqp's active set on every level, numpy's SVD wrapper, one errstate per task).
+#: The default commit whose ``reach`` tick is the baseline of the tick row: the tree before the speed
+#: work on the tick (solve_hqp's active set on every level, numpy's SVD wrapper, one errstate per task).
 BASELINE_COMMIT = "9ecd1f9"
 #: Command-line flag that makes this file a tick server (see :func:`serve_ticks`).
 SERVE_FLAG = "--serve-ticks"
@@ -164,8 +169,10 @@ def serve_ticks() -> None:
         print(json.dumps(times), flush=True)
 
 
-def bench_tick_against_baseline(blocks: int = 60, block: int = 10) -> dict[str, float]:
-    """The reach tick of this tree and of :data:`BASELINE_COMMIT`'s tree (``git archive`` into a
+def bench_tick_against_baseline(
+    blocks: int = 60, block: int = 10, baseline_commit: str = BASELINE_COMMIT
+) -> dict[str, float]:
+    """The reach tick of this tree and of ``baseline_commit``'s tree (``git archive`` into a
     temporary directory), each in its own interpreter (:func:`serve_ticks`), run in lock step:
     ``blocks`` alternations of ``block`` ticks each, the order swapped every block, so that both
     see the same machine load within milliseconds. Returns the medians of all the ticks and the
@@ -192,7 +199,7 @@ def bench_tick_against_baseline(blocks: int = 60, block: int = 10) -> dict[str, 
 
     with tempfile.TemporaryDirectory() as baseline:
         archive = subprocess.run(
-            ["git", "-C", str(root), "archive", BASELINE_COMMIT], check=True, capture_output=True
+            ["git", "-C", str(root), "archive", baseline_commit], check=True, capture_output=True
         ).stdout
         subprocess.run(["tar", "-x", "-C", baseline], input=archive, check=True)
         servers = {"baseline": start(pathlib.Path(baseline)), "tree": start(root)}
@@ -268,14 +275,39 @@ def bench_realtime(duration: float | None = 4.0, scenario=None, robot: str = "em
     return {"rtf_plant": rtf_plant, "rtf_scenario": result.realtime_factor}
 
 
+def against_row(against: dict[str, float], baseline_commit: str, blocks: int) -> tuple[str, ...]:
+    """The table row of :func:`bench_tick_against_baseline`'s figures."""
+    return (
+        f"reach tick, two interpreters in lock step with the baseline tree ({10 * blocks} ticks each)",
+        f"{against['tick_us']:.0f} µs",
+        f"commit {baseline_commit}: {against['baseline_us']:.0f} µs",
+        f"tick / baseline tick: {against['ratio']:.2f} (median of {blocks} blocks; "
+        f"of all ticks: {against['ratio_of_medians']:.2f})",
+    )
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
+    parser.add_argument(
+        "--tick-baseline",
+        default=BASELINE_COMMIT,
+        metavar="COMMIT",
+        help=f"the commit whose reach tick the lock-step row compares with (default {BASELINE_COMMIT})",
+    )
+    parser.add_argument("--tick-only", action="store_true", help="run the lock-step tick comparison alone")
+    parser.add_argument("--blocks", type=int, default=60, help="lock-step blocks of 10 ticks (default 60)")
+    args = parser.parse_args()
     from drake_sot.blas import limit_blas_threads  # not at the top: the baseline tree has none
 
     limit_blas_threads(1)  # as the controllers do when they are made (drake_sot.blas)
+    if args.tick_only:
+        against = bench_tick_against_baseline(args.blocks, baseline_commit=args.tick_baseline)
+        print_table([against_row(against, args.tick_baseline, args.blocks)])
+        return
     solver = bench_solver()
     hqp = bench_hqp()
     tick = bench_tick()
-    against = bench_tick_against_baseline()
+    against = bench_tick_against_baseline(args.blocks, baseline_commit=args.tick_baseline)
     rtf = bench_realtime()
     rows = [
         (
@@ -302,13 +334,7 @@ def main() -> None:
             "control period: 5000 µs",
             f"{tick['tick_median_us'] / 5000:.1%} of the period",
         ),
-        (
-            "reach tick, two interpreters in lock step with the baseline tree (600 ticks each)",
-            f"{against['tick_us']:.0f} µs",
-            f"commit {BASELINE_COMMIT}: {against['baseline_us']:.0f} µs",
-            f"tick / baseline tick: {against['ratio']:.2f} (median of 60 blocks; "
-            f"of all ticks: {against['ratio_of_medians']:.2f})",
-        ),
+        against_row(against, args.tick_baseline, args.blocks),
         (
             "reach scenario real-time factor",
             f"{rtf['rtf_scenario']:.2f}",
