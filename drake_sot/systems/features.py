@@ -51,7 +51,7 @@ from pydrake.systems.framework import AbstractParameterIndex, Context, InputPort
 from drake_sot import features as fmath
 from drake_sot.signals import FeatureSignal, OperationalPoint
 from drake_sot.systems._context import own_context, settable_context
-from drake_sot.validation import nonnegative, position, within
+from drake_sot.validation import WORKSPACE_RADIUS, nonnegative, position, within
 
 
 class _Feature(LeafSystem):
@@ -276,6 +276,9 @@ class FeatureCoM(FeatureGeneric):
 def check_desired_com(name: str, value) -> np.ndarray:
     """A desired CoM (3,) [m] of the feature ``name``: finite, within ``WORKSPACE_RADIUS`` of the
     world origin (ValueError naming the feature and the value otherwise)."""
+    a = np.asarray(value, dtype=float)
+    if a.shape == (3,) and math.hypot(*a) <= WORKSPACE_RADIUS:  # NaN and inf fail the comparison
+        return a
     return position(f"{name!r}: desired CoM", value)
 
 
@@ -284,9 +287,15 @@ def check_desired_pose(name: str, value, *, origin: str = "the world origin") ->
     translation within ``WORKSPACE_RADIUS`` of ``origin`` (ValueError naming the feature otherwise)."""
     if not isinstance(value, RigidTransform):
         raise TypeError(f"{name!r}: desired pose must be a RigidTransform, got {type(value).__name__}")
-    if not np.all(np.isfinite(value.GetAsMatrix4())):
+    # Checked at every tick where a port feeds it, so on Python floats (numpy's per-call cost is
+    # most of a 12-entry check): the rows' sum is finite iff no entry is NaN or inf (entries large
+    # enough to overflow it fail the translation's bound anyway); validation.position only words a
+    # refusal.
+    rows = value.GetAsMatrix4().tolist()
+    if not math.isfinite(sum(rows[0]) + sum(rows[1]) + sum(rows[2])):
         raise ValueError(f"{name!r}: desired pose is not finite")
-    position(f"{name!r}: desired position", value.translation(), origin=origin)
+    if not (math.hypot(rows[0][3], rows[1][3], rows[2][3]) <= WORKSPACE_RADIUS):
+        position(f"{name!r}: desired position", value.translation(), origin=origin)
     return value
 
 
