@@ -310,7 +310,8 @@ class StateMachine:
 
     Raises:
         ValueError: for any inconsistent name or value, naming it and listing the known
-            ones: an action naming an unknown task, a transition to an unknown state,
+            ones: an action naming an unknown task or with a transition time of its own (the
+            state's ``transition_time`` blends its change), a transition to an unknown state,
             duplicate state names, an unknown initial state, an invalid initial stack,
             a ``SetValue`` to an output without an initial value (or of another
             kind/size/type, or non-finite), an initial value no ``SetValue`` sets, a
@@ -378,6 +379,11 @@ class StateMachine:
             at = f"{where}, state {state.name!r}"
             entry = []
             for action in state.entry:
+                if isinstance(action, COMMANDS) and action.transition:
+                    raise ValueError(
+                        f"{at}: entry action {action!r} has its own transition time: entering a state "
+                        f"blends its whole change over the state's transition_time"
+                    )
                 if isinstance(action, (Push, Rm, Up, Down)):
                     try:
                         stack.check_known(action.task)

@@ -347,7 +347,7 @@ class Serving:
                 f"{command.entity}.{command.command}: not a run-time command of {entity.describe()} "
                 f"(those are: {', '.join(runnable)})"
             )
-        return getattr(entity, command.command)(command.args, context)
+        return entity.run_command(command.command, command.args, context)
 
     def _help(self) -> str:
         sots = ", ".join(self._sots) or "none"
