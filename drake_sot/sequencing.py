@@ -423,7 +423,7 @@ class StateMachine:
         try:
             entered_stack, entered_values = self._run_entry(initial, stack, self._initial_values)
         except StackError as error:
-            raise ValueError(f"{where}, entering state {initial!r}: {error}") from None
+            raise type(error)(f"{where}, entering state {initial!r}: {error}") from None
         self._initial_status = Status(initial, 0.0, entered_stack, entered_values, 0)
         if check_paths:
             self._check_paths(self._initial_status)
@@ -596,7 +596,7 @@ class StateMachine:
                     while at is not None:
                         path.append(at[0])
                         at = parents[at]
-                    raise ValueError(
+                    raise type(error)(
                         f"sequencer {self._name!r}: entering state {transition.target!r} "
                         f"by the path {' → '.join(reversed(path))} would fail: {error} "
                         f"(pass check_paths=False if that path cannot happen)"
