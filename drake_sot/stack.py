@@ -251,7 +251,7 @@ class StackVerb:
         doc: what it does, for help texts.
     """
 
-    command: type[_Command]
+    command: type[Command]
     tasks: int
     timed: bool
     doc: str

@@ -287,6 +287,11 @@ class RemoteCommandServer(LeafSystem):
         return self._writables[name][0].check(f"{self.get_name()}.{name}", value)
 
 
+#: The commands that only read (an entity's ``list``, ``help``): the host answers them, after the
+#: tick, and they change nothing; every other command of the solver is a stack command.
+_QUERIES = ("list", "help")
+
+
 def _host_changes_context(request: Request | None) -> bool:
     """True for a request the host applies to the context (a parameter write, a script line other
     than ``get``, ``list``, ``help``): what comes after it waits for the tick after."""
@@ -300,11 +305,7 @@ def _host_changes_context(request: Request | None) -> bool:
         return False  # refused: changes nothing
     if command is None or isinstance(command, Get) or request.cmd.strip() == "help":
         return False
-    return not (isinstance(command, Call) and command.command in ("list", "help"))
-
-
-#: The solver's commands that are not stack commands: the host answers them.
-_SOT_QUERIES = ("list", "help")
+    return not (isinstance(command, Call) and command.command in _QUERIES)
 
 
 def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:
@@ -315,7 +316,7 @@ def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:
         command = parse_line(cmd, source="<remote>")
     except ScriptError:
         return None  # the host answers with the parser's error
-    if not (isinstance(command, Call) and command.entity == sot and command.command not in _SOT_QUERIES):
+    if not (isinstance(command, Call) and command.entity == sot and command.command not in _QUERIES):
         return None
     try:
         return StackCommand(t, stack_command(command))
