@@ -64,6 +64,7 @@ from drake_sot.remote.protocol import Request, error, ok
 from drake_sot.remote.server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
 from drake_sot.remote.status import MeshcatStatus
 from drake_sot.script import Call, Get, parse_line
+from drake_sot.stack import VERBS
 from drake_sot.systems.features import FeaturePoint6d
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.sot import StackOfTasks
@@ -364,9 +365,8 @@ class Serving:
                     "get SYSTEM.PORT",
                 ]
             )
-        return (
-            f"commands: SOT.push|rm|up|down TASK, SOT.pop, SOT.clear, SOT.list (SOT: {sots}); {dialect}; help"
-        )
+        stack = ", ".join(f"SOT.{verb.usage}" for verb in VERBS.values())
+        return f"commands: {stack}, SOT.list (SOT: {sots}); {dialect}; help"
 
     def _list(self) -> dict[str, Any]:
         server = self._server.get_name()
