@@ -60,7 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_sot.validation import shown
+from drake_sot import stack
 
 __all__ = [
     "KEYWORDS",
@@ -74,7 +74,6 @@ __all__ = [
     "Plug",
     "Run",
     "RunFor",
-    "STACK_COMMAND_TASKS",
     "ScriptError",
     "Set",
     "Signal",
@@ -86,7 +85,7 @@ __all__ = [
     "parse_line",
     "parse_script",
     "parse_value",
-    "stack_arguments",
+    "stack_command",
 ]
 
 #: The words that start a command of their own (not an ``ENTITY.COMMAND`` call).
@@ -303,18 +302,10 @@ class Call:
         return " ".join([f"{self.entity}.{self.command}", *map(format_value, self.args)])
 
 
-#: The solver's stack commands (Mansard, Stasse, Evrard, Kheddar 2009, III-B.6) → how many task
-#: names each takes.
-STACK_COMMAND_TASKS = {"push": 1, "pop": 0, "rm": 1, "up": 1, "down": 1, "clear": 0}
-
-#: The longest transition time of a stack command [s]. The paper's transitions last a fraction of
-#: a second to a few seconds; a change blended over more than a minute is, for a controller that
-#: runs at a few ms, a change that never happens (and 1e308 s one that never ends).
-MAX_TRANSITION = 60.0
-
-
-def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
-    """``(task names, transition [s])`` of a stack command ``SOT.COMMAND [TASK] [SECONDS]``.
+def stack_command(call: Call) -> stack.Command:
+    """The stack command of a script call ``SOT.VERB [TASK] [SECONDS]`` (``sot.push taskLH 0.5``):
+    its words (a name or a quoted string for a task) and values given to
+    :func:`drake_sot.stack.parse_command`, the one parser of stack commands.
 
     The paper's commands take their task name, if any (``sot.push taskLH``, ``sot.pop``); this
     dialect also accepts a transition time in seconds after it (``sot.push taskLH 0.5``,
@@ -322,34 +313,11 @@ def stack_arguments(call: Call) -> tuple[tuple[str, ...], float]:
     (:class:`drake_sot.stack.Transition`), instead of made at once (no time, or 0).
 
     Raises:
-        ValueError: ``call.command`` is not a stack command (:data:`STACK_COMMAND_TASKS`), a task
-            name is missing or not a name (a word or a string), an extra argument, or a time
-            that is not a number in [0, :data:`MAX_TRANSITION`] s (the message names the command,
-            what it takes and the bound).
+        drake_sot.stack.StackError: as :func:`~drake_sot.stack.parse_command` (an unknown verb,
+            a wrong number of values, a task that is not a name, a time that is not a number in
+            [0, :data:`~drake_sot.stack.MAX_TRANSITION`] s).
     """
-    takes = STACK_COMMAND_TASKS.get(call.command)
-    if takes is None:
-        raise ValueError(f"{call.command!r}: not a stack command ({', '.join(STACK_COMMAND_TASKS)})")
-    usage = f"{call.entity}.{call.command}{' TASK' * takes} [SECONDS]"
-    args = call.args
-    names = tuple(a.text if isinstance(a, Name) else a for a in args[:takes] if isinstance(a, (Name, str)))
-    extra_name = len(args) > takes and isinstance(args[takes], (Name, str))
-    if not (takes <= len(args) <= takes + 1) or len(names) != takes or extra_name:
-        raise ValueError(
-            f"{usage}: takes {takes} task name(s) and an optional time, got {len(args)} value(s)"
-        )
-    if len(args) == takes:
-        return names, 0.0
-    seconds = args[takes]
-    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
-        text = repr(seconds) if isinstance(seconds, bool) else format_value(seconds)  # no script bool
-        raise ValueError(f"{usage}: the transition time must be a number of seconds, got {text}")
-    if not (0.0 <= seconds <= MAX_TRANSITION):  # NaN fails it
-        raise ValueError(
-            f"{usage}: transition = {shown(seconds)} s: must be finite and >= 0, and at most "
-            f"{MAX_TRANSITION:g} s (MAX_TRANSITION)"
-        )
-    return names, float(seconds)
+    return stack.parse_command(call.command, tuple(a.text if isinstance(a, Name) else a for a in call.args))
 
 
 @dataclass(frozen=True)

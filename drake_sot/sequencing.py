@@ -310,7 +310,8 @@ class StateMachine:
 
     Raises:
         ValueError: for any inconsistent name or value, naming it and listing the known
-            ones: an action naming an unknown task, a transition to an unknown state,
+            ones: an action naming an unknown task or with a transition time of its own (the
+            state's ``transition_time`` blends its change), a transition to an unknown state,
             duplicate state names, an unknown initial state, an invalid initial stack,
             a ``SetValue`` to an output without an initial value (or of another
             kind/size/type, or non-finite), an initial value no ``SetValue`` sets, a
@@ -378,6 +379,11 @@ class StateMachine:
             at = f"{where}, state {state.name!r}"
             entry = []
             for action in state.entry:
+                if isinstance(action, COMMANDS) and action.transition:
+                    raise ValueError(
+                        f"{at}: entry action {action!r} has its own transition time: entering a state "
+                        f"blends its whole change over the state's transition_time"
+                    )
                 if isinstance(action, (Push, Rm, Up, Down)):
                     try:
                         stack.check_known(action.task)
@@ -417,7 +423,7 @@ class StateMachine:
         try:
             entered_stack, entered_values = self._run_entry(initial, stack, self._initial_values)
         except StackError as error:
-            raise ValueError(f"{where}, entering state {initial!r}: {error}") from None
+            raise type(error)(f"{where}, entering state {initial!r}: {error}") from None
         self._initial_status = Status(initial, 0.0, entered_stack, entered_values, 0)
         if check_paths:
             self._check_paths(self._initial_status)
@@ -590,7 +596,7 @@ class StateMachine:
                     while at is not None:
                         path.append(at[0])
                         at = parents[at]
-                    raise ValueError(
+                    raise type(error)(
                         f"sequencer {self._name!r}: entering state {transition.target!r} "
                         f"by the path {' → '.join(reversed(path))} would fail: {error} "
                         f"(pass check_paths=False if that path cannot happen)"

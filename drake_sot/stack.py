@@ -13,13 +13,17 @@ A :class:`Stack` is a value: it holds the names of every task the solver knows (
 returns a new value and leaves the old one alone, so a value can be kept, compared,
 hashed, logged or sent across a port without copies. A command that does not apply
 (an unknown task, a task pushed twice, ``rm`` of a task that is not active, ``pop`` of
-an empty stack) raises :class:`StackError` naming the task and listing the known tasks
-or the current stack: nothing is silently ignored. Priorities are read by name
+an empty stack, ``up`` of the top task, ``down`` of the bottom one) raises
+:class:`StackError` naming the task and listing the known tasks or the current stack:
+nothing is silently ignored. Priorities are read by name
 (:meth:`Stack.priority`), never by position in some other list.
 
 The commands also exist as data (:class:`Push`, :class:`Pop`, :class:`Rm`, :class:`Up`,
-:class:`Down`, :class:`Clear`, applied with :meth:`Stack.apply`), so that a state machine
-or a script can hold them before they run.
+:class:`Down`, :class:`Clear`, each with its optional transition time, applied with
+:meth:`Stack.apply`), so that a state machine or a script can hold them before they run.
+:data:`VERBS` is the one vocabulary of their words (verb → type, number of task names,
+transition time) and :func:`parse_command` the one parser: a script line, a remote line, a
+state machine's entry and Python make the same command and meet the same errors.
 
 Smooth changes. A command is instantaneous: the control law jumps from the solution of
 one stack to the solution of the next. A stack can instead be *reached* from the one
@@ -42,14 +46,18 @@ Example::
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
+from typing import ClassVar
 
 from drake_sot import validation
 from drake_sot.transitions import smooth_step
 
 __all__ = [
     "COMMANDS",
+    "MAX_TRANSITION",
+    "VERBS",
     "Clear",
     "Command",
     "Down",
@@ -61,6 +69,9 @@ __all__ = [
     "Transition",
     "UnknownTaskError",
     "Up",
+    "StackVerb",
+    "find_verb",
+    "parse_command",
     "task_names",
 ]
 
@@ -126,63 +137,183 @@ def _twice(names: tuple[str, ...]) -> list[str]:
 
 
 # ---------------------------------------------------------------------------------------
-# The commands as data
+# The commands as data, and their one vocabulary (verbs, parser)
 # ---------------------------------------------------------------------------------------
 
+#: The longest transition time of a stack command [s]. The paper's transitions last a fraction of
+#: a second to a few seconds; a change blended over more than a minute is, for a controller that
+#: runs at a few ms, a change that never happens (and 1e308 s one that never ends).
+MAX_TRANSITION = 60.0
 
-@dataclass(frozen=True)
-class Push:
+
+def _transition_time(what: str, value: object, *, positive: bool = False) -> float:
+    """``value`` as a transition time [s] in [0, :data:`MAX_TRANSITION`] (> 0 if ``positive``), or
+    StackError naming ``what``, the value and the bound (NaN, an infinity, a huge integer included)."""
+    try:
+        if positive:
+            validation.positive(what, value, unit="s")
+        return validation.bounded(what, value, 0.0, MAX_TRANSITION, unit="s")
+    except ValueError as error:
+        raise StackError(str(error)) from None
+
+
+@dataclass(frozen=True, repr=False)
+class _Command:
+    """What every command holds: ``transition``, the time [s] over which the change is blended
+    (0: at once; at most :data:`MAX_TRANSITION`). StackError at construction for a bad one."""
+
+    #: The command's word in scripts and remote lines (the key of :data:`VERBS`).
+    verb: ClassVar[str] = ""
+    transition: float = field(default=0.0, kw_only=True)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "transition", _transition_time(f"{self.verb}: transition", self.transition))
+
+    def __repr__(self) -> str:
+        shown = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self) if f.name != "transition"]
+        if self.transition:
+            shown.append(f"transition={self.transition!r}")
+        return f"{type(self).__name__}({', '.join(shown)})"
+
+    def __str__(self) -> str:
+        """The command as a script line's words (``push taskLH 0.5``)."""
+        words = [self.verb, *(str(getattr(self, f.name)) for f in fields(self) if f.name != "transition")]
+        return " ".join(words + ([f"{self.transition:g}"] if self.transition else []))
+
+
+@dataclass(frozen=True, repr=False)
+class _TaskCommand(_Command):
+    """A command on one task: ``task``, a non-empty string (StackError otherwise)."""
+
+    task: str
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.task, str) or not self.task:
+            raise StackError(f"{self.verb}: task = {validation.shown(self.task)}: must be a non-empty string")
+        super().__post_init__()
+
+
+@dataclass(frozen=True, repr=False)
+class Push(_TaskCommand):
     """Add ``task`` at the lowest priority (the SoT's ``sot.push``)."""
 
-    task: str
-
-    def __post_init__(self) -> None:
-        validation.nonempty_string("Push.task", self.task)
+    verb: ClassVar[str] = "push"
 
 
-@dataclass(frozen=True)
-class Pop:
+@dataclass(frozen=True, repr=False)
+class Pop(_Command):
     """Remove the lowest-priority task (the SoT's ``sot.pop``)."""
 
+    verb: ClassVar[str] = "pop"
 
-@dataclass(frozen=True)
-class Rm:
+
+@dataclass(frozen=True, repr=False)
+class Rm(_TaskCommand):
     """Remove ``task`` wherever it is in the stack (the SoT's ``sot.rm``)."""
 
-    task: str
-
-    def __post_init__(self) -> None:
-        validation.nonempty_string("Rm.task", self.task)
+    verb: ClassVar[str] = "rm"
 
 
-@dataclass(frozen=True)
-class Up:
-    """Raise ``task`` by one priority level; no-op at the top (the SoT's ``sot.up``)."""
+@dataclass(frozen=True, repr=False)
+class Up(_TaskCommand):
+    """Raise ``task`` by one priority level (the SoT's ``sot.up``); refused at the top."""
 
-    task: str
-
-    def __post_init__(self) -> None:
-        validation.nonempty_string("Up.task", self.task)
+    verb: ClassVar[str] = "up"
 
 
-@dataclass(frozen=True)
-class Down:
-    """Lower ``task`` by one priority level; no-op at the bottom (the SoT's ``sot.down``)."""
+@dataclass(frozen=True, repr=False)
+class Down(_TaskCommand):
+    """Lower ``task`` by one priority level (the SoT's ``sot.down``); refused at the bottom."""
 
-    task: str
-
-    def __post_init__(self) -> None:
-        validation.nonempty_string("Down.task", self.task)
+    verb: ClassVar[str] = "down"
 
 
-@dataclass(frozen=True)
-class Clear:
+@dataclass(frozen=True, repr=False)
+class Clear(_Command):
     """Empty the stack (the SoT's ``sot.clear``)."""
+
+    verb: ClassVar[str] = "clear"
 
 
 Command = Push | Pop | Rm | Up | Down | Clear
 #: The command types, for ``isinstance`` checks.
 COMMANDS = (Push, Pop, Rm, Up, Down, Clear)
+
+
+@dataclass(frozen=True)
+class StackVerb:
+    """One row of the vocabulary: a command's word, its type, what it takes, what it does.
+
+    Attributes:
+        command: the command type (its ``verb`` is the word).
+        tasks: how many task names it takes (0 or 1).
+        timed: whether an optional transition time [s] may follow its task names.
+        doc: what it does, for help texts.
+    """
+
+    command: type[Command]
+    tasks: int
+    timed: bool
+    doc: str
+
+    @property
+    def name(self) -> str:
+        """The word (``push``)."""
+        return self.command.verb
+
+    @property
+    def usage(self) -> str:
+        """The word and its arguments (``push TASK [SECONDS]``)."""
+        return f"{self.name}{' TASK' * self.tasks}{' [SECONDS]' if self.timed else ''}"
+
+
+#: THE stack-command vocabulary (Mansard, Stasse, Evrard, Kheddar 2009, III-B.6): word → its row.
+#: Scripts, remote lines, state machines and Python all make their commands through it
+#: (:func:`parse_command`) or through the command types, which check the same way.
+VERBS: Mapping[str, StackVerb] = MappingProxyType(
+    {
+        verb.name: verb
+        for verb in (
+            StackVerb(Push, 1, True, "add TASK at the lowest priority (over SECONDS)"),
+            StackVerb(Pop, 0, True, "remove the lowest-priority task; writes its name"),
+            StackVerb(Rm, 1, True, "remove TASK wherever it is (over SECONDS)"),
+            StackVerb(Up, 1, True, "raise TASK by one priority level (over SECONDS)"),
+            StackVerb(Down, 1, True, "lower TASK by one priority level (over SECONDS)"),
+            StackVerb(Clear, 0, True, "empty the stack (over SECONDS)"),
+        )
+    }
+)
+
+
+def find_verb(word: object) -> StackVerb:
+    """The row of :data:`VERBS` for ``word``, or StackError listing the words."""
+    found = VERBS.get(word) if isinstance(word, str) else None
+    if found is None:
+        raise StackError(f"{validation.shown(word)}: not a stack command ({', '.join(VERBS)})")
+    return found
+
+
+def parse_command(word: object, args: Sequence[object]) -> Command:
+    """The command ``word ARG…``: its task names (``str``), then, if the verb is timed, an optional
+    transition time [s] (a number; none: 0, at once).
+
+    The one parser of stack commands: a script line (``sot.push taskLH 0.5``), a remote line and a
+    state machine's entry action give their words and values to it.
+
+    Raises:
+        StackError: an unknown ``word`` (listing the words), a wrong number of values (naming the
+            usage), a task name that is not a non-empty string, a time that is not a number in
+            [0, :data:`MAX_TRANSITION`] s (naming the value and the bound).
+    """
+    row = find_verb(word)
+    args = tuple(args)
+    extra_name = len(args) > row.tasks and isinstance(args[row.tasks], str)
+    if not (row.tasks <= len(args) <= row.tasks + row.timed) or extra_name:
+        time = " and an optional time" if row.timed else ""
+        raise StackError(f"{row.usage}: takes {row.tasks} task name(s){time}, got {len(args)} value(s)")
+    if len(args) > row.tasks:
+        return row.command(*args[: row.tasks], transition=args[row.tasks])
+    return row.command(*args)
 
 
 # ---------------------------------------------------------------------------------------
@@ -200,10 +331,11 @@ class Transition:
         origin: the stack the change started from (it may itself be in a transition:
             changes that overlap in time nest).
         start: when the change started [s], finite.
-        duration: how long it lasts [s], finite and > 0.
+        duration: how long it lasts [s], finite, > 0 and at most :data:`MAX_TRANSITION`.
 
     Raises:
-        ValueError: ``start`` not finite or ``duration`` not finite and > 0 (named).
+        ValueError: ``start`` not finite (named); StackError (a ValueError): ``duration`` not
+            finite, > 0 and at most :data:`MAX_TRANSITION` (named, with the bound).
         TypeError: ``origin`` is not a :class:`Stack`.
     """
 
@@ -215,9 +347,8 @@ class Transition:
         if not isinstance(self.origin, Stack):
             raise TypeError(f"Transition.origin must be a Stack, got {type(self.origin).__name__}")
         object.__setattr__(self, "start", validation.finite("Transition.start", self.start))
-        object.__setattr__(
-            self, "duration", validation.positive("Transition.duration", self.duration, unit="s")
-        )
+        duration = _transition_time("Transition.duration", self.duration, positive=True)
+        object.__setattr__(self, "duration", duration)
 
     def progress(self, t: float) -> float:
         """``h(t)`` in [0, 1]: 0 until ``start``, 1 from ``start + duration`` (eq. 12's profile)."""
@@ -369,18 +500,20 @@ class Stack:
         return self._with(self.active[:i] + self.active[i + 1 :])
 
     def up(self, task: str) -> Stack:
-        """``task`` swapped with the task above it (unchanged at the top)."""
+        """``task`` swapped with the task above it; StackError if unknown, not in the stack or at
+        its top (nothing would change: a command that does not apply is refused, not ignored)."""
         i = self._position(task)
         if i == 0:
-            return self
+            raise StackError(f"up {task}: already at the top of the stack ({', '.join(self.active)})")
         a = self.active
         return self._with(a[: i - 1] + (a[i], a[i - 1]) + a[i + 1 :])
 
     def down(self, task: str) -> Stack:
-        """``task`` swapped with the task below it (unchanged at the bottom)."""
+        """``task`` swapped with the task below it; StackError if unknown, not in the stack or at
+        its bottom (nothing would change)."""
         i = self._position(task)
         if i == len(self.active) - 1:
-            return self
+            raise StackError(f"down {task}: already at the bottom of the stack ({', '.join(self.active)})")
         a = self.active
         return self._with(a[:i] + (a[i + 1], a[i]) + a[i + 2 :])
 
@@ -388,22 +521,41 @@ class Stack:
         """No active task."""
         return self._with(())
 
-    def apply(self, command: Command) -> Stack:
-        """The stack after ``command`` (one of :data:`COMMANDS`); StackError as the method."""
+    def apply(self, command: Command, *, at: float | None = None) -> Stack:
+        """The stack after ``command`` (one of :data:`COMMANDS`): the one way a command acts.
+
+        A command with a ``transition`` T > 0 gives the stack reached from this one over
+        ``[at, at + T]`` (:meth:`transition_from`); ``at`` [s] is then required.
+
+        Raises:
+            UnknownTaskError: the command names an unknown task (lists the known tasks).
+            StackError: it does not apply (a push of a task in the stack, an rm, up or down of
+                one that is not, up of the top task, down of the bottom one, pop of an empty
+                stack: the message shows the stack); a transition without ``at``.
+            TypeError: ``command`` is not a stack command.
+        """
         match command:
             case Push(task):
-                return self.push(task)
+                after = self.push(task)
             case Pop():
-                return self.pop()
+                after = self.pop()
             case Rm(task):
-                return self.rm(task)
+                after = self.rm(task)
             case Up(task):
-                return self.up(task)
+                after = self.up(task)
             case Down(task):
-                return self.down(task)
+                after = self.down(task)
             case Clear():
-                return self.clear()
-        raise TypeError(f"{command!r} is not a stack command ({', '.join(c.__name__ for c in COMMANDS)})")
+                after = self.clear()
+            case _:
+                raise TypeError(
+                    f"{command!r} is not a stack command ({', '.join(c.__name__ for c in COMMANDS)})"
+                )
+        if not command.transition:
+            return after
+        if at is None:
+            raise StackError(f"{command}: a transition needs the time it starts at (at=)")
+        return after.transition_from(self, start=at, duration=command.transition)
 
     # --- smooth changes ------------------------------------------------------------------
     def transition_from(self, before: Stack, *, start: float, duration: float) -> Stack:
@@ -414,8 +566,8 @@ class Stack:
         its transitions finished by then are dropped, and one that has not progressed
         yet (it starts at ``start`` or later: e.g. ``push`` then ``up`` given at the same
         instant) is composed with this one, which then leads from that transition's
-        origin. A change back to the stack it starts from (``up`` of the top task, a
-        ``push`` then ``rm`` at the same instant) is no change: no transition.
+        origin. A change back to the stack it starts from (a ``push`` then ``rm`` at the
+        same instant) is no change: no transition.
 
         Raises:
             StackError: ``before`` has other known tasks.

@@ -24,7 +24,8 @@ from drake_sot.app.serving import REACH_BOUND
 from drake_sot.diagrams.script_session import MAX_INCLUDE_DEPTH, SessionError, load_script
 from drake_sot.remote import Client, RemoteError
 from drake_sot.remote.network import ACCEPT_BACKOFF, MAX_CONNECTIONS, NetworkThread, _is_loopback
-from drake_sot.script import MAX_TRANSITION, ScriptError, parse_line, stack_arguments
+from drake_sot.script import ScriptError, parse_line, stack_command
+from drake_sot.stack import MAX_TRANSITION, Push, StackError
 from drake_sot.systems import command_server as server_module
 from drake_sot.systems.command_server import RemoteCommandServer
 
@@ -317,17 +318,15 @@ def test_up_of_the_top_task_and_down_of_the_bottom_one_are_refused_and_change_no
 
 def test_an_absurd_transition_time_is_refused_naming_the_bound(server):
     assert MAX_TRANSITION == 60.0
-    with pytest.raises(
-        ValueError, match=r"transition = 1e\+308 s: must be finite and >= 0, and at most 60 s"
-    ):
-        stack_arguments(parse_line("sot.push taskLH 1e308"))
-    assert stack_arguments(parse_line("sot.push taskLH 60")) == (("taskLH",), 60.0)
+    with pytest.raises(StackError, match=r"^push: transition = 1e\+308 s: must be in \[0, 60\] s$"):
+        stack_command(parse_line("sot.push taskLH 1e308"))
+    assert stack_command(parse_line("sot.push taskLH 60")) == Push("taskLH", transition=60.0)
     _, host, port = server
     with Client(host, port) as client:
         stack = _stack(client)
-        with pytest.raises(RemoteError, match="at most 60 s"):
+        with pytest.raises(RemoteError, match=r"push: transition = 1e\+308 s: must be in \[0, 60\] s"):
             client.run("sot.push taskLH 1e308")
-        with pytest.raises(RemoteError, match="at most 60 s"):
+        with pytest.raises(RemoteError, match=r"rm: transition = 1e\+308 s: must be in \[0, 60\] s"):
             client.run("sot.rm taskRH 1e308")
         assert "taskRH" in stack and _stack(client) == stack
 

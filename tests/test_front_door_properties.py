@@ -3,7 +3,7 @@
 (:func:`~drake_sot.script.parse_line`, :func:`~drake_sot.script.parse_script`,
 :func:`~drake_sot.script.parse_value`, a script file read by
 :func:`~drake_sot.diagrams.script_session.load_script`, the stack commands'
-:func:`~drake_sot.script.stack_arguments`), fed arbitrary bytes, text and JSON — integers beyond
+:func:`~drake_sot.script.stack_command`), fed arbitrary bytes, text and JSON — integers beyond
 float range and beyond the 4300 digits Python reads, non-finite numbers, lone surrogates, deep
 nesting — return a value or raise their documented error type, nothing else."""
 
@@ -19,14 +19,14 @@ from drake_sot.diagrams.script_session import SessionError, load_script
 from drake_sot.remote.protocol import OPS, ProtocolError, Request, parse_request
 from drake_sot.script import (
     KEYWORDS,
-    STACK_COMMAND_TASKS,
     Call,
     ScriptError,
     parse_line,
     parse_script,
     parse_value,
-    stack_arguments,
+    stack_command,
 )
+from drake_sot.stack import MAX_TRANSITION, VERBS, StackError
 
 SETTINGS = settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -143,17 +143,19 @@ def test_the_script_parsers_of_arbitrary_text_raise_only_script_errors(text):
 
 @SETTINGS
 @given(script_lines.map(lambda line: "sot." + line.split(" ", 1)[-1]))
-def test_a_parsed_stack_command_is_used_or_refused_with_a_value_error(text):
+def test_a_parsed_stack_command_is_used_or_refused_with_a_stack_error(text):
     try:
         command = parse_line(text)
     except ScriptError:
         return
-    if isinstance(command, Call) and command.command in STACK_COMMAND_TASKS:
+    if isinstance(command, Call):
         try:
-            names, transition = stack_arguments(command)
-        except ValueError:
+            made = stack_command(command)
+        except StackError:
             return
-        assert all(isinstance(name, str) for name in names) and 0.0 <= transition <= 60.0
+        assert type(made) is VERBS[command.command].command
+        assert all(isinstance(v, str) and v for k, v in vars(made).items() if k == "task")
+        assert 0.0 <= made.transition <= MAX_TRANSITION
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -27,8 +27,9 @@ from drake_sot.script import (
     parse_line,
     parse_script,
     parse_value,
-    stack_arguments,
+    stack_command,
 )
+from drake_sot.stack import StackError
 
 # Every line of the code blocks of Mansard, Stasse, Evrard, Kheddar 2009, section III-B, as
 # printed there, with the command each one is.
@@ -313,7 +314,9 @@ def test_parse_value_reads_one_value_and_nothing_else():
     ],
 )
 def test_stack_commands_take_an_optional_transition_time(line, names, seconds):
-    assert stack_arguments(parse_line(line)) == (names, seconds)
+    command = stack_command(parse_line(line))
+    assert type(command).verb == parse_line(line).command and command.transition == seconds
+    assert tuple(value for field, value in vars(command).items() if field == "task") == names
 
 
 @pytest.mark.parametrize(
@@ -321,22 +324,22 @@ def test_stack_commands_take_an_optional_transition_time(line, names, seconds):
     [
         (
             parse_line("sot.push"),
-            r"sot.push TASK \[SECONDS\]: takes 1 task name\(s\) and an optional time, got 0",
+            r"^push TASK \[SECONDS\]: takes 1 task name\(s\) and an optional time, got 0",
         ),
-        (parse_line("sot.pop taskLH"), r"sot.pop \[SECONDS\]: takes 0 task name\(s\)"),
+        (parse_line("sot.pop taskLH"), r"^pop \[SECONDS\]: takes 0 task name\(s\)"),
         (parse_line("sot.push taskLH taskRH"), r"takes 1 task name\(s\) and an optional time, got 2"),
         (parse_line("sot.push taskLH 0.5 1"), r"got 3 value\(s\)"),
-        (parse_line("sot.push 0.5"), r"takes 1 task name"),
+        (parse_line("sot.push 0.5"), r"^push: task = 0.5: must be a non-empty string$"),
+        (parse_line("sot.push taskLH [2](1,2)"), r"^push: transition = Vector\(.*\): must be a number$"),
+        (parse_line("sot.push taskLH -0.5"), r"^push: transition = -0.5 s: must be in \[0, 60\] s$"),
         (
-            parse_line("sot.push taskLH [2](1,2)"),
-            r"the transition time must be a number of seconds, got \[2\]",
+            Call("sot", "push", (Name("taskLH"), math.nan)),
+            r"^push: transition = nan s: must be in \[0, 60\] s$",
         ),
-        (parse_line("sot.push taskLH -0.5"), r"transition = -0.5 s: must be finite and >= 0"),
-        (Call("sot", "push", (Name("taskLH"), math.nan)), r"transition = nan s: must be finite and >= 0"),
-        (Call("sot", "push", (Name("taskLH"), True)), r"must be a number of seconds"),
-        (parse_line("sot.list"), r"'list': not a stack command"),
+        (Call("sot", "push", (Name("taskLH"), True)), r"^push: transition = True: must be a number$"),
+        (parse_line("sot.list"), r"^'list': not a stack command \(push, pop, rm, up, down, clear\)$"),
     ],
 )
 def test_bad_stack_command_arguments_name_the_command(call, message):
-    with pytest.raises(ValueError, match=message):
-        stack_arguments(call)
+    with pytest.raises(StackError, match=message):
+        stack_command(call)

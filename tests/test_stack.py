@@ -46,6 +46,8 @@ class _ListModel:
                 self.items.remove(task)
             else:
                 i = self.items.index(task)
+                if (command == "up" and i == 0) or (command == "down" and i == len(self.items) - 1):
+                    return "end"  # nothing would change: refused
                 self.items.pop(i)
                 target = max(i - 1, 0) if command == "up" else min(i + 1, len(self.items))
                 self.items.insert(target, task)
@@ -63,6 +65,8 @@ def _error_kind(error: StackError, task) -> str:
         return "empty"
     if text.startswith(f"task {task!r} is not in the stack "):
         return "absent"
+    if re.match(rf"(up {task}: already at the top|down {task}: already at the bottom) of the stack \(", text):
+        return "end"
     raise AssertionError(f"unexpected message {text!r}")
 
 
@@ -155,7 +159,12 @@ def test_the_papers_example_stack():
     s = s.up("taskRH")
     assert s.active == ("taskTwofeet", "taskCom", "taskRH", "taskPosture")
     assert s.priority("taskTwofeet") == 0 and s.priority("taskPosture") == 3
-    assert s.up("taskTwofeet") is s and s.down("taskPosture") is s  # no-ops at the ends
+    with pytest.raises(StackError, match=r"^up taskTwofeet: already at the top of the stack \(taskTwofeet, "):
+        s.up("taskTwofeet")  # nothing would change: refused, not ignored
+    with pytest.raises(
+        StackError, match=r"^down taskPosture: already at the bottom of the stack \(.*taskPosture\)$"
+    ):
+        s.down("taskPosture")
     assert s.rm("taskCom").active == ("taskTwofeet", "taskRH", "taskPosture")
     assert s.pop().active == ("taskTwofeet", "taskCom", "taskRH")
     assert s.clear().active == () and s.clear().tasks == KNOWN
@@ -226,9 +235,7 @@ def test_a_stack_is_a_value():
     with pytest.raises(AttributeError):
         a.active = ("a",)
     for command_type in (Push, Rm, Up, Down):
-        with pytest.raises(
-            ValueError, match=f"{command_type.__name__}.task = '': must be a non-empty string"
-        ):
+        with pytest.raises(StackError, match=f"^{command_type.verb}: task = '': must be a non-empty string$"):
             command_type("")
 
 
@@ -284,7 +291,7 @@ def test_an_instant_command_or_no_change_has_no_transition():
     s0 = Stack(KNOWN, ("taskCom", "taskRH"))
     moving = s0.rm("taskRH").transition_from(s0, start=1.0, duration=0.5)
     assert moving.push("taskLH").transition_from(moving, start=1.1, duration=0.0).transition is None
-    assert s0.up("taskCom").transition_from(s0, start=1.0, duration=0.5) == s0  # up of the top task
+    assert s0.rm("taskRH").push("taskRH").transition_from(s0, start=1.0, duration=0.5) == s0
     back = moving.push("taskRH").transition_from(moving, start=1.0, duration=0.5)  # rm then push at once
     assert back == s0 and back.transition is None
 
@@ -332,8 +339,13 @@ def test_bad_transitions_are_refused_naming_the_value(change, error, message):
     arguments = dict(before=s, start=0.0, duration=0.5) | change
     with pytest.raises(error, match=message):
         s.push("b").transition_from(arguments.pop("before"), **arguments)
-    with pytest.raises(ValueError, match="Transition.duration = 0.0 s: must be finite and > 0"):
+    with pytest.raises(StackError, match="Transition.duration = 0.0 s: must be finite and > 0"):
         Transition(s, 0.0, 0.0)
+    with pytest.raises(StackError, match=r"^Transition.duration = 1e\+308 s: must be in \[0, 60\] s$"):
+        Transition(s, 0.0, 1e308)  # a change that would never end
+    with pytest.raises(StackError, match=r"^Transition.duration = 60.5 s: must be in \[0, 60\] s$"):
+        Transition(s, 0.0, 60.5)
+    assert Transition(s, 0.0, 60.0).duration == 60.0
     with pytest.raises(StackError, match="the transition comes from a stack of other known tasks"):
         Stack(("a", "b", "c"), ("a",), Transition(s, 0.0, 1.0))
 

@@ -63,6 +63,7 @@ from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
 from drake_sot.script import Call, Get, parse_line
+from drake_sot.stack import VERBS
 from drake_sot.systems.command_server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
 from drake_sot.systems.features import FeaturePoint6d
 from drake_sot.systems.pattern_generator import PatternGenerator
@@ -343,7 +344,7 @@ class Serving:
                 f"{command.entity}.{command.command}: not a run-time command of {entity.describe()} "
                 f"(those are: {', '.join(runnable)})"
             )
-        return getattr(entity, command.command)(command.args, context)
+        return entity.run_command(command.command, command.args, context)
 
     def _help(self) -> str:
         sots = ", ".join(self._sots) or "none"
@@ -360,9 +361,8 @@ class Serving:
                     "get SYSTEM.PORT",
                 ]
             )
-        return (
-            f"commands: SOT.push|rm|up|down TASK, SOT.pop, SOT.clear, SOT.list (SOT: {sots}); {dialect}; help"
-        )
+        stack = ", ".join(f"SOT.{verb.usage}" for verb in VERBS.values())
+        return f"commands: {stack}, SOT.list (SOT: {sots}); {dialect}; help"
 
     def _list(self) -> dict[str, Any]:
         server = self._server.get_name()

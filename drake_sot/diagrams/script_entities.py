@@ -33,24 +33,19 @@ from drake_sot.script import (
     Vector,
     Verb,
     format_value,
-    stack_arguments,
+    stack_command,
 )
 from drake_sot.sequencing import (
     Above,
     Below,
-    Clear,
-    Down,
-    Pop,
-    Push,
-    Rm,
     SetValue,
     State,
     Timeout,
     Transition,
-    Up,
 )
 from drake_sot.sequencing import Signal as SignalGuard
 from drake_sot.signals import FeatureSignal, TaskSignal
+from drake_sot.stack import VERBS, Pop, StackError, find_verb
 from drake_sot.systems.features import (
     FeatureCoM,
     FeatureGeneric,
@@ -301,7 +296,13 @@ class Entity:
                 if marked is not None:
                     phase, usage, doc = marked
                     commands[attr] = CommandSpec(attr, phase, usage, doc)
-        cls._commands = commands
+        cls._commands = {**commands, **cls._table_commands()}
+
+    @classmethod
+    def _table_commands(cls) -> dict[str, CommandSpec]:
+        """Commands a class takes from a table rather than from its marked methods (by name);
+        :meth:`run_command` runs them."""
+        return {}
 
     def __init__(self, session: ScriptSession, name: str, statement: Statement | None) -> None:
         self.session = session
@@ -334,6 +335,10 @@ class Entity:
                 f"{self.describe()} has no command {command!r}; commands: {', '.join(self._commands)}"
             )
         return spec
+
+    def run_command(self, name: str, args: tuple[Value, ...], context: Context | None) -> str:
+        """Run the script command ``E.<name> ARG…`` (``context`` None before the build); its output."""
+        return getattr(self, self.command_spec(name).name)(args, context)
 
     def describe(self) -> str:
         return f"{self.name!r} ({self.CLASS})"
@@ -850,38 +855,29 @@ class SotEntity(Entity):
     def construct(self) -> None:
         return None  # made by the builder when it closes the loop
 
-    def _stack(self, context: Context, method: str, args: tuple[Value, ...]) -> str:
-        try:
-            names, transition = stack_arguments(Call(self.name, method, args))
-        except ValueError as error:
-            raise SessionError(str(error)) from None
-        result = getattr(self.system, method)(context, *names, transition=transition)
-        return result if isinstance(result, str) else ""
+    @classmethod
+    def _table_commands(cls) -> dict[str, CommandSpec]:
+        # The stack commands, from the one vocabulary (SECONDS, optional, is this dialect's: the
+        # change is blended over that time, StackOfTasks' transition).
+        return {v.name: CommandSpec(v.name, Phase.RUN, v.usage, v.doc) for v in VERBS.values()}
 
-    # SECONDS (optional, this dialect's): blend the change over that time (StackOfTasks, transition).
-    @_command(Phase.RUN, "push TASK [SECONDS]", "add TASK at the lowest priority (over SECONDS)")
-    def push(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "push", args)
+    def command_spec(self, command: str) -> CommandSpec:
+        if command not in self._commands:
+            try:
+                find_verb(command)
+            except StackError as error:
+                others = ", ".join(name for name in self._commands if name not in VERBS)
+                raise SessionError(f"{error}; {self.describe()} also has: {others}") from error
+        return super().command_spec(command)
 
-    @_command(Phase.RUN, "pop [SECONDS]", "remove the lowest-priority task; writes its name")
-    def pop(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "pop", args)
-
-    @_command(Phase.RUN, "rm TASK [SECONDS]", "remove TASK wherever it is (over SECONDS)")
-    def rm(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "rm", args)
-
-    @_command(Phase.RUN, "up TASK [SECONDS]", "raise TASK by one priority level (over SECONDS)")
-    def up(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "up", args)
-
-    @_command(Phase.RUN, "down TASK [SECONDS]", "lower TASK by one priority level (over SECONDS)")
-    def down(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "down", args)
-
-    @_command(Phase.RUN, "clear [SECONDS]", "empty the stack (over SECONDS)")
-    def clear(self, args: tuple[Value, ...], context: Context | None) -> str:
-        return self._stack(context, "clear", args)
+    def run_command(self, name: str, args: tuple[Value, ...], context: Context | None) -> str:
+        """A stack command made by the vocabulary's parser and applied with ``StackOfTasks.apply``
+        (``pop`` writes the task it removed); the other commands as any entity's."""
+        if name not in VERBS:
+            return super().run_command(name, args, context)
+        command = stack_command(Call(self.name, name, args))
+        before = self.system.apply(context, command)
+        return before.active[-1] if isinstance(command, Pop) else ""
 
     @_command(Phase.RUN, "list", "the stack, highest priority first")
     def list(self, args: tuple[Value, ...], context: Context | None) -> str:
@@ -996,7 +992,8 @@ class AdmittanceEntity(Entity):
         )
 
 
-_STACK_ACTIONS = {"push": Push, "rm": Rm, "up": Up, "down": Down, "pop": Pop, "clear": Clear}
+#: A state's stack actions, from the vocabulary (their change is blended by ``transitionTime``).
+_ENTRY_ACTIONS = " | ".join(v.name + " TASK" * v.tasks for v in VERBS.values())
 
 
 class SequencerEntity(Entity):
@@ -1057,7 +1054,7 @@ class SequencerEntity(Entity):
 
     @_command(
         Phase.BUILD,
-        "addEntry STATE push|rm|up|down TASK | pop | clear | set OUTPUT VALUE",
+        f"addEntry STATE {_ENTRY_ACTIONS} | set OUTPUT VALUE",
         "an action run on entering STATE",
     )
     def addEntry(self, args: tuple[Value, ...], context: Context | None) -> str:
@@ -1069,13 +1066,12 @@ class SequencerEntity(Entity):
         if action == "set":
             _arity(rest, "set OUTPUT VALUE", 2)
             entry.append(SetValue(_text(rest[0], "the output"), vector_value(rest[1], "the value")))
-        elif action in _STACK_ACTIONS:
-            kind = _STACK_ACTIONS[action]
-            takes = kind not in (Pop, Clear)
-            _arity(rest, f"{action}{' TASK' if takes else ''}", 1 if takes else 0)
-            entry.append(kind(_text(rest[0], "the task")) if takes else kind())
         else:
-            raise SessionError(f"action {action!r}: one of {', '.join(_STACK_ACTIONS)}, set")
+            try:
+                entry.append(stack_command(Call(self.name, action, rest)))
+            except StackError as error:
+                hint = "" if action in VERBS else "; or set OUTPUT VALUE"
+                raise SessionError(f"{error}{hint}") from error
         return ""
 
     @_command(

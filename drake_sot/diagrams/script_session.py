@@ -420,9 +420,7 @@ class ScriptSession:
             case RunFor(duration):
                 return self._advance(duration, context)
             case Call(entity, name):
-                target = self.entity(entity)
-                handler = getattr(target, target.command_spec(name).name)
-                return handler(command.args, context if self.is_built else None)
+                return self.entity(entity).run_command(name, command.args, context if self.is_built else None)
         raise TypeError(f"{command!r} is not a script command")
 
     def _require_build_phase(self, command: Command) -> None:

@@ -8,7 +8,8 @@ own state what a Drake system may change — its own outputs:
 
 - **stack commands** (``SOT.push|rm|up|down TASK``, ``SOT.pop``, ``SOT.clear``, ``SOT`` being the
   solver's name given here; each may end with a transition time in seconds, ``SOT.push TASK 0.5``,
-  over which the change is blended: :func:`drake_sot.script.stack_arguments`) go out as a batch
+  over which the change is blended; read by :func:`drake_sot.script.stack_command`, the
+  vocabulary's parser, into :data:`drake_sot.stack.Command` values) go out as a batch
   on the ``commands`` output, which a
   :class:`~drake_sot.systems.sot.StackOfTasks` made with ``commands_input=True`` applies at
   the same tick (after its held stack; its ``command_results`` says, per command, if it acted);
@@ -47,9 +48,10 @@ from pydrake.systems.framework import State as DrakeState
 from drake_sot import validation
 from drake_sot.channel import Link
 from drake_sot.remote.protocol import Request
-from drake_sot.script import Call, Get, ScriptError, parse_line, stack_arguments
+from drake_sot.script import Call, Get, ScriptError, parse_line, stack_command
+from drake_sot.stack import StackError
 from drake_sot.systems._context import own_context
-from drake_sot.systems.sot import STACK_COMMANDS, StackCommand, StackCommands
+from drake_sot.systems.sot import StackCommand, StackCommands
 
 #: Times within this of a tick count as that tick [s] (sampled times are sums of floats).
 _EPS = 1e-9
@@ -285,6 +287,11 @@ class RemoteCommandServer(LeafSystem):
         return self._writables[name][0].check(f"{self.get_name()}.{name}", value)
 
 
+#: The commands that only read (an entity's ``list``, ``help``): the host answers them, after the
+#: tick, and they change nothing; every other command of the solver is a stack command.
+_QUERIES = ("list", "help")
+
+
 def _host_changes_context(request: Request | None) -> bool:
     """True for a request the host applies to the context (a parameter write, a script line other
     than ``get``, ``list``, ``help``): what comes after it waits for the tick after."""
@@ -298,20 +305,20 @@ def _host_changes_context(request: Request | None) -> bool:
         return False  # refused: changes nothing
     if command is None or isinstance(command, Get) or request.cmd.strip() == "help":
         return False
-    return not (isinstance(command, Call) and command.command in ("list", "help"))
+    return not (isinstance(command, Call) and command.command in _QUERIES)
 
 
 def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:
-    """The stack command of a script line for solver ``sot``; an error message when it is one
-    with the wrong arguments; None when the line is something else (for the host)."""
+    """The stack command of a script line ``SOT.VERB …`` for solver ``sot``, given at ``t``; the
+    vocabulary's error message when it is not one (an unknown verb, wrong arguments); None when the
+    line is something else (for the host)."""
     try:
         command = parse_line(cmd, source="<remote>")
     except ScriptError:
         return None  # the host answers with the parser's error
-    if not (isinstance(command, Call) and command.entity == sot and command.command in STACK_COMMANDS):
+    if not (isinstance(command, Call) and command.entity == sot and command.command not in _QUERIES):
         return None
     try:
-        names, transition = stack_arguments(command)
-    except ValueError as error:
+        return StackCommand(t, stack_command(command))
+    except StackError as error:
         return f"{cmd.strip()!r}: {error}"
-    return StackCommand(t, command.command, names, transition)

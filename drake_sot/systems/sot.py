@@ -16,7 +16,7 @@ from drake_sot import validation
 from drake_sot.blas import limit_blas_threads
 from drake_sot.hierarchy import LevelReport, level_report, solve_hqp, solve_strict
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
-from drake_sot.stack import Stack, StackError
+from drake_sot.stack import Clear, Command, Down, Pop, Push, Rm, Stack, StackError, Up
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.inequalities import InequalityTask
 from drake_sot.systems.task import Task
@@ -32,14 +32,11 @@ COMMANDS_PORT = "commands"
 # --- stack commands sent by another system (a remote command server) -------------------------
 @dataclass(frozen=True)
 class StackCommand:
-    """One of the paper's stack commands, given at ``time`` [s]: ``command`` is push, pop,
-    rm, up, down or clear; ``args`` its task name (none for pop and clear); ``transition`` the
-    time [s] over which the change is blended (0: at once; see :class:`StackOfTasks`)."""
+    """A stack command (:data:`drake_sot.stack.Command`: its task and its transition time, by
+    name) given at ``time`` [s], where its transition starts (see :class:`StackOfTasks`)."""
 
     time: float
-    command: str
-    args: tuple[str, ...] = ()
-    transition: float = 0.0
+    command: Command
 
 
 @dataclass(frozen=True)
@@ -61,9 +58,6 @@ class StackCommandResults:
     results: tuple[tuple[bool, str], ...] = ()
 
 
-STACK_COMMANDS = ("push", "pop", "rm", "up", "down", "clear")
-
-
 @dataclass(frozen=True)
 class _Remote:
     """The last batch committed, and the ``stack`` input's value it acted on (None: not driven)."""
@@ -79,7 +73,8 @@ class StackOfTasks(LeafSystem):
     each); which of them act, and in which order, is the *stack*, a
     :class:`drake_sot.stack.Stack` value held in the context and changed at run time
     with :meth:`push`, :meth:`pop`, :meth:`rm`, :meth:`up`, :meth:`down` and
-    :meth:`clear`, as in the paper (the algebra and its errors are ``Stack``'s). Index 0
+    :meth:`clear`, as in the paper, or with :meth:`apply` and any
+    :data:`drake_sot.stack.Command` (the algebra and its errors are ``Stack``'s). Index 0
     of the stack is the highest priority; ``push`` appends at the lowest. Tasks outside
     the stack are not evaluated and cost nothing.
 
@@ -152,7 +147,8 @@ class StackOfTasks(LeafSystem):
             stack commands from another system (a
             :class:`~drake_sot.systems.command_server.RemoteCommandServer`). A new batch acts at the
             tick that sees it, after the stack held in the context, in its order; a command
-            that cannot act (an unknown task, a push of a task in the stack) is skipped and
+            that cannot act (an unknown task, a push of a task in the stack, up of the top
+            task: :meth:`drake_sot.stack.Stack.apply`'s errors) is skipped and
             reported on ``command_results``. A periodic unrestricted update commits the batch
             into the held stack at the next tick (a context command commits it first), so that
             the commands of the context and of the port act in the order they were given.
@@ -391,49 +387,49 @@ class StackOfTasks(LeafSystem):
         """The active tasks, highest priority first (own or root context); the input's when driven."""
         return self._current_stack(own_context(self, context)).active
 
-    def _command(self, context: Context, command: str, *args: str, transition: float = 0.0) -> Stack:
-        """Apply ``Stack.<command>(*args)`` to the context's stack, reached over ``transition``
-        seconds from the context's time (0: at once); return the stack before.
+    def apply(self, context: Context, command: Command) -> Stack:
+        """Apply a stack command (:data:`drake_sot.stack.Command`) to the context's stack with
+        :meth:`drake_sot.stack.Stack.apply`, its transition starting at the context's time;
+        return the stack before. The paper's commands below make their command and call this.
 
-        Refused (ValueError) while the ``stack`` input drives the stack, or when
-        ``transition`` is NaN, infinite or negative (named); the algebra's own errors
-        (:class:`~drake_sot.stack.StackError`, a ValueError) name the task and list the
-        known tasks or the stack.
+        Raises:
+            ValueError: the ``stack`` input drives the stack.
+            drake_sot.stack.StackError: the command does not apply (a ValueError; an unknown task
+                is an :class:`~drake_sot.stack.UnknownTaskError` listing the known tasks).
+            TypeError: ``command`` is not a stack command.
         """
-        context = settable_context(self, context, self._stack_input, command=command, what="the stack")
+        context = settable_context(self, context, self._stack_input, command=str(command), what="the stack")
         if self._commands_input is not None:
             self._commit(context, context.get_mutable_state())  # the port's commands came first
         before = context.get_abstract_state(self._stack).get_value()
-        after = getattr(before, command)(*args).transition_from(
-            before, start=context.get_time(), duration=transition
-        )
+        after = before.apply(command, at=context.get_time())
         context.get_mutable_abstract_state(self._stack).set_value(after)
         return before
 
     def push(self, context: Context, task_name: str, *, transition: float = 0.0) -> None:
         """Add a task at the lowest priority, over ``transition`` seconds (0: at once; see the
         class docstring). Refuses an unknown task or one already in the stack."""
-        self._command(context, "push", task_name, transition=transition)
+        self.apply(context, Push(task_name, transition=transition))
 
     def pop(self, context: Context, *, transition: float = 0.0) -> str:
         """Remove and return the lowest-priority task (the last pushed); refused on an empty stack."""
-        return self._command(context, "pop", transition=transition).active[-1]
+        return self.apply(context, Pop(transition=transition)).active[-1]
 
     def rm(self, context: Context, task_name: str, *, transition: float = 0.0) -> None:
         """Remove a task wherever it is in the stack, over ``transition`` seconds (0: at once)."""
-        self._command(context, "rm", task_name, transition=transition)
+        self.apply(context, Rm(task_name, transition=transition))
 
     def up(self, context: Context, task_name: str, *, transition: float = 0.0) -> None:
-        """Raise a task's priority by one (no-op at the top), over ``transition`` seconds."""
-        self._command(context, "up", task_name, transition=transition)
+        """Raise a task's priority by one, over ``transition`` seconds; refused at the top."""
+        self.apply(context, Up(task_name, transition=transition))
 
     def down(self, context: Context, task_name: str, *, transition: float = 0.0) -> None:
-        """Lower a task's priority by one (no-op at the bottom), over ``transition`` seconds."""
-        self._command(context, "down", task_name, transition=transition)
+        """Lower a task's priority by one, over ``transition`` seconds; refused at the bottom."""
+        self.apply(context, Down(task_name, transition=transition))
 
     def clear(self, context: Context, *, transition: float = 0.0) -> None:
         """Empty the stack (q̇ becomes zero at the next tick, or over ``transition`` seconds)."""
-        self._command(context, "clear", transition=transition)
+        self.apply(context, Clear(transition=transition))
 
     # --- stack commands from the ``commands`` input (commands_input=True) ---------------------
     def _declare_commands_input(self):
@@ -473,24 +469,14 @@ class StackOfTasks(LeafSystem):
         if sent.batch <= committed.batch:
             return before, committed
         stack, results = before, []
-        for command in sent.commands:
+        for sent_command in sent.commands:
             try:
-                if command.command not in STACK_COMMANDS:
-                    raise ValueError(
-                        f"{command.command!r}: not a stack command ({', '.join(STACK_COMMANDS)})"
-                    )
-                after = getattr(stack, command.command)(*command.args)
-                if command.command in ("up", "down") and after.active == stack.active:
-                    end = "top" if command.command == "up" else "bottom"
-                    raise ValueError(
-                        f"{command.command} {command.args[0]}: already at the {end} of the stack "
-                        f"({', '.join(stack.active)}): nothing to change"
-                    )
-                output = stack.active[-1] if command.command == "pop" else ""
-                stack = after.transition_from(stack, start=command.time, duration=command.transition)
-                results.append((True, output))
-            except (StackError, ValueError, TypeError) as error:
+                after = stack.apply(sent_command.command, at=sent_command.time)
+            except (StackError, TypeError) as error:
                 results.append((False, str(error)))
+                continue
+            results.append((True, stack.active[-1] if isinstance(sent_command.command, Pop) else ""))
+            stack = after
         return stack, StackCommandResults(sent.batch, tuple(results))
 
     def _commit(self, context: Context, state: DrakeState) -> None:
