@@ -129,7 +129,7 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.telecooperation_plots import plot_telecooperation
-from drake_sot.diagrams.walk import add_walking
+from drake_sot.diagrams.walking import add_walking
 from drake_sot.footsteps import StepLimits
 from drake_sot.hand_steps import HandStepRule, stance_frame
 from drake_sot.master import piecewise_linear_path
