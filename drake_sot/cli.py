@@ -24,6 +24,7 @@ from typing import NoReturn, TextIO
 
 from pydrake.systems.analysis import Simulator
 
+from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.humanoid import with_command_server
@@ -456,6 +457,7 @@ def exit_status(result: RunResult) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     parser, run, script = _parser()
     args = parser.parse_args(argv)
+    limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     if args.command == "script":
         return _script(args, script)
     if args.command in ("serve", "shell"):

@@ -12,3 +12,11 @@ def pytest_report_header(config) -> str:
         f"drake_sot on Python {sys.version.split()[0]}: drake {version('drake')}, numpy {version('numpy')}, "
         f"scipy {version('scipy')}, daqp {version('daqp')}"
     )
+
+
+def pytest_configure(config) -> None:
+    """The test run is a front-end: its controllers' small matrices run on one BLAS thread, as the
+    command line's do (:mod:`drake_sot.blas` says why); the constructors leave the threads alone."""
+    from drake_sot.blas import limit_blas_threads
+
+    limit_blas_threads(1)

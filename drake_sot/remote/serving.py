@@ -55,6 +55,7 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
+from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.scenario import Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
@@ -475,6 +476,7 @@ def serve_run(
     changed the context are in the result's ``events`` with the timed commands. A scenario whose
     ``extras["paced_by_client"]`` is true is paced by its client (module docstring): the run
     starts when the client's first horizon is beyond its first tick."""
+    limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     built = setup.built
     if getattr(built, "remote", None) is None:
         raise NotServable(
