@@ -426,8 +426,8 @@ def update_samples(duration: float = 4.0) -> tuple[list[float], object]:
     return samples, setup
 
 
-#: The tree the controller update is compared with (``git archive``): before the speed work of
-#: issue 13. It runs with ``OPENBLAS_NUM_THREADS=1``, as this tree's front-ends pin it (drake_sot.blas),
+#: The tree the controller update is compared with (``git archive``): before the speed work
+#: on the tick. It runs with ``OPENBLAS_NUM_THREADS=1``, as this tree's front-ends pin it (drake_sot.blas),
 #: so that the ratio is the code's alone.
 BASELINE_COMMIT = "9ecd1f9"
 UPDATE_FLAG = "--update-median"

@@ -9,7 +9,7 @@
    joint-limit level of the scenarios on top (a 30-row box, not binding).
 2. One full control tick of ``reach`` (kinematics, 7 features and tasks, the solve)
    against the 5 ms control period, and against the same tick of the tree of
-   ``BASELINE_COMMIT`` (before the speed work of issue 13), the two trees in two
+   ``BASELINE_COMMIT`` (before the speed work on the tick), the two trees in two
    interpreters run in lock step (blocks of 10 ticks, alternating).
 3. The ``reach`` scenario's real-time factor against the plant alone, standing on
    constant PD set points (no controller), with the same physics settings.
@@ -141,7 +141,7 @@ def bench_tick(repeat: int = 300, robot: str = "embedded") -> dict[str, float]:
 
 
 #: The commit whose ``reach`` tick is the baseline of the tick row: the tree before the speed work
-#: of issue 13 (solve_hqp's active set on every level, numpy's SVD wrapper, one errstate per task).
+#: on the tick (solve_hqp's active set on every level, numpy's SVD wrapper, one errstate per task).
 BASELINE_COMMIT = "9ecd1f9"
 #: Command-line flag that makes this file a tick server (see :func:`serve_ticks`).
 SERVE_FLAG = "--serve-ticks"

@@ -2,10 +2,8 @@
 
 OpenBLAS spreads a matrix product or factorisation over its threads. On the matrices of
 a control tick (tens of rows) that gains nothing, and on a loaded machine the threads
-wait for one another: with 2 cores shared by other processes, the generalized
-controller's update (``benchmarks/bench_generalized.py``) took a median of 22 ms with
-OpenBLAS's default threads against 1.25 ms with one thread, in the same hour
-(``benchmarks/README.md``). The controllers (``StackOfTasks``,
+wait for one another (``benchmarks/README.md``: the generalized controller's update
+with OpenBLAS's default threads and with one). The controllers (``StackOfTasks``,
 ``GeneralizedHierarchyController``) leave the process's threads alone: the front-ends that
 start a run (the command line, serving, the study workers, the benchmarks) call
 :func:`limit_blas_threads`, and a notebook or a library user decides for itself. Setting

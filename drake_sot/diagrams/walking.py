@@ -112,7 +112,7 @@ def add_walking(
             refs.GetOutputPort(foot + "_vel"), b.features[task_name].GetInputPort("velocity_des")
         )
     b.add_com_task("taskCom", selection="110", gain=20.0)
-    if stabilizer:  # issue 10: DCM feedback between the generator and the CoM task
+    if stabilizer:  # DCM feedback between the generator and the CoM task
         references = {name: refs.GetOutputPort(name) for name in ("com", "com_vel")}
         references["zmp"] = pg.GetOutputPort("zmp")
         add_stabilizer(b, "taskCom", references, gains=stabilizer_gains)

@@ -1,6 +1,7 @@
 """Serve a built diagram: the host that owns the simulator, beside its command server.
 
-Design (and why). DESIGN.md: the network never touches a context. The socket thread
+Design (and why). The network never touches a context (a thread that wrote into one would race
+the simulator's step). The socket thread
 (:class:`~drake_sot.remote.network.NetworkThread`) only queues requests; the diagram's
 :class:`~drake_sot.remote.server.RemoteCommandServer` takes them at each control tick, in
 arrival order, in its own periodic event, and applies there what a Drake system may change:

@@ -1,4 +1,4 @@
-"""Push recovery with the balance stabilizer (issue 10): the ``walk`` survives a 200 N, 0.1 s
+"""Push recovery with the balance stabilizer: the ``walk`` survives a 200 N, 0.1 s
 lateral pelvis push either way, in mid single support and in double support, and completes its
 steps; without the stabilizer the same walk falls at a push the stabilizer survives."""
 
