@@ -426,8 +426,8 @@ def update_samples(duration: float = 4.0) -> tuple[list[float], object]:
     return samples, setup
 
 
-#: The tree the controller update is compared with (``git archive``): before the speed work of
-#: issue 13. It runs with ``OPENBLAS_NUM_THREADS=1``, as this tree pins itself (drake_sot.blas),
+#: The tree the controller update is compared with (``git archive``): before the speed work
+#: on the tick. It runs with ``OPENBLAS_NUM_THREADS=1``, as this tree's front-ends pin it (drake_sot.blas),
 #: so that the ratio is the code's alone.
 BASELINE_COMMIT = "9ecd1f9"
 UPDATE_FLAG = "--update-median"
@@ -486,7 +486,7 @@ def controller_tick(duration: float = 4.0) -> None:
 def main() -> None:
     from drake_sot.blas import limit_blas_threads  # not at the top: the baseline tree has none
 
-    limit_blas_threads(1)  # as the controllers do when they are made (drake_sot.blas)
+    limit_blas_threads(1)  # as the front-ends do when they start a run (drake_sot.blas)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ticks", type=int, default=500)
     run(ap.parse_args().ticks)

@@ -130,6 +130,9 @@ def rtf_table() -> None:
 
 
 def main() -> None:
+    from drake_sot.blas import limit_blas_threads
+
+    limit_blas_threads(1)  # as the front-ends do when they start a run (drake_sot.blas)
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=3, help="bisection runs per cell (default 3)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")

@@ -19,11 +19,13 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_sot import bench_realtime, bench_tick, print_table
 
+from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import walk
 from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
 
 
 def main() -> None:
+    limit_blas_threads(1)  # as the front-ends do when they start a run (drake_sot.blas)
     results = {}
     for name in ROBOTS:
         try:

@@ -180,7 +180,7 @@ def bench_tick_against_baseline(
     root = pathlib.Path(__file__).resolve().parent.parent
 
     def start(tree: pathlib.Path) -> subprocess.Popen:
-        # One BLAS thread in both (this tree pins it itself, drake_sot.blas): the ratio is the code's.
+        # One BLAS thread in both (as this tree's front-ends pin it, drake_sot.blas): the ratio is the code's.
         env = {**os.environ, "PYTHONPATH": str(tree), "OPENBLAS_NUM_THREADS": "1"}
         server = subprocess.Popen(
             [sys.executable, __file__, SERVE_FLAG],
@@ -299,7 +299,7 @@ def main() -> None:
     args = parser.parse_args()
     from drake_sot.blas import limit_blas_threads  # not at the top: the baseline tree has none
 
-    limit_blas_threads(1)  # as the controllers do when they are made (drake_sot.blas)
+    limit_blas_threads(1)  # as the front-ends do when they start a run (drake_sot.blas)
     if args.tick_only:
         against = bench_tick_against_baseline(args.blocks, baseline_commit=args.tick_baseline)
         print_table([against_row(against, args.tick_baseline, args.blocks)])

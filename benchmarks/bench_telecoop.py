@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import telecooperation as tc
 from drake_sot.diagrams.run import simulate
 from drake_sot.diagrams.scenario import Scenario, run_scenario
@@ -117,6 +118,7 @@ def realtime_factors(duration: float, repeats: int) -> dict[str, tuple[float, fl
 
 
 def main(duration: float) -> None:
+    limit_blas_threads(1)  # as the front-ends do when they start a run (drake_sot.blas)
     start = datetime.datetime.now(datetime.UTC)
     load_before = os.getloadavg()
     rows = [(admittance, delay, *coupled_run(admittance, delay, duration)) for admittance, delay in RUNS]

@@ -32,6 +32,7 @@ from pydrake.common.value import Value
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import LeafSystem
 
+from drake_sot.blas import limit_blas_threads
 from drake_sot.footsteps import Footstep
 from drake_sot.preview import PreviewController
 from drake_sot.systems.pattern_generator import PatternGenerator
@@ -135,6 +136,7 @@ def bench_stabilizer_realtime(rounds: int = 3) -> None:
 
 
 def main() -> None:
+    limit_blas_threads(1)  # as the front-ends do when they start a run (drake_sot.blas)
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--stabilizer", action="store_true", help="only the walk with/without the stabilizer")
     parser.add_argument("--rounds", type=int, default=3, help="rounds of --stabilizer (default 3)")

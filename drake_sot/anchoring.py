@@ -12,14 +12,8 @@ to the stance foot::
 
 ``ε`` the step's relative placement error (the joints' tracking error at touch-down). The
 foot tasks put ``W^r`` on the footprint ``F_k``, so the landing error obeys
-``e_k = e_(k-1) + ε_k``: a running sum. Measured on ``walk_long`` without re-anchoring:
-the reference soles on their footprints within 0.2 mm (not the pattern generator, not the
-tasks), no slip of the stance foot (≤ 0.01 mm per step), the floating base of q_ref
-drifting from the robot's by the landing error itself, and ε = 1.0-3.5 mm short per 0.2 m
-forward step (the PD tracking error of the legs' pitch joints at touch-down, a few mrad,
-growing with the walking speed). The landing error grew by 1.2-3.6 mm per forward step,
-passed 2 cm at the ninth landing (21.2 mm) and stayed near 24 mm through the steps in
-place, since a step in place adds almost nothing.
+``e_k = e_(k-1) + ε_k``: a running sum. Without re-anchoring the landing error grows by a few
+millimetres per forward step (``benchmarks/README.md`` has the measurement on ``walk_long``).
 
 **The fix.**  Map the plan into the reference's world through the measured stance foot.
 At each lift-off, with the stance foot on the ground in both worlds, the drift::

@@ -2,14 +2,14 @@
 
 OpenBLAS spreads a matrix product or factorisation over its threads. On the matrices of
 a control tick (tens of rows) that gains nothing, and on a loaded machine the threads
-wait for one another: with 2 cores shared by other processes, the generalized
-controller's update (``benchmarks/bench_generalized.py``) took a median of 22 ms with
-OpenBLAS's default threads against 1.25 ms with one thread, in the same hour
-(``benchmarks/README.md``). The controllers (``StackOfTasks``,
-``GeneralizedHierarchyController``) therefore call :func:`limit_blas_threads` when they are
-made. Setting ``OPENBLAS_NUM_THREADS=1`` in the environment before Python starts has the
-same effect for the whole process; :func:`limit_blas_threads` works after numpy and
-scipy are loaded, on each OpenBLAS they loaded (numpy and scipy ship one each).
+wait for one another (``benchmarks/README.md``: the generalized controller's update
+with OpenBLAS's default threads and with one). The controllers (``StackOfTasks``,
+``GeneralizedHierarchyController``) leave the process's threads alone: the front-ends that
+start a run (the command line, serving, the study workers, the benchmarks) call
+:func:`limit_blas_threads`, and a notebook or a library user decides for itself. Setting
+``OPENBLAS_NUM_THREADS=1`` in the environment before Python starts has the same effect for
+the whole process; :func:`limit_blas_threads` acts on each OpenBLAS loaded, and this module
+loads numpy's and scipy's (they ship one each) so that a front-end can call it first thing.
 
 Linux only (the loaded libraries are read from ``/proc/self/maps``); elsewhere nothing
 is changed and an empty mapping is returned.
@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import ctypes
 import pathlib
+
+import scipy.linalg  # noqa: F401 (loads scipy's OpenBLAS, so that limit_blas_threads sees it)
 
 from drake_sot.validation import positive_int
 

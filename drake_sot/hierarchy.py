@@ -790,16 +790,10 @@ def solve_hqp(
     that solution is the answer and no active set runs (:func:`_inequalities_idle` says why
     and when it applies: a control tick whose limits do not bind).
 
-    Why not DAQP's hierarchical mode (``daqp.solve(None, None, A, bu, bl, sense,
-    break_points=...)``, ~40 µs on the reach stack against ~150-300 µs here): measured
-    with daqp 0.11.0 on random stacks of 2-7 joints, 2-3 levels and at most 5
-    inequality rows against the exhaustive reference of ``tests/test_hqp.py``, its q̇
-    was off by more than 1e-6 in 37 % of 300 stacks (12 % of those with no more rows
-    than joints), by more than 1e-3 in 100 of them, each time lexicographically worse
-    (a higher level's slack larger, never smaller); exit flags -6 or 3 in 5 %. Where
-    it is right it is right to ~4e-7 only: it makes each level soft with a fixed
-    penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), and says
-    "relaxed" (exit flag 2) on feasible stacks. The equality-only case must equal
+    Why not DAQP's hierarchical mode: it is faster, but it makes each level soft with a fixed
+    penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), so its q̇ can be
+    lexicographically worse than the strict hierarchy's (measurements: ``benchmarks/README.md``).
+    The equality-only case must equal
     :func:`solve_strict` to 1e-9.
 
     Args:

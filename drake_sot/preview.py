@@ -45,7 +45,7 @@ uses it by default.
 over a whole reference sampled at ``dt`` and returns the CoM position, velocity and
 acceleration, and the model's ZMP, of every sample (:class:`PreviewPlan`): the CoM
 trajectory that realises a walk's ZMP reference, before anything runs.  The footsteps
-that make such a reference are :mod:`drake_sot.footsteps` (its ``FootstepPlan.sample``);
+that make such a reference are :mod:`drake_sot.walk_planner` (its ``FootstepPlan.sample``);
 tutorials/02_walking_pattern.py shows the two together.
 """
 
@@ -229,7 +229,7 @@ class PreviewController:
         Runs :meth:`step` over the whole reference, each sample previewing the ``N - 1``
         next ones (the last value held past the end: :meth:`window`). This is what a
         walking pattern generator does online, done at once for a known walk: hand it
-        the ZMP reference of a footstep plan (``drake_sot.footsteps.FootstepPlan.sample``)
+        the ZMP reference of a footstep plan (``drake_sot.walk_planner.FootstepPlan.sample``)
         and check the CoM, or the model ZMP against the support polygon, before running
         anything (tutorials/02_walking_pattern.py). Start the reference with about one
         preview time of standing still: a CoM at rest cannot anticipate a ZMP transfer it

@@ -27,12 +27,8 @@ T = ln((0.31 + 0.04) / (0.17 + 0.04)) / 3.49 ≈ 0.15 s, below the 0.2 s shortes
 support that ``footsteps.WALKING_BOUNDS`` allows (a 50 m/s² foot). Tried in physics with a
 0.2 s and a 0.3 s swing, the loaded sole does not even lift: the robot rolls over its edge
 (benchmarks/README.md). The trunk, in contrast,
-can lean by 0.3 rad in 0.2 s with both feet on the ground: the hip strategy below. Measured
-in physics (README stack with the stabilizer, 0.1 s lateral torso push at 0.5 s, 4 s runs):
-with the default lean the robot survives 355 N towards +y and 350 N towards −y, and falls at
-360 N either way, its soles sliding by at most 1.3 cm sideways; without it, it survives 320 N
-and falls at 330 N. A faster rise (0.15 s) survived 360 N but the soles slid 3.7 cm: the
-lean's reaction reaches the friction limit (benchmarks/README.md).
+can lean by 0.3 rad in 0.2 s with both feet on the ground: the hip strategy below. Its
+measured push limits, with and without the lean, are in ``benchmarks/README.md``.
 
 **The lean.** When ξ leaves the support polygon (by more than a threshold), the trunk's
 orientation reference tilts its vertical axis towards the side ξ left by, by ``angle`` over

@@ -1,7 +1,7 @@
 """The values that travel on abstract-valued ports between features, tasks and solvers.
 
-Small immutable records of numpy arrays (DESIGN.md: "matrices and structured values
-travel on abstract-valued ports as small immutable dataclasses"). Pure; no Drake.
+Small immutable records of numpy arrays: matrices and structured values travel on
+abstract-valued ports as small immutable dataclasses. Pure; no Drake.
 """
 
 from __future__ import annotations

@@ -83,8 +83,8 @@ and the DCM feedback (2), for the error to decay at k_ξ again under (5), become
 
 Without (6) the measured ZMP sits ahead of p_d by p_r^h − p_r under a forward pull, and (3)
 reads it as the ZMP of a robot falling back: the offset drives the CoM forward, towards the
-pull (measured on the tele-cooperation walk with the co-operator leading: the offset at its
-bound most of the time). With it the ZMP the hands cause is expected, and the offset answers
+pull (``benchmarks/README.md``: the tele-cooperation walk with the co-operator leading). With it
+the ZMP the hands cause is expected, and the offset answers
 only the DCM error. :class:`HandLoad` holds the wrenches; :func:`stabilizer_step` takes it.
 
 Limits, never silent: p_d is projected into the support polygon (shrunk by a margin) when

@@ -21,3 +21,11 @@ def pytest_collection_modifyitems(config, items) -> None:
     for item in items:
         if "diagrams" in item.path.parent.parts[-1:]:
             item.add_marker("scenario")
+
+
+def pytest_configure(config) -> None:
+    """The test run is a front-end: its controllers' small matrices run on one BLAS thread, as the
+    command line's do (:mod:`drake_sot.blas` says why); the constructors leave the threads alone."""
+    from drake_sot.blas import limit_blas_threads
+
+    limit_blas_threads(1)

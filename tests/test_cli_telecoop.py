@@ -116,7 +116,7 @@ def test_the_slave_declares_what_the_master_writes_and_nothing_of_the_master():
     setup = SCENARIOS["telecoop_slave"].build(None)
     remote = setup.built.remote
     assert remote is not None and remote.get_name() == "remote"
-    # one signal per quantity, by name, with its size and units (issue 12: names across processes)
+    # one signal per quantity, by name, with its size and units (names, not positions, cross the processes)
     assert {name: (w.size, w.units) for name, w in remote.writables.items()} == {
         "right_hand_force": (3, "N, world axes"),
         "left_hand_force": (3, "N, world axes"),

@@ -1,4 +1,5 @@
-"""Tests of drake_sot.footsteps: footprints, bounds, segments, the offline and online planners.
+"""Tests of drake_sot.footsteps and drake_sot.walk_planner: footprints, bounds, segments, the offline
+and online planners.
 
 References are independent of the code under test: SE(2) products of homogeneous
 matrices for the footprint composition, geometry (sole rectangles, convex hulls of the
@@ -8,6 +9,8 @@ soles), finite differences, and the preview controller run by hand over the offl
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,23 +18,25 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from drake_sot.footsteps import (
-    FOOTPRINTS_AHEAD,
     WALKING_BOUNDS,
     Footstep,
-    FootstepPlan,
-    Segment,
     StepLimits,
     StepTiming,
-    WalkPlanner,
     alternating_steps,
     compose,
     mean_yaw,
     relative_steps,
     stance_width,
+)
+from drake_sot.preview import PreviewController
+from drake_sot.walk_planner import (
+    FOOTPRINTS_AHEAD,
+    FootstepPlan,
+    Segment,
+    WalkPlanner,
     step_segment,
     stop_segment,
 )
-from drake_sot.preview import PreviewController
 
 DT = 0.005
 SOLE_LENGTH, SOLE_WIDTH = 0.23, 0.13  # the rectangle around the sole centre (HRP-2-like)
@@ -568,3 +573,14 @@ def test_readme_states_the_walking_bounds():
     for name, verb in verbs.items():
         bound = getattr(WALKING_BOUNDS, name)
         assert f"| `{verb}` | {bound.low:g} to {bound.high:g} {bound.unit}" in readme, name
+
+
+def test_the_step_vocabulary_and_the_planner_import_no_drake():
+    """The step vocabulary (what robot descriptions need) and the planner are pure, and the
+    vocabulary does not pull the planner in."""
+    code = (
+        "import sys, drake_sot.footsteps; planner = 'drake_sot.walk_planner' in sys.modules; "
+        "import drake_sot.walk_planner; sys.exit(2 * planner + ('pydrake' in sys.modules))"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, (result.returncode, result.stderr)

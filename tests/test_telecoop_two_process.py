@@ -1,4 +1,4 @@
-"""The tele-cooperation in two processes (issue 12, point 4): ``drake-sot serve telecoop_slave``
+"""The tele-cooperation in two processes: ``drake-sot serve telecoop_slave``
 and ``drake-sot run telecoop_master --connect HOST:PORT`` on loopback for 10 s, against the
 one-process ``telecooperation`` run at the same delay (140 ms one way).
 
@@ -6,7 +6,7 @@ The two processes run in conservative lookahead (each waits only for the packets
 arrive by its next tick, ``telecoop_master``'s docstring), so they compute what one diagram
 computes: every packet is delivered at the tick a ``Channel`` delivers it (asserted on what each
 side received, by name), and the hands follow the one-process run's over the whole 10 s, the
-walk's landings included (the issue's bound is 1 cm; measured: 0 m, bitwise equal, in three
+walk's landings included (the bound is 1 cm; measured: 0 m, bitwise equal, in three
 runs). Before this lockstep the writes acted when they reached the slave's wall clock, and the
 runs parted by 10-349 mm after the walk's first lift-off.
 """

@@ -32,18 +32,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from pydrake.systems.analysis import Simulator
 
-from drake_sot.footsteps import (
-    WALKING_BOUNDS,
-    Footstep,
-    FootstepPlan,
-    StepTiming,
-    alternating_steps,
-    stance_width,
-)
+from drake_sot.footsteps import WALKING_BOUNDS, Footstep, StepTiming, alternating_steps, stance_width
 from drake_sot.models.humanoid import SOLE
 from drake_sot.preview import PreviewController
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
 from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.walk_planner import FootstepPlan
 
 OUT = Path(os.environ.get("DRAKE_SOT_OUT", "out"))
 OUT.mkdir(parents=True, exist_ok=True)

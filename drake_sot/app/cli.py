@@ -30,6 +30,7 @@ from typing import NoReturn, TextIO
 from pydrake.systems.analysis import Simulator
 
 from drake_sot.app.serving import decision_runner, serve_run
+from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import check_workers
 from drake_sot.diagrams.artifacts import output_directory
@@ -532,6 +533,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     parser, run, script = _parser()
     args = parser.parse_args(_joined_option_values(sys.argv[1:] if argv is None else argv))
+    limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     if args.command == "script":
         return _script(args, script)
     if args.command in ("serve", "shell"):

@@ -1,6 +1,7 @@
 """Serve a built diagram: the host that owns the simulator, beside its command server.
 
-Design (and why). DESIGN.md: the network never touches a context. The socket thread
+Design (and why). The network never touches a context (a thread that wrote into one would race
+the simulator's step). The socket thread
 (:class:`~drake_sot.remote.network.NetworkThread`) only queues requests; the diagram's
 :class:`~drake_sot.systems.command_server.RemoteCommandServer` takes them at each control tick, in
 arrival order, in its own periodic event, and applies there what a Drake system may change:
@@ -56,6 +57,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
 from drake_sot.app.status import MeshcatStatus
+from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.scenario import NotServable, Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
@@ -471,6 +473,7 @@ def serve_run(
     changed the context are in the result's ``events`` with the timed commands. A scenario whose
     ``extras["paced_by_client"]`` is true is paced by its client (module docstring): the run
     starts when the client's first horizon is beyond its first tick."""
+    limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     built = setup.built
     if getattr(built, "remote", None) is None:
         raise NotServable(

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams.alpha_sweep_plots import plot_alpha_sweep
 from drake_sot.diagrams.artifacts import output_directory, write_npz
@@ -116,7 +117,7 @@ def run(
     with SignalGuard() as guard:
         # spawn, not fork: the caller may already run Drake or Meshcat threads. The workers
         # ignore SIGINT (a terminal sends it to the whole group): this process decides.
-        pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
+        pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_start_worker)
         try:
             for done, (a, b, e_head, e_lh) in enumerate(pool.imap_unordered(_point, points), start=1):
                 head[index[a], index[b]], lh[index[a], index[b]] = e_head, e_lh
@@ -146,8 +147,11 @@ def run(
     return files
 
 
-def _ignore_sigint() -> None:
+def _start_worker() -> None:
+    """A study worker's start: it ignores SIGINT (the parent decides) and runs its small
+    matrices on one BLAS thread (:mod:`drake_sot.blas` says why)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    limit_blas_threads(1)
 
 
 STUDY = Study(

@@ -36,10 +36,9 @@ DURATION = 9.0
 LH_TARGET = np.array([1.0134, -0.0899, -0.7024])
 #: The head task's selection on robots where it does not hold the head's height: the G1's head
 #: is rigid on its torso, 0.43 m above its three-axis waist (no neck). Holding its height too
-#: (``111000``), measured on the G1: from 0.18 s on the tasks are short of their wrench (or
-#: the solve fails) in 40 % of the ticks, the waist and arm torques saturate, and the left
-#: hand ends 0.71 m from its target; holding the head's horizontal position only, the switch
-#: behaves as on the other robots (optimal throughout).
+#: (``111000``) leaves the tasks short of their wrench and the arm far from its target
+#: (``benchmarks/README.md``); holding the head's horizontal position only, the switch behaves
+#: as on the other robots.
 HEAD_SELECTION = {"g1": "110000"}
 #: (kp [1/s²], kd [1/s]) per task: stiffness and damping per unit of task-space inertia.
 GAINS = {

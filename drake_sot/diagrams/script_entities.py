@@ -21,7 +21,7 @@ from pydrake.systems.framework import Context, InputPort, OutputPort, System
 
 from drake_sot import validation
 from drake_sot.diagrams.artifacts import WRITE_ERRORS, atomic_path, write_svg
-from drake_sot.diagrams.walk import add_pattern_generator
+from drake_sot.diagrams.walking import add_pattern_generator
 from drake_sot.gains import AdaptiveGain, Gain, validate_gain
 from drake_sot.script import (
     Call,

@@ -31,15 +31,10 @@ What holds (``tests/diagrams/test_telecooperation.py``): standing interaction at
 140 ms with either leader, no step is decided below the threshold and each one reduces the
 error, the board stays in the hands, the hands stay within 5 cm of the operator's, the altitude
 tasks are in the stack only while walking; 20 s of walking at 0 and 300 ms stay bounded. The
-whole walk holds with either leader. When the co-operator leads (pulling the board forward
-with about 10-15 N) the balance was marginal while the stabilizer's model had no external
-force: its offset sat at its 3 cm bound 76 % of the time, and on an earlier tree (other
-rounding) the robot fell 52.8 s into the 58 s run. The stabilizer now has the hands' measured
-wrenches (the LIPM with external forces, :mod:`drake_sot.stabilization` eq. 4-6): the offset
-stays off its bound for the first 32 s and is at it 37 % of the run, from a forward drift late
-in the walk (the measured ZMP 4 cm ahead of the desired one while the pull has dropped to 6-8 N),
-not from the pull. With the operator leading the wrenches are not given to the stabilizer: with
-them that walk fell at 23.2 s (measured once, not yet understood); without them it completes.
+whole walk holds with either leader. When the co-operator leads (pulling the board forward)
+the stabilizer takes the hands' measured wrenches (the LIPM with external forces,
+:mod:`drake_sot.stabilization` eq. 4-6); with the operator leading it does not
+(``benchmarks/README.md`` has the measurements).
 The replay shows the robot, the board and, as translucent blue spheres (``GHOSTS``), the
 operator's hands: the handles' positions ``MasterSite.hands`` = x_S + x_Δ (eq. 9; the operator's
 hands hold the handles), in the master's world, identified with the slave's; they lead the
@@ -48,29 +43,11 @@ robot's hands by the delay. The co-operator is drawn as a translucent orange sph
 target, ``Partner.targets``, logged as ``cooperator_target``). The two-process mode's slave has
 no master, hence no operator ghosts.
 
-Why the walk fell before, measured (the operator leading fell at 15 s, the co-operator leading
-at 10 s, with the balance stabilizer on):
+Why the walk fell before, and what fixed it (the arms carried in front with position-only
+hand tasks, the hands' wrenches in the stabilizer's model, a spring in z in the hands'
+admittance): ``benchmarks/README.md``.
 
-- the arms: holding the board at its sides (half-sitting hands) with 6D hand tasks put the arms
-  near the straight-arm singularity; the hands' least motions pitched the chest by 0.5 rad and
-  swung the shoulder and wrist yaws at their 5 rad/s limits, and at a lift-off the arms'
-  reaction lifted both soles 1.3-1.6 cm off the ground. Carrying in front with position-only
-  hand tasks (below) removed it: the walk then lasted 50 s (operator) and 29 s (co-operator);
-- the balance stabilizer's CoM offset then grew over the walk until the CoM left the support:
-  to 5 cm in 45 s with the operator leading, to its 10 cm bound in 28 s with the co-operator
-  pulling the board forward with 12-15 N. The DCM feedback's model has no external force: a
-  forward pull on the hands moves the ZMP forward and the stabilizer moves the CoM forward too,
-  where balance needs it back; the drift between the reference's world and the robot's (2-3 cm
-  over the walk) adds to it. Re-anchoring the references (``anchored=True``) and mapping the
-  stabilizer's measurements through the anchor's drift were tried and changed little (falls at
-  44-49 s and 23-30 s), so here the offset is bounded at 3 cm (``STABILIZER``); the fix is the
-  hands' measured wrenches in the stabilizer's model (issue 12, ``connect_hand_wrenches``);
-- the hands' admittance wound up in z while e_zr and e_zl held the hands' altitude (the board's
-  weight integrated into the reference: 1.5 m in 50 s), and the hands jumped 20 cm when the
-  walk stopped and the altitude tasks were removed: the admittance has a spring in z
-  (300 N/m), which bounds the wind-up to the board's share of weight over it (under 2 cm).
-
-Choices where the paper is silent (said here, as the issue asks):
+Choices where the paper is silent:
 
 - The robot carries the board in front: it starts in half-sitting with the upper arms down and
   the elbows bent by 1.3 rad (``CARRY_JOINTS``; hands 0.34 m in front of the ankles, 0.84 m
@@ -78,7 +55,8 @@ Choices where the paper is silent (said here, as the issue asks):
 - e_fr and e_fl control the hands' positions only (the eq.-4 admittance's translation): with a
   6D hand task on each 6-joint arm nothing was left for the posture, and the robot fell 8 s
   into the walk even in the carrying posture; the grasp's torques are weak anyway (5 N m/rad).
-  Eq. 4 has no spring; the hands' admittance here has one in z only (see above).
+  Eq. 4 has no spring; the hands' admittance here has one in z only (300 N/m: it bounds the
+  wind-up of the board's weight while the altitude tasks hold the hands, ``benchmarks/README.md``).
 - The grasp is a stiff 6D spring-damper (a ``LinearBushingRollPitchYaw``) between each hand
   frame and the board, set at the hands' initial poses, the board reaching forward; the board
   has no collision geometry. The
@@ -88,7 +66,7 @@ Choices where the paper is silent (said here, as the issue asks):
 - The leader lifts the board by 5 cm and sets it back (1-3 s, standing interaction), then
   walks 2 m forward and 0.5 m sideways, all at 0.05 m/s (a slow walk, as in the paper); the
   follower moves along the same path 1 s later, through a softer impedance.
-  ``--leader operator``: the operator leads (the issue's first case); ``--leader cooperator``:
+  ``--leader operator``: the operator leads (the default); ``--leader cooperator``:
   the co-operator leads (the paper's Fig. 7).
 - The head's reference is the operator's head: yaw 0, pitch nodding by 0.1 rad at 0.25 Hz;
   the aperture opens from 0.1 to 0.5 rad between 1 and 2 s.
@@ -129,7 +107,7 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.telecooperation_plots import plot_telecooperation
-from drake_sot.diagrams.walk import add_walking
+from drake_sot.diagrams.walking import add_walking
 from drake_sot.footsteps import StepLimits
 from drake_sot.hand_steps import HandStepRule, stance_frame
 from drake_sot.master import piecewise_linear_path

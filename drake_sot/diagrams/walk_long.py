@@ -1,5 +1,5 @@
 """Scenario ``walk_long``: 30 steps in physics — forward, turning left, turning right,
-sideways, backward, stop — on the ``walk`` stack (:func:`drake_sot.diagrams.walk.build_walk`).
+sideways, backward, stop — on the ``walk`` stack (:func:`drake_sot.diagrams.walking.build_walk`).
 
 The steps (each relative to the other foot's last footprint, :func:`~drake_sot.footsteps.relative_steps`,
 at the initial stance width ``w``; feet alternate, right first):
@@ -30,7 +30,7 @@ from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
-from drake_sot.diagrams.walk import build_walk, zmp_plot_writer
+from drake_sot.diagrams.walking import build_walk, zmp_plot_writer
 from drake_sot.footsteps import Footstep, other_side, relative_steps, stance_width
 
 SIDEWAYS = 0.1  # [m] each sideways step of the left foot

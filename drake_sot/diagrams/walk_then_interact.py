@@ -24,8 +24,8 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
-from drake_sot.diagrams.walk import add_walking, forward_steps
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
+from drake_sot.diagrams.walking import add_walking, forward_steps
 from drake_sot.footsteps import Footstep
 from drake_sot.sequencing import Above, Below, Push, Rm, SetValue, State, Transition, Up
 from drake_sot.systems.partner import Hold, Partner
@@ -83,7 +83,7 @@ def build(
     then the solver's own, driven by the server's stack commands, and ``force_active`` a signal
     the diagram declares writable on its server; what the decision client polls and sends is
     ``extras["decision"]``). ``stabilizer``: the balance stabilizer between the pattern generator
-    and the CoM task (see ``walk.add_walking``)."""
+    and the CoM task (see ``walking.add_walking``)."""
     if decision not in DECISIONS:
         raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
     if decision == "remote":

@@ -1,7 +1,8 @@
 """The network side of the command server: a thread of its own that reads request lines,
 answers malformed ones and authenticates, and queues the others for the serving loop.
 
-It never touches a context (DESIGN.md): it only puts ``(connection, Request)`` in
+It never touches a context (a thread that wrote into one would race the simulator's step): it
+only puts ``(connection, Request)`` in
 :attr:`NetworkThread.requests` and sends the messages the serving loop hands to
 :meth:`NetworkThread.send`. Standard library only (``selectors``, ``socket``).
 

@@ -3,7 +3,8 @@
 The two-process tele-cooperation (Evrard et al. 2009) runs its master site as a client of the
 slave's ``drake-sot serve``. A LeafSystem of the master's diagram
 (:class:`~drake_sot.systems.remote_link.RemoteLink`) must not block on a socket and the network
-must never touch a context (DESIGN.md), so the I/O lives here, in two threads sharing one
+must never touch a context (a thread that wrote into one would race the simulator's step), so
+the I/O lives here, in two threads sharing one
 connection (one only writes to the socket, the other only reads it):
 
 - the **reader** takes the stream of the subscriptions to the served signals ``read`` (each

@@ -53,7 +53,6 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
-from drake_sot.blas import limit_blas_threads
 from drake_sot.hierarchy import projected_jacobians
 from drake_sot.linalg import pinv
 from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, static_capacity
@@ -318,9 +317,10 @@ class GeneralizedHierarchyController(LeafSystem):
     it is the weighted baseline of eq. 5-7. Status, shortfall and saturation: see the
     module docstring.
 
-    Making one limits the process's OpenBLAS libraries to one thread
-    (:func:`drake_sot.blas.limit_blas_threads`: with OpenBLAS's default threads the update
-    took a median of 22 ms instead of 1.25 ms on a loaded 2-core machine).
+    Making one leaves the process's BLAS threads as they are: with OpenBLAS's default threads
+    the update is many times slower on a loaded machine (``benchmarks/README.md``), so the
+    front-ends (the command line, serving, the study workers) call
+    :func:`drake_sot.blas.limit_blas_threads` when they start a run; a notebook decides for itself.
 
     The goal-directed tasks are named (their Tasks' names); :attr:`task_names` is their
     order in the concatenated outputs (motion tasks, then force tasks, as given), and
@@ -399,7 +399,6 @@ class GeneralizedHierarchyController(LeafSystem):
         name: str = "generalized_controller",
     ) -> None:
         super().__init__()
-        limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
         self.set_name(name)
         self._plant = plant
         self._plant_context = plant.CreateDefaultContext()

@@ -1,6 +1,6 @@
 """``PatternGenerator``: the SoT's walking pattern-generator entity ("pg"), ZMP preview control.
 
-A thin Drake adapter over :class:`drake_sot.footsteps.WalkPlanner`, which does the
+A thin Drake adapter over :class:`drake_sot.walk_planner.WalkPlanner`, which does the
 planning: footprints go in (a step sequence, or a velocity from which footprints are made
 as the walk goes); CoM, feet and ZMP references come out, one sample per control tick. As
 in Evrard et al. 2009, the generator is a *planner*: it keeps at least
@@ -19,16 +19,9 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import Context, LeafSystem, State
 
 from drake_sot import validation
-from drake_sot.footsteps import (
-    FOOTPRINTS_AHEAD,
-    SIDES,
-    Footstep,
-    StepLimits,
-    StepTiming,
-    WalkPlanner,
-    relative_steps,
-)
+from drake_sot.footsteps import SIDES, Footstep, StepLimits, StepTiming, relative_steps
 from drake_sot.systems._context import own_context
+from drake_sot.walk_planner import FOOTPRINTS_AHEAD, WalkPlanner
 
 
 class PatternGenerator(LeafSystem):

@@ -3,8 +3,9 @@ emulation as :class:`~drake_sot.systems.channel.Channel`, both directions drawn 
 
 The network is not this system's: it talks to a *peer* (duck-typed, e.g.
 :class:`~drake_sot.remote.peer.Peer`) whose threads do the I/O; this system only takes what the
-peer received and gives it what to send, in its own periodic event (DESIGN.md: the network never
-touches a context). What crosses the processes is named: the other side's writable signals
+peer received and gives it what to send, in its own periodic event (the network never
+touches a context: only a system's own event changes what a tick computes). What crosses the
+processes is named: the other side's writable signals
 (``forward_signals``) and readable ones (``backward_signals``), each with its size. At each
 period ``t`` (ticks ``k·period`` from 0, the same on both sides: simulated time):
 

@@ -13,7 +13,6 @@ from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
-from drake_sot.blas import limit_blas_threads
 from drake_sot.hierarchy import LevelReport, level_report, solve_hqp, solve_strict
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Clear, Command, Down, Pop, Push, Rm, Stack, StackError, Up
@@ -121,9 +120,10 @@ class StackOfTasks(LeafSystem):
     of the blend, two for a single change. During a change the ``stack`` output is the
     stack reached, and ``errors`` holds the error of every task of the blend.
 
-    Making a ``StackOfTasks`` limits the process's OpenBLAS libraries to one thread
-    (:func:`drake_sot.blas.limit_blas_threads`: on the tick's small matrices more threads
-    gain nothing and, on a loaded machine, cost milliseconds).
+    Making a ``StackOfTasks`` leaves the process's BLAS threads as they are: on the tick's
+    small matrices more threads gain nothing and, on a loaded machine, cost milliseconds, so
+    the front-ends (the command line, serving, the study workers) call
+    :func:`drake_sot.blas.limit_blas_threads` when they start a run; a notebook decides for itself.
 
     The stack can instead be *driven*: when the optional ``stack`` input port is
     connected (e.g. to a :class:`~drake_sot.systems.sequencer.TaskSequencer`), the
@@ -225,7 +225,6 @@ class StackOfTasks(LeafSystem):
         report: bool = False,
     ) -> None:
         super().__init__()
-        limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
         self.set_name(name)
         where = f"StackOfTasks {name!r}"
         self._nv = validation.positive_int(f"{where}: nv", nv)

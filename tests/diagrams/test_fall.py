@@ -247,7 +247,7 @@ def _standing_pushed(body: str, force: float, *, hip: bool):
 @pytest.mark.parametrize(("body", "force"), [("pelvis", 450.0), ("torso", 350.0), ("torso", -350.0)])
 def test_the_standing_robot_survives_a_lateral_push(body, force):
     """The README stack standing, with the balance stabilizer and the hip strategy; a 0.1 s
-    lateral push at t = 0.5 s: 450 N on the pelvis, 350 N on the torso either way (issue 10).
+    lateral push at t = 0.5 s: 450 N on the pelvis, 350 N on the torso either way.
     The torso push takes the DCM out of the support polygon: the trunk leans towards it and
     comes back upright (the next test: without the lean, the robot falls)."""
     result, built, simulator, push = _standing_pushed(body, force, hip=True)

@@ -1,4 +1,4 @@
-"""Push recovery with the balance stabilizer (issue 10): the ``walk`` survives a 200 N, 0.1 s
+"""Push recovery with the balance stabilizer: the ``walk`` survives a 200 N, 0.1 s
 lateral pelvis push either way, in mid single support and in double support, and completes its
 steps; without the stabilizer the same walk falls at a push the stabilizer survives."""
 
@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from drake_sot.diagrams import walk
+from drake_sot.diagrams import walk, walking
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import RunResult, simulate
 
@@ -21,10 +21,10 @@ DURATION = 0.1  # [s]
 @functools.cache
 def _first_landing() -> float:
     """When the first step lands [s], from the generator's plan (no physics): the steps
-    given at ``walk.START`` to a generator standing at its start."""
+    given at ``walking.START`` to a generator standing at its start."""
     setup = walk.build()
     context = setup.built.create_simulator().get_mutable_context()
-    context.SetTime(walk.START)
+    context.SetTime(walking.START)
     pg = setup.extras["pattern_generator"]
     pg.add_steps(context, setup.extras["steps"])
     return pg.planned_landings(context)[0][0]
@@ -33,7 +33,7 @@ def _first_landing() -> float:
 def _push_time(phase: str) -> float:
     """Mid single support of the first step, or the double support that follows its landing."""
     landing = _first_landing()
-    return landing - walk.TIMING.single_support / 2 if phase == "single" else landing
+    return landing - walking.TIMING.single_support / 2 if phase == "single" else landing
 
 
 @functools.cache
@@ -53,10 +53,10 @@ def _walk(phase: str, fy: float, stabilizer: bool) -> tuple[RunResult, dict[str,
 def test_push_times_fall_in_the_phases_they_are_named_after():
     landing = _first_landing()
     # The first step: steps given at START, then the generator's first double support.
-    assert walk.START < landing - walk.TIMING.single_support
+    assert walking.START < landing - walking.TIMING.single_support
     single, double = _push_time("single"), _push_time("double")
-    assert landing - walk.TIMING.single_support < single < single + DURATION < landing
-    assert double == landing and double + DURATION <= landing + walk.TIMING.double_support + 1e-9
+    assert landing - walking.TIMING.single_support < single < single + DURATION < landing
+    assert double == landing and double + DURATION <= landing + walking.TIMING.double_support + 1e-9
 
 
 @pytest.mark.slow
@@ -73,7 +73,7 @@ def test_the_walk_survives_a_200_N_lateral_push_and_completes_its_steps(phase, f
     phases = arrays["phase"][:, 0]
     landings = np.count_nonzero((phases[:-1] != 0) & (phases[1:] == 0))
     assert landings == len(setup.extras["steps"]) == 13
-    analysis = walk.analyse(setup.built, arrays)
+    analysis = walking.analyse(setup.built, arrays)
     last = {step.side: step for step in setup.extras["steps"]}
     for side, step in last.items():
         x, y, yaw = analysis.soles[side][-1]

@@ -1,4 +1,4 @@
-"""The torque-level controller tells the truth, in physics (issue 9, point 11).
+"""The torque-level controller tells the truth, in physics.
 
 - Contacts and bounds that cannot hold the robot are refused when the diagram is built,
   naming the bound (0.01 N·m effort limits on a CoM + posture stack; 1 kN per sole corner).

@@ -7,7 +7,7 @@ import pytest
 from joint_limits import limit_excess
 from landings import landing_errors
 
-from drake_sot.diagrams import walk
+from drake_sot.diagrams import walk, walking
 from drake_sot.diagrams.scenario import run_scenario
 
 
@@ -16,7 +16,7 @@ def walk_run(tmp_path_factory):
     out_dir = tmp_path_factory.mktemp("walk")
     output = run_scenario(walk.SCENARIO, out_dir, record=False)
     assert output.result.completed, output.result.failure
-    return output, walk.analyse(output.setup.built, output.arrays), out_dir
+    return output, walking.analyse(output.setup.built, output.arrays), out_dir
 
 
 def test_does_not_fall(walk_run):

@@ -14,7 +14,7 @@ import pytest
 from landings import landing_errors
 from robot_data import robot_or_skip
 
-from drake_sot.diagrams import alpha_sweep, reach, walk
+from drake_sot.diagrams import alpha_sweep, reach, walk, walking
 from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams import table_pounding as tp
 from drake_sot.diagrams import walk_then_interact as wti
@@ -90,7 +90,7 @@ def walk_run(request, tmp_path_factory):
         parameters={"robot": request.param},
     )
     assert output.result.completed, (request.param, output.result.failure, output.result.fell)
-    return request.param, output, walk.analyse(output.setup.built, output.arrays)
+    return request.param, output, walking.analyse(output.setup.built, output.arrays)
 
 
 def test_walk_lands_every_step_within_2cm_of_its_footprint(walk_run):

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from drake_sot.footsteps import FOOTPRINTS_AHEAD, WALKING_BOUNDS, Footstep, StepLimits, StepTiming
+from drake_sot.footsteps import WALKING_BOUNDS, Footstep, StepLimits, StepTiming
 from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.walk_planner import FOOTPRINTS_AHEAD
 
 LEFT, RIGHT = Footstep(0.0, 0.095, 0.0, "left"), Footstep(0.0, -0.095, 0.0, "right")
 TIMING = StepTiming(single_support=0.7, double_support=0.1, step_height=0.05)

@@ -5,10 +5,11 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_sot.footsteps import FOOTPRINTS_AHEAD, Footstep, StepTiming
+from drake_sot.footsteps import Footstep, StepTiming
 from drake_sot.hand_steps import HandStepRule
 from drake_sot.systems.hand_steps import StepDecider
 from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.walk_planner import FOOTPRINTS_AHEAD
 
 LEFT, RIGHT = Footstep(0.0, 0.095, 0.0, "left"), Footstep(0.0, -0.095, 0.0, "right")
 DT = 0.005
