@@ -50,7 +50,10 @@ def screenshot(
             f"--user-data-dir={profile}",
             f"--screenshot={out}",
             f"--window-size={size}",
-            "--virtual-time-budget=5000",
+            # No --virtual-time-budget: with it, Chromium 150 hangs on the larger replays (TALOS,
+            # the G1: ~10 MB of meshes) in every attempt, alone or under load; without it the
+            # screenshot comes after the page's load, when the recorded scene is drawn (seen:
+            # the TALOS replay in 3.8 s).
             "--timeout=20000",
             page.resolve().as_uri(),
         ]
