@@ -50,3 +50,17 @@ def test_the_fallen_run_writes_every_artefact_of_what_was_simulated(pushed_over)
     assert base_z == pytest.approx(pelvis_height, abs=0.02)
     assert pelvis_height < criteria.min_pelvis_height or tilt > criteria.max_tilt
     assert np.all(logs["fallen"][time >= fall_time + 0.01] == 1.0)
+
+
+def test_the_fall_names_the_task_errors_before_it(pushed_over):
+    proc, out = pushed_over
+    line = next(x for x in proc.stderr.splitlines() if x.startswith("the largest task errors ‖e‖ at t = "))
+    when = float(line.split("t = ")[1].split(" s")[0])
+    logs = np.load(out / "walk_then_interact.npz")
+    time = logs["time"]
+    assert when < logs["fall"][0] <= when + 0.1 + 1e-9  # the last step of the run before the fall
+    tick = int(np.searchsorted(time, when + 1e-9)) - 1
+    named = [pair.rsplit(" ", 1) for pair in line.split("before the fall: ")[1].split(", ")]
+    assert len(named) == 3
+    for task, norm in named:  # as logged at that tick, against the printed 3 digits
+        assert float(norm) == pytest.approx(np.linalg.norm(logs[f"error/{task}"][tick]), rel=6e-3, abs=1e-6)

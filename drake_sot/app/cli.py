@@ -35,7 +35,14 @@ from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import check_workers
 from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
-from drake_sot.diagrams.run import MAX_DURATION, Interrupted, RunResult, SignalGuard, check_duration
+from drake_sot.diagrams.run import (
+    MAX_DURATION,
+    Interrupted,
+    RunResult,
+    SignalGuard,
+    check_duration,
+    fall_causes,
+)
 from drake_sot.diagrams.scenario import (
     NotServable,
     Scenario,
@@ -832,6 +839,8 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
             "artefacts cover the simulated part",
             file=sys.stderr,
         )
+        for line in fall_causes(result):
+            print(line, file=sys.stderr)
     elif result.not_reached:
         later = ", ".join(f"{label!r} at {t:g} s" for t, label in result.not_reached)
         print(f"after the end of the run, not applied: {later}", file=sys.stderr)

@@ -18,12 +18,16 @@ import time as wallclock
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import FrameType, TracebackType
+from typing import TypeVar
 
 from pydrake.systems.analysis import Simulator, SimulatorStatus
 from pydrake.systems.framework import Context, Diagram, System
 
 from drake_sot.systems.fall_monitor import Fall, FallMonitor
+from drake_sot.systems.sot import StackOfTasks
 from drake_sot.validation import bounded, positive
+
+T = TypeVar("T")
 
 #: The signals that stop a run: Ctrl-C and the polite "terminate" of ``kill``, job schedulers, systemd.
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
@@ -151,6 +155,10 @@ class RunResult:
         failure: the exception that stopped the run, if any.
         fell: the fall, if the robot fell (the earliest, if several monitors saw one).
         after_fall: the exception that ended the run after the fall was detected, if any.
+        errors_before_fall: when the robot fell, ``(time, ((task, ‖e‖), ...))``: the task errors
+            of the diagram's stacks of tasks (largest first, in each task's units) at the last
+            step the run reached before the fall — what the controller was failing to achieve
+            (a target out of reach, a stance foot lifted), so that a fall names its cause.
     """
 
     end_time: float = 0.0
@@ -161,6 +169,7 @@ class RunResult:
     failure: BaseException | None = None
     fell: Fall | None = None
     after_fall: BaseException | None = None
+    errors_before_fall: tuple[float, tuple[tuple[str, float], ...]] | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -223,6 +232,7 @@ def simulate(
     pending = sorted((c for c in commands if c.time <= duration), key=lambda c: c.time)
     result = RunResult()
     context = simulator.get_mutable_context()
+    watch = _FallWatch(simulator.get_system())
     start = wallclock.perf_counter()
     try:
         t = context.get_time()
@@ -237,6 +247,7 @@ def simulate(
             target = min(duration, boundary, pending[0].time if pending else duration)
             status = simulator.AdvanceTo(target)
             t = context.get_time()
+            watch.step(context)
             if progress:
                 progress(t, duration, wallclock.perf_counter() - start)
             if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
@@ -256,18 +267,58 @@ def simulate(
     result.end_time = context.get_time()
     result.wall_time = wallclock.perf_counter() - start
     result.not_reached = [(c.time, c.label) for c in late + pending]
-    falls = [m.fall(m.GetMyContextFromRoot(context)) for m in fall_monitors(simulator.get_system())]
-    result.fell = min((f for f in falls if f is not None), key=lambda f: f.time, default=None)
+    result.fell = watch.fall(context)
+    if result.fell is not None:
+        result.errors_before_fall = watch.errors_before
     if result.fell is not None and result.failure is not None:
         # the monitor's state holds the fall only from a completed step on: it came first
         result.after_fall, result.failure = result.failure, None
     return result
 
 
-def fall_monitors(system: System) -> list[FallMonitor]:
-    """The ``FallMonitor`` systems of a diagram (searched through nested diagrams)."""
-    if isinstance(system, FallMonitor):
+def fall_causes(result: RunResult, *, tasks: int = 3) -> list[str]:
+    """What a fallen run was doing before the fall, in lines for a person: the last command
+    applied before it and the ``tasks`` largest task errors of the last step before it (a target
+    out of reach leaves its task's error large). Empty when the robot did not fall."""
+    if result.fell is None:
+        return []
+    lines = []
+    before = [(t, label) for t, label in result.events if t <= result.fell.time]
+    if before:
+        t, label = before[-1]
+        lines.append(f"the last command before the fall: {label!r} at t = {t:.3f} s")
+    if result.errors_before_fall is not None and result.errors_before_fall[1]:
+        when, errors = result.errors_before_fall
+        largest = ", ".join(f"{task} {norm:.3g}" for task, norm in errors[:tasks])
+        lines.append(f"the largest task errors ‖e‖ at t = {when:.3f} s, before the fall: {largest}")
+    return lines
+
+
+def systems_of_type(system: System, kind: type[T]) -> list[T]:
+    """The systems of ``kind`` in a diagram (searched through nested diagrams)."""
+    if isinstance(system, kind):
         return [system]
     if isinstance(system, Diagram):
-        return [m for sub in system.GetSystems() for m in fall_monitors(sub)]
+        return [found for sub in system.GetSystems() for found in systems_of_type(sub, kind)]
     return []
+
+
+class _FallWatch:
+    """Watches a run for a fall, keeping the stacks' task errors of the last step before it."""
+
+    def __init__(self, diagram: System) -> None:
+        self._monitors = systems_of_type(diagram, FallMonitor)
+        self._stacks = systems_of_type(diagram, StackOfTasks) if self._monitors else []
+        self.errors_before: tuple[float, tuple[tuple[str, float], ...]] | None = None
+
+    def fall(self, context: Context) -> Fall | None:
+        """The earliest fall the monitors have latched, None when none has."""
+        falls = [m.fall(m.GetMyContextFromRoot(context)) for m in self._monitors]
+        return min((f for f in falls if f is not None), key=lambda f: f.time, default=None)
+
+    def step(self, context: Context) -> None:
+        """After a step of the run: the task errors, kept while no fall is latched."""
+        if not self._stacks or self.fall(context) is not None:
+            return
+        errors = [pair for sot in self._stacks for pair in sot.task_errors(sot.GetMyContextFromRoot(context))]
+        self.errors_before = (context.get_time(), tuple(sorted(errors, key=lambda pair: -pair[1])))
