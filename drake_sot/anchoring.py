@@ -45,10 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_sot import validation
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+from drake_sot.footsteps import wrap_angle
 
 
 @dataclass(frozen=True)
@@ -93,4 +90,6 @@ def drift(reference: PlanarTransform, measured: PlanarTransform) -> PlanarTransf
 def blend(a: PlanarTransform, b: PlanarTransform, s: float) -> PlanarTransform:
     """From ``a`` (s = 0) to ``b`` (s = 1), linearly in x, y and yaw (the short way round)."""
     s = validation.bounded("s", s, 0.0, 1.0)
-    return PlanarTransform(a.x + s * (b.x - a.x), a.y + s * (b.y - a.y), a.yaw + s * _wrap(b.yaw - a.yaw))
+    return PlanarTransform(
+        a.x + s * (b.x - a.x), a.y + s * (b.y - a.y), a.yaw + s * wrap_angle(b.yaw - a.yaw)
+    )

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_sot import validation
+from drake_sot.footsteps import wrap_angle
 
 __all__ = [
     "BaseLimits",
@@ -66,10 +67,6 @@ def desired_position(offset: np.ndarray, slave: np.ndarray, base: np.ndarray) ->
         + validation.vector("slave", slave, 3)
         - validation.vector("base", base, 3)
     )
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def base_placement(
@@ -170,7 +167,7 @@ class BaseMotion:
         target = validation.vector("target", target, 3)
         lim, dt = self.limits, self.dt
         error = target - pose
-        error[2] = _wrap(error[2])
+        error[2] = wrap_angle(error[2])
         new = np.empty(3)
         wanted = self._wanted(error[:2], lim.speed, lim.acceleration)
         new[:2] = velocity[:2] + _clip_norm(wanted - velocity[:2], lim.acceleration * dt)
