@@ -173,7 +173,7 @@ class StackOfTasks(LeafSystem):
             and ``active_lower`` / ``active_upper``, the rows of an inequality task within
             :data:`~drake_sot.hierarchy.TOLERANCE` of that bound (indices into the task's rows).
             Empty before the first tick. The tick writes the slacks and the active rows to a
-            discrete state (one product ``J q̇`` per task of the stack, ~1 µs each); the
+            discrete state (one product ``J q̇`` per task of the stack); the
             tuple is built only when the port is evaluated. Without ``report=True`` none of it
             exists and the tick does not pay for it.
 
