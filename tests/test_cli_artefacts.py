@@ -40,3 +40,47 @@ def test_a_run_with_every_artefact_written_exits_0(tmp_path, capsys):
     code = cli.main(["run", "reach", "--duration", "0.1", "--no-record", "--out", str(tmp_path)])
     assert code == 0, capsys.readouterr().err
     assert "could not write" not in capsys.readouterr().err
+
+
+def test_a_full_disk_costs_the_study_its_table_and_not_its_plot(tmp_path, monkeypatch):
+    """The sweep's logs do not fit: its plot is still written, and the run says which did not."""
+    from drake_sot.diagrams import alpha_sweep
+
+    monkeypatch.setattr(alpha_sweep, "write_npz", lambda arrays, path: _disk_full(path))
+    artefacts = alpha_sweep.run(tmp_path, grid=(0.0,), duration=0.1, workers=1)
+    assert artefacts.unwritten == {str(tmp_path / "alpha_sweep.npz"): "No space left on device, errno ENOSPC"}
+    assert artefacts.files == {"png": tmp_path / "alpha_sweep.png"}
+    assert {p.name for p in tmp_path.iterdir()} == {"alpha_sweep.png"}
+
+
+def _unwritten_output(**fields):
+    return {"unwritten": {"out/x.npz": "No space left on device, errno ENOSPC"}, **fields}
+
+
+def test_a_study_with_an_unwritten_file_exits_4_and_names_it(tmp_path, monkeypatch, capsys):
+    from dataclasses import replace
+
+    from drake_sot.diagrams.artifacts import Artefacts
+
+    study = replace(cli.STUDIES["alpha_sweep"], run=lambda out, **kw: Artefacts(**_unwritten_output()))
+    monkeypatch.setitem(cli.STUDIES, "alpha_sweep", study)
+    code = cli.main(["run", "alpha_sweep", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == cli.UNWRITTEN, err
+    assert "could not write: out/x.npz (No space left on device, errno ENOSPC)" in err
+
+
+def test_a_peer_run_with_an_unwritten_file_exits_4_and_names_it(tmp_path, monkeypatch, capsys):
+    from dataclasses import replace
+
+    from drake_sot.diagrams.run import RunResult
+    from drake_sot.diagrams.telecoop_master import MasterOutput
+
+    def run(host, port, out, **kwargs):
+        return MasterOutput(**_unwritten_output(result=RunResult(end_time=1.0), arrays={}, files={}))
+
+    monkeypatch.setitem(cli.PEERS, "telecoop_master", replace(cli.PEERS["telecoop_master"], run=run))
+    code = cli.main(["run", "telecoop_master", "--connect", "127.0.0.1:9", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == cli.UNWRITTEN, err
+    assert "could not write: out/x.npz (No space left on device, errno ENOSPC)" in err

@@ -227,12 +227,13 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser) -> int:
             run.error(f"{args.scenario}: {exc}")
         for path in output.files.values():
             print(f"wrote {path}")
+        _report_unwritten(output.unwritten)
         if output.result.failure is not None:
             print(
                 f"the run failed at t = {output.result.end_time:.3f} s: {output.result.failure}",
                 file=sys.stderr,
             )
-        return exit_status(output.result)
+        return exit_status(output.result, output.unwritten)
 
     return _interruptible(run_it, progress, args.out)
 
@@ -788,10 +789,11 @@ def _raise_interrupted(signum: int, frame: FrameType | None) -> NoReturn:
 
 def _run_study(args: argparse.Namespace, progress: ProgressBar) -> int:
     kwargs = {"duration": args.duration} if args.duration is not None else {}
-    files = STUDIES[args.scenario].run(args.out, workers=args.workers or 2, progress=progress, **kwargs)
-    for path in files.values():
+    artefacts = STUDIES[args.scenario].run(args.out, workers=args.workers or 2, progress=progress, **kwargs)
+    for path in artefacts.files.values():
         print(f"wrote {path}")
-    return 0
+    _report_unwritten(artefacts.unwritten)
+    return UNWRITTEN if artefacts.unwritten else 0
 
 
 def _run_scenario(scenario: Scenario, args: argparse.Namespace, parameters: dict) -> int:

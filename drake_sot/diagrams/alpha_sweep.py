@@ -20,7 +20,7 @@ import numpy as np
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams.alpha_sweep_plots import plot_alpha_sweep
-from drake_sot.diagrams.artifacts import output_directory, write_npz
+from drake_sot.diagrams.artifacts import Artefacts, output_directory, write_npz
 from drake_sot.diagrams.run import Interrupted, SignalGuard, simulate
 from drake_sot.robots import get_robot
 from drake_sot.transitions import AlphaSchedule
@@ -83,7 +83,7 @@ class Study:
 
     name: str
     description: str
-    run: Callable[..., dict[str, Path]]
+    run: Callable[..., Artefacts]
 
 
 def run(
@@ -94,10 +94,11 @@ def run(
     workers: int = 2,
     progress: Callable[[float, float, float], None] | None = None,
     robot: str = "embedded",
-) -> dict[str, Path]:
+) -> Artefacts:
     """Run the sweep on ``robot`` in ``workers`` processes (at most :data:`MAX_WORKERS`); write
-    ``alpha_sweep.npz`` and ``alpha_sweep.png``. An unknown robot, or one whose models are missing, is refused
-    before any worker starts.
+    ``alpha_sweep.npz`` and ``alpha_sweep.png`` (returned: a file that could not be written, a full
+    disk, is in ``unwritten`` and the other is still written). An unknown robot, or one whose
+    models are missing, is refused before any worker starts.
 
     Ctrl-C or SIGTERM stops the sweep: the points not yet done are cancelled (their errors
     stay NaN, and ``done`` in the npz says which were), the workers are terminated, both
@@ -130,21 +131,21 @@ def run(
         finally:
             guard.hold()
             pool.join()
-        files = {"npz": out / "alpha_sweep.npz", "png": out / "alpha_sweep.png"}
-        write_npz(
-            {
-                "alpha_lh_head": np.array(grid),
-                "alpha_head_lh": np.array(grid),
-                "head_error": head,
-                "lh_error": lh,
-                "done": np.isfinite(head) & np.isfinite(lh),
-            },
-            files["npz"],
+        arrays = {
+            "alpha_lh_head": np.array(grid),
+            "alpha_head_lh": np.array(grid),
+            "head_error": head,
+            "lh_error": lh,
+            "done": np.isfinite(head) & np.isfinite(lh),
+        }
+        artefacts = Artefacts()
+        artefacts.write("npz", out / "alpha_sweep.npz", lambda path: write_npz(arrays, path))
+        artefacts.write(
+            "png", out / "alpha_sweep.png", lambda path: plot_alpha_sweep(np.array(grid), head, lh, path)
         )
-        plot_alpha_sweep(np.array(grid), head, lh, files["png"])
     if stopped is not None:
         raise stopped
-    return files
+    return artefacts
 
 
 def _start_worker() -> None:

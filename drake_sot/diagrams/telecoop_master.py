@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time as wallclock
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +38,7 @@ from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 from drake_sot import validation
 from drake_sot.channel import DEFAULT_DELAY
 from drake_sot.diagrams import telecooperation
-from drake_sot.diagrams.artifacts import output_directory, write_npz
+from drake_sot.diagrams.artifacts import Artefacts, output_directory, write_npz
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.telecoop_slave import HANDS, WRITTEN
 from drake_sot.remote.peer import Peer
@@ -52,11 +52,13 @@ SLAVE_TIMEOUT = 60.0
 
 @dataclass
 class MasterOutput:
-    """How the master's run ended, its logs (``time`` and one array per log name) and its files."""
+    """How the master's run ended, its logs (``time`` and one array per log name), its files and
+    those that could not be written (a full disk: file → why)."""
 
     result: RunResult
     arrays: dict[str, np.ndarray]
     files: dict[str, Path]
+    unwritten: dict[str, str] = field(default_factory=dict)
 
 
 def build_master(
@@ -144,9 +146,9 @@ def run_master(
                 log = logger.FindLog(context)
                 arrays.setdefault("time", log.sample_times().copy())
                 arrays[name] = log.data().T.copy()
-            files = {"npz": out / "telecoop_master.npz"}
-            write_npz(arrays, files["npz"])
-    return MasterOutput(result, arrays, files)
+            artefacts = Artefacts()
+            artefacts.write("npz", out / "telecoop_master.npz", lambda path: write_npz(arrays, path))
+    return MasterOutput(result, arrays, artefacts.files, artefacts.unwritten)
 
 
 @dataclass(frozen=True)

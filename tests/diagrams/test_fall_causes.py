@@ -49,7 +49,9 @@ def test_the_fall_keeps_the_task_errors_of_the_step_before_it(lifted):
     tick = int(np.searchsorted(times, when + 1e-9)) - 1
     slices = setup.built.error_slices()
     for task, norm in errors:
-        assert norm == pytest.approx(float(np.linalg.norm(data[tick, slices[task]])), rel=1e-6, abs=1e-9), task
+        assert norm == pytest.approx(float(np.linalg.norm(data[tick, slices[task]])), rel=1e-6, abs=1e-9), (
+            task
+        )
     # the lifted foot is far from its target: its position error alone (target 1.5 m up, the foot
     # on or near the ground) is more than the 0.2 m the foot could have climbed by then
     assert dict(errors)["taskLF"] > 0.2

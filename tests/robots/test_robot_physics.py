@@ -213,7 +213,7 @@ def test_alpha_sweep_on_talos_gives_the_task_with_priority_the_smaller_steady_er
     outright, and the sweep ran on TALOS, not on the embedded robot."""
     robot_or_skip("talos")
     files = alpha_sweep.run(tmp_path, grid=(0.0, 1.0), duration=3.0, workers=2, robot="talos")
-    sweep = np.load(files["npz"])
+    sweep = np.load(files.files["npz"])
     head, lh = sweep["head_error"], sweep["lh_error"]
     assert sweep["done"].all()
     assert lh[0, 1] < 0.5 * head[0, 1], (lh[0, 1], head[0, 1])  # the left hand has priority
