@@ -257,3 +257,15 @@ def test_a_transition_time_blends_the_same_change_from_every_front_end(session, 
     script_sot = session.entity("sot").system
     script_held = script_sot.GetMyContextFromRoot(session.simulator.get_context()).get_abstract_state(0)
     assert script_held.get_value().transition.duration == 0.5
+
+
+def test_the_case_study_s_switch_lines_parse_back_to_its_commands():
+    """The remote decision layer of walk_then_interact sends its switch as script lines: each is
+    the command written by the vocabulary, and the one parser reads it back unchanged."""
+    from drake_sot.diagrams.walk_then_interact import SWITCH, SWITCH_LINES
+
+    for command, line in zip(SWITCH, SWITCH_LINES, strict=True):
+        owner, words = line.split(".", 1)
+        word, *args = words.split()
+        assert owner == "sot"
+        assert parse_command(word, args) == command

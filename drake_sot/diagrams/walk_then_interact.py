@@ -60,7 +60,7 @@ SWITCH = (
     Push("taskForceLH"),
     Up("taskForceLH"),
 )
-SWITCH_LINES = tuple(f"sot.{type(action).__name__.lower()} {action.task}" for action in SWITCH)
+SWITCH_LINES = tuple(f"sot.{action}" for action in SWITCH)  # each command as its script line
 DECISIONS = ("sequencer", "remote")
 
 
