@@ -269,3 +269,16 @@ def test_the_case_study_s_switch_lines_parse_back_to_its_commands():
         word, *args = words.split()
         assert owner == "sot"
         assert parse_command(word, args) == command
+
+
+def test_a_timed_entry_action_is_refused_on_its_own_line():
+    """A state's change of the stack is blended over the state machine's transition time: an
+    entry action with a time of its own is refused by the line that writes it, not later when the
+    state machine is built from the script."""
+    session = ScriptSession()
+    session.run_script("new TaskSequencer decision\ndecision.addState s")
+    with pytest.raises(SessionError, match=r"addEntry push ta 0\.5: an entry action has no transition time"):
+        session.execute("decision.addEntry s push ta 0.5")
+    assert session.entity("decision").states["s"][0] == []  # nothing added
+    session.execute("decision.addEntry s push ta")  # the same action, untimed
+    assert session.entity("decision").states["s"][0] == [Push("ta")]

@@ -1068,10 +1068,16 @@ class SequencerEntity(Entity):
             entry.append(SetValue(_text(rest[0], "the output"), vector_value(rest[1], "the value")))
         else:
             try:
-                entry.append(stack_command(Call(self.name, action, rest)))
+                command = stack_command(Call(self.name, action, rest))
             except StackError as error:
                 hint = "" if action in VERBS else "; or set OUTPUT VALUE"
                 raise SessionError(f"{error}{hint}") from error
+            if command.transition:
+                raise SessionError(
+                    f"addEntry {command}: an entry action has no transition time of its own; the "
+                    f"state's change of the stack is blended over {self.name}.transitionTime"
+                )
+            entry.append(command)
         return ""
 
     @_command(
