@@ -680,8 +680,10 @@ class WalkPlanner:
         return self.add_steps(steps) if steps else self
 
     def _drop_executed(self) -> WalkPlanner:
-        """The samples before the current one dropped (the indices shift to start at 0)."""
-        k = self.k
+        """The samples before the current one dropped (the indices shift to start at 0). Past
+        the plan's end the current sample is its last one (every later sample would repeat it:
+        the plan ends standing still), which is kept."""
+        k = min(self.k, len(self.samples) - 1)
         return replace(
             self,
             samples=self.samples.part(k),

@@ -501,6 +501,32 @@ def test_steps_given_during_a_walk_never_change_the_previewed_samples():
     assert later.landings[:2] == planner.landings
 
 
+def test_a_planner_stands_indefinitely_after_its_plan_and_walks_what_it_is_given_then():
+    """Standing, then a two-step walk, then standing again, each for longer than the executed
+    samples the planner keeps: the references stay those of standing (the CoM at rest over the
+    feet' midpoint, both feet down), and steps given after an hour-long wait are walked as the
+    same steps given at once are (the same samples from the moment they are given)."""
+    standing = _start()
+    midpoint = 0.5 * (LEFT0.xy + RIGHT0.xy)
+    for _ in range(3 * round(20.0 / DT)):  # 60 s standing: three times the samples kept
+        standing = standing.advance()
+    np.testing.assert_allclose(standing.com[:2], midpoint, atol=1e-9)
+    np.testing.assert_allclose(standing.com_vel[:2], 0.0, atol=1e-9)
+    assert not standing.in_process and standing.contacts.tolist() == [1.0, 1.0]
+    steps = alternating_steps(LEFT0, RIGHT0, 2, stride=0.2)
+    fresh = _start().add_steps(steps)
+    late = standing.add_steps(steps)
+    assert [i - late.k for i, _ in late.landings] == [i - fresh.k for i, _ in fresh.landings]
+    for _ in range(round(25.0 / DT)):  # the walk, then standing past the samples kept again
+        np.testing.assert_allclose(late.com, fresh.com, atol=1e-9)
+        np.testing.assert_array_equal(late.sole("left"), fresh.sole("left"))
+        late, fresh = late.advance(), fresh.advance()
+    assert not late.in_process
+    np.testing.assert_allclose(
+        late.feet["left"].xy, steps[-1].xy if steps[-1].side == "left" else steps[-2].xy
+    )
+
+
 def test_velocity_mode_spaces_footprints_by_the_velocity_at_a_constant_width():
     """Turning while walking: each footprint is the stance foot's times (v T, ±w + vy T, wz T)
     with the initial stance width w, however long the walk (no drift of the width), and
