@@ -827,6 +827,11 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"
     )
+    time = output.arrays.get("time")
+    if time is not None and len(time) and time[0] > 0.0:
+        print(f"the logs cover the run's last {time[-1] - time[0]:.1f} s (from t = {time[0]:.1f} s)")
+    if result.replay_until is not None:
+        print(f"the replay covers the run's first {result.replay_until:.1f} s")
     if result.interrupted_by is not None:
         print(
             f"interrupted by {result.interrupted_by.name}: the artefacts cover the simulated part",

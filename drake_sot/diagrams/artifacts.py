@@ -180,11 +180,14 @@ def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -
 
 
 def _aligned(log, time: np.ndarray) -> np.ndarray:
-    """Samples of ``log`` at ``time`` (the loggers share one period; guard against a length mismatch)."""
-    data = log.data().T
-    n = min(len(time), data.shape[0])
+    """Samples of ``log`` at ``time`` (matched by time: a log trimmed to its window, or one with
+    fewer samples, leaves NaN where it has none)."""
+    times, data = log.sample_times(), log.data().T
     out = np.full((len(time), data.shape[1]), np.nan)
-    out[:n] = data[:n]
+    index = np.minimum(np.searchsorted(times, time - 1e-9), len(times) - 1)
+    if len(times):
+        found = np.abs(times[index] - time) <= 1e-9
+        out[found] = data[index[found]]
     return out
 
 

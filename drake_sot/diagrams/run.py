@@ -18,25 +18,23 @@ import time as wallclock
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import FrameType, TracebackType
-from typing import TypeVar
 
 from pydrake.systems.analysis import Simulator, SimulatorStatus
-from pydrake.systems.framework import Context, Diagram, System
+from pydrake.systems.framework import Context, System
 
+from drake_sot.diagrams.log_window import LOG_WINDOW, LogWindow
 from drake_sot.systems.fall_monitor import Fall, FallMonitor
+from drake_sot.systems.search import systems_of_type
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.validation import bounded, positive
 
-T = TypeVar("T")
-
 #: The signals that stop a run: Ctrl-C and the polite "terminate" of ``kill``, job schedulers, systemd.
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
-#: The longest run [s] of simulated time: one hour. The loggers keep every sample in memory
-#: until the run's logs are written (the embedded humanoid's walk logs ~2 kB per 5 ms control
-#: tick: ~1.4 GB per simulated hour), and at the walk's real-time factor (0.25-0.65) an hour
-#: already takes 1.5-4 hours of wall time; a longer value is a typo (``--duration 1e300`` ran
-#: until it was killed).
-MAX_DURATION = 3600.0
+#: The longest run [s] of simulated time: one day. What a run keeps in memory is bounded (the logs
+#: keep their last window: :mod:`drake_sot.diagrams.log_window`), and at the walk's real-time
+#: factor (0.25-0.65) a simulated day takes days of wall time: a longer value is a typo
+#: (``--duration 1e300`` ran until it was killed).
+MAX_DURATION = 86400.0
 
 
 def check_duration(name: str, value: float) -> float:
@@ -159,6 +157,8 @@ class RunResult:
             of the diagram's stacks of tasks (largest first, in each task's units) at the last
             step the run reached before the fall — what the controller was failing to achieve
             (a target out of reach, a stance foot lifted), so that a fall names its cause.
+        replay_until: [s] when a long run stopped recording its replay (the replay covers the
+            run up to it; see :mod:`drake_sot.diagrams.log_window`), None when it recorded all.
     """
 
     end_time: float = 0.0
@@ -170,6 +170,7 @@ class RunResult:
     fell: Fall | None = None
     after_fall: BaseException | None = None
     errors_before_fall: tuple[float, tuple[tuple[str, float], ...]] | None = None
+    replay_until: float | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -198,6 +199,7 @@ def simulate(
     progress: Progress | None = None,
     chunk: float = 0.1,
     guard: SignalGuard | None = None,
+    log_window: float | None = LOG_WINDOW,
 ) -> RunResult:
     """Advance ``simulator`` to ``duration`` [s], applying ``commands`` at their times.
 
@@ -217,6 +219,8 @@ def simulate(
             are listed in ``not_reached``.
         progress: called after each step of at most ``chunk`` [s] (finite, > 0), at the multiples
             of ``chunk`` (and at the commands' times).
+        log_window: [s] the diagram's logs keep their last ``log_window`` seconds (up to twice
+            that; see :mod:`drake_sot.diagrams.log_window`); None keeps every sample.
 
     Raises:
         ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0, or ``duration`` above
@@ -227,12 +231,21 @@ def simulate(
     chunk = positive("chunk", chunk, unit="s")
     if guard is None:
         with SignalGuard() as own:
-            return simulate(simulator, duration, commands, progress=progress, chunk=chunk, guard=own)
+            return simulate(
+                simulator,
+                duration,
+                commands,
+                progress=progress,
+                chunk=chunk,
+                guard=own,
+                log_window=log_window,
+            )
     late = [c for c in commands if c.time > duration]
     pending = sorted((c for c in commands if c.time <= duration), key=lambda c: c.time)
     result = RunResult()
     context = simulator.get_mutable_context()
     watch = _FallWatch(simulator.get_system())
+    logs = None if log_window is None else LogWindow(simulator.get_system(), log_window)
     start = wallclock.perf_counter()
     try:
         t = context.get_time()
@@ -248,6 +261,8 @@ def simulate(
             status = simulator.AdvanceTo(target)
             t = context.get_time()
             watch.step(context)
+            if logs is not None:
+                logs.trim(context)
             if progress:
                 progress(t, duration, wallclock.perf_counter() - start)
             if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
@@ -265,6 +280,7 @@ def simulate(
     finally:
         guard.hold()  # from here on, a signal waits until the caller has written the artefacts
     result.end_time = context.get_time()
+    result.replay_until = None if logs is None else logs.replay_until
     result.wall_time = wallclock.perf_counter() - start
     result.not_reached = [(c.time, c.label) for c in late + pending]
     result.fell = watch.fall(context)
@@ -292,15 +308,6 @@ def fall_causes(result: RunResult, *, tasks: int = 3) -> list[str]:
         largest = ", ".join(f"{task} {norm:.3g}" for task, norm in errors[:tasks])
         lines.append(f"the largest task errors ‖e‖ at t = {when:.3f} s, before the fall: {largest}")
     return lines
-
-
-def systems_of_type(system: System, kind: type[T]) -> list[T]:
-    """The systems of ``kind`` in a diagram (searched through nested diagrams)."""
-    if isinstance(system, kind):
-        return [system]
-    if isinstance(system, Diagram):
-        return [found for sub in system.GetSystems() for found in systems_of_type(sub, kind)]
-    return []
 
 
 class _FallWatch:

@@ -21,6 +21,7 @@ from drake_sot.diagrams.artifacts import (
     write_replay,
     write_svg,
 )
+from drake_sot.diagrams.log_window import LOG_WINDOW
 from drake_sot.diagrams.pushes import ExternalPush, check_push_times
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
@@ -145,6 +146,7 @@ def run_scenario(
     pushes: Sequence[ExternalPush] = (),
     runner: Runner | None = None,
     command_server: bool = False,
+    log_window: float | None = LOG_WINDOW,
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
     ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
@@ -170,6 +172,9 @@ def run_scenario(
         runner: runs the simulation instead of :func:`simulate` (e.g. while serving remote
             commands), called as ``runner(setup, simulator, duration, progress=, guard=)``.
         command_server: build the diagram with a command server (see :func:`build_scenario`).
+        log_window: [s] the logs keep the run's last ``log_window`` seconds (up to twice that),
+            None every sample (see :mod:`drake_sot.diagrams.log_window`); the artefacts cover
+            what the logs kept. With ``runner``, the runner decides.
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
@@ -201,7 +206,9 @@ def run_scenario(
         built.visualizer.StartRecording(set_transforms_while_recording=False)
     with SignalGuard() as guard:
         if runner is None:
-            result = simulate(simulator, duration, setup.commands, progress=progress, guard=guard)
+            result = simulate(
+                simulator, duration, setup.commands, progress=progress, guard=guard, log_window=log_window
+            )
         else:
             result = runner(setup, simulator, duration, progress=progress, guard=guard)
         context = simulator.get_context()

@@ -1,4 +1,4 @@
-"""``StackHistory``: every change of a stack of tasks, with its time, for logs and plots."""
+"""``StackHistory``: the changes of a stack of tasks (the last ones), with their times, for logs and plots."""
 
 from __future__ import annotations
 
@@ -8,9 +8,14 @@ from pydrake.systems.framework import Context, LeafSystem, State
 from drake_sot.stack import StackError, task_names
 from drake_sot.systems._context import own_context
 
+#: The changes a :class:`StackHistory` keeps: the last ones (a client that changes the stack every
+#: tick for an hour would otherwise grow it, and its copy at each change, without bound).
+MAX_CHANGES = 10_000
+
 
 class StackHistory(LeafSystem):
-    """Records the stack each time it changes (checked at ``period``).
+    """Records the stack each time it changes (checked at ``period``), keeping the last
+    :data:`MAX_CHANGES` records.
 
     A change made by another system's event at a tick is recorded at the next tick (all
     events of one instant read the state before it), so times are at most one period late.
@@ -20,7 +25,7 @@ class StackHistory(LeafSystem):
             (``StackOfTasks.stack``); anything else raises a RuntimeError naming the port.
     Output ports:
         history: abstract ``tuple[tuple[float, tuple[str, ...]], ...]``: (time [s],
-            stack) of the initial stack and of every change.
+            stack) of the initial stack and of every change (the last :data:`MAX_CHANGES`).
     """
 
     def __init__(self, *, period: float = 0.005, name: str = "stack_history") -> None:
@@ -48,7 +53,7 @@ class StackHistory(LeafSystem):
             raise RuntimeError(f"{self.get_name()!r}: input port 'stack': {error}") from None
         if not history or history[-1][1] != stack:
             state.get_mutable_abstract_state(self._history).set_value(
-                history + ((context.get_time(), stack),)
+                history[-(MAX_CHANGES - 1) :] + ((context.get_time(), stack),)
             )
 
 
