@@ -32,6 +32,7 @@ def test_list_names_the_scenarios():
         "telecooperation",
         "walk",
         "walk_long",
+        "walk_random",
         "walk_then_interact",
         "alpha_sweep",
         "telecoop_master",

@@ -11,6 +11,7 @@ from drake_sot.diagrams import (
     telecooperation,
     walk,
     walk_long,
+    walk_random,
     walk_then_interact,
 )
 from drake_sot.diagrams.scenario import Scenario
@@ -21,6 +22,7 @@ SCENARIOS: dict[str, Scenario] = {
         reach.SCENARIO,
         walk.SCENARIO,
         walk_long.SCENARIO,
+        walk_random.SCENARIO,
         walk_then_interact.SCENARIO,
         look_and_reach.SCENARIO,
         priority_switching.SCENARIO,

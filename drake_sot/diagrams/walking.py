@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.systems.framework import System
 
 from drake_sot.diagrams.balance import add_stabilizer, add_zmp_estimator
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
@@ -165,14 +166,22 @@ def build_walk(
     stabilizer: bool = True,
     robot: str = "embedded",
     command_server: bool = False,
+    footstep_source: Callable[[Footstep, Footstep, StepLimits], System] | None = None,
 ) -> ScenarioSetup:
     """A walking diagram (the ``walk`` stack, the ZMP estimator, logs) and its script: at
     ``START`` the steps ``steps_of(left, right)`` (made from the initial footprints) are given
-    to the generator. ``anchored``, ``stabilizer``: see :func:`add_walking`; ``robot``: a name of
-    ``drake_sot.robots.ROBOTS``; ``command_server``: see
-    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    to the generator, when there are some. ``anchored``, ``stabilizer``: see :func:`add_walking`;
+    ``robot``: a name of ``drake_sot.robots.ROBOTS``; ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario`. ``footstep_source(left, right, limits)``:
+    a system that decides the footprints as the walk goes (its ``planned_feet`` input is fed the
+    generator's, its ``next_footprint`` output feeds the generator's; ``limits`` are the robot's
+    step limits)."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b, anchored=anchored, stabilizer=stabilizer)
+    if footstep_source is not None:
+        source = b.builder.AddSystem(footstep_source(left, right, b.robot.step_limits))
+        b.builder.Connect(pg.GetOutputPort("planned_feet"), source.GetInputPort("planned_feet"))
+        b.builder.Connect(source.GetOutputPort("next_footprint"), pg.GetInputPort("next_footprint"))
     b.add_posture_task("taskPosture", gain=1.0)
 
     zmp = add_zmp_estimator(b)
@@ -192,7 +201,7 @@ def build_walk(
         command_server=command_server,
     )
     steps = steps_of(left, right)
-    commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
+    commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))] if steps else []
     duration = START + len(steps) * b.robot.step_timing.period + 2.0
     return ScenarioSetup(
         built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}

@@ -1,0 +1,91 @@
+"""``walk_random`` in physics: random reachable steps of every kind, with stops, well past the
+20 s at which a pattern generator's kept samples used to run out; the robot stays up and every
+landing is on its footprint.
+
+The footprints are computed here without the diagram: the pattern generator's tick replayed on
+its own planner (pure), reading the rule at each tick where fewer than ``FOOTPRINTS_AHEAD``
+landings lie ahead, as the generator does; the landings are measured on the simulated plant."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.math import RollPitchYaw
+
+from drake_sot.diagrams import walk_random
+from drake_sot.diagrams.scenario import run_scenario
+from drake_sot.random_steps import RandomStepRule
+from drake_sot.walk_planner import FOOTPRINTS_AHEAD
+
+pytestmark = pytest.mark.slow
+
+DURATION = 25.0  # [s] past the 20 s of the kept samples
+SETTLE = 10  # ticks (50 ms) after touch-down, when a landing is measured
+
+
+@pytest.fixture(scope="module")
+def random_walk(tmp_path_factory):
+    out_dir = tmp_path_factory.mktemp("walk_random")
+    output = run_scenario(
+        walk_random.SCENARIO, out_dir, duration=DURATION, record=False, parameters={"seed": 3}
+    )
+    return output
+
+
+def _footprints(output) -> list:
+    """The footprints the generator planned, in order: its ticks replayed on its initial planner."""
+    built = output.setup.built
+    pg = output.setup.extras["pattern_generator"]
+    rule: RandomStepRule = built.diagram.GetSubsystemByName("random_steps").rule
+    planner = pg.planner(pg.CreateDefaultContext())
+    planned = []
+    for k in range(round(DURATION / planner.dt) + 1):
+        planner = planner.advance()
+        if len(planner.landings_ahead()) < FOOTPRINTS_AHEAD:
+            left, right = planner.feet["left"], planner.feet["right"]
+            step = rule.next_footprint(left, right, planner.last_side, k * planner.dt)
+            if step is not None:
+                planner = planner.add_steps([step])
+                planned.append(step)
+    return planned
+
+
+def test_the_random_walk_completes_upright(random_walk):
+    assert random_walk.result.completed, random_walk.result.failure
+    assert random_walk.arrays["q"][:, 6].min() > 0.55  # the pelvis stays up (standing: 0.65 m)
+
+
+def test_every_landing_is_on_its_footprint_and_the_steps_are_of_every_kind(random_walk):
+    built, arrays = random_walk.setup.built, random_walk.arrays
+    plant, info = built.plant, built.info
+    context = plant.CreateDefaultContext()
+    phase = arrays["phase"][:, 0]
+    ticks = [k for k in range(1, len(phase) - SETTLE) if phase[k - 1] != 0 and phase[k] == 0]
+    steps = _footprints(random_walk)[: len(ticks)]
+    assert len(ticks) >= 20, len(ticks)
+    errors = []
+    for k, step in zip(ticks, steps, strict=True):
+        plant.SetPositions(context, info.model_instance, arrays["q"][k + SETTLE])
+        X = plant.GetFrameByName(info.frames[f"{step.side}_foot"], info.model_instance).CalcPoseInWorld(
+            context
+        )
+        errors.append(math.hypot(X.translation()[0] - step.x, X.translation()[1] - step.y))
+        yaw = RollPitchYaw(X.rotation()).yaw_angle()
+        assert abs(math.remainder(yaw - step.yaw, 2 * math.pi)) < math.radians(3.0)
+    print(f"{len(errors)} landings, max error {1000 * max(errors):.1f} mm")
+    assert max(errors) < 0.02
+    # of every kind: forward and backward along the heading, turning both ways, and a stop
+    forward = [
+        math.cos(b.yaw) * (b.x - a.x) + math.sin(b.yaw) * (b.y - a.y)
+        for a, b in zip(steps[::2], steps[2::2], strict=False)
+    ]
+    assert max(forward) > 0.05 and min(forward) < -0.03
+    turns = np.diff([s.yaw for s in steps])
+    assert turns.max() > 0.05 and turns.min() < -0.05
+    # the stop of every 20 s: over a second in double support (a step's is 0.1 s)
+    double = np.flatnonzero(phase == 0)
+    runs = np.split(double, np.flatnonzero(np.diff(double) > 1) + 1)
+    longest = max(len(run) for run in runs if arrays["time"][run[0]] > 5.0)
+    assert longest * np.median(np.diff(arrays["time"])) > 1.0, longest
