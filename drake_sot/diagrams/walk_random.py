@@ -20,9 +20,35 @@ from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walking import build_walk, zmp_plot_writer
 from drake_sot.footsteps import Footstep, StepLimits, stance_width
 from drake_sot.random_steps import RandomStepRule
+from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.random_steps import RandomSteps
+from drake_sot.walk_planner import FOOTPRINTS_AHEAD
 
 DURATION = 120.0  # [s] the default length of the walk
+
+
+def planned_landings(
+    pg: PatternGenerator, rule: RandomStepRule, duration: float
+) -> list[tuple[float, Footstep]]:
+    """``(touch-down time [s], footprint)`` of every step the pattern generator ``pg`` plans in
+    ``duration`` [s] of a ``walk_random`` run, without simulating it: the generator's tick
+    replayed on its initial planner (the footprints depend on the rule and the planner alone,
+    not on the robot's motion), reading ``rule`` at each tick where fewer than
+    ``FOOTPRINTS_AHEAD`` landings lie ahead, as the generator does. The touch-down time is that of
+    the generator's first double-support sample after the step's single support."""
+    planner = pg.planner(pg.CreateDefaultContext())
+    landings = []
+    for k in range(round(duration / planner.dt) + 1):
+        planner = planner.advance()
+        if len(planner.landings_ahead()) < FOOTPRINTS_AHEAD:
+            step = rule.next_footprint(
+                planner.feet["left"], planner.feet["right"], planner.last_side, k * planner.dt
+            )
+            if step is not None:
+                planner = planner.add_steps([step])
+                ahead, _ = planner.landings_ahead()[-1]  # ticks from sample k + 1, the current one
+                landings.append(((k + 1 + ahead + 1) * planner.dt, step))
+    return landings
 
 
 def build(

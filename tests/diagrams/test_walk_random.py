@@ -2,9 +2,9 @@
 20 s at which a pattern generator's kept samples used to run out; the robot stays up and every
 landing is on its footprint.
 
-The footprints are computed here without the diagram: the pattern generator's tick replayed on
-its own planner (pure), reading the rule at each tick where fewer than ``FOOTPRINTS_AHEAD``
-landings lie ahead, as the generator does; the landings are measured on the simulated plant."""
+The footprints and their touch-down times are computed without the diagram (the pattern
+generator's tick replayed on its own planner, :func:`walk_random.planned_landings`); the
+landings are measured on the simulated plant."""
 
 from __future__ import annotations
 
@@ -16,8 +16,6 @@ from pydrake.math import RollPitchYaw
 
 from drake_sot.diagrams import walk_random
 from drake_sot.diagrams.scenario import run_scenario
-from drake_sot.random_steps import RandomStepRule
-from drake_sot.walk_planner import FOOTPRINTS_AHEAD
 
 pytestmark = pytest.mark.slow
 
@@ -34,22 +32,10 @@ def random_walk(tmp_path_factory):
     return output
 
 
-def _footprints(output) -> list:
-    """The footprints the generator planned, in order: its ticks replayed on its initial planner."""
-    built = output.setup.built
-    pg = output.setup.extras["pattern_generator"]
-    rule: RandomStepRule = built.diagram.GetSubsystemByName("random_steps").rule
-    planner = pg.planner(pg.CreateDefaultContext())
-    planned = []
-    for k in range(round(DURATION / planner.dt) + 1):
-        planner = planner.advance()
-        if len(planner.landings_ahead()) < FOOTPRINTS_AHEAD:
-            left, right = planner.feet["left"], planner.feet["right"]
-            step = rule.next_footprint(left, right, planner.last_side, k * planner.dt)
-            if step is not None:
-                planner = planner.add_steps([step])
-                planned.append(step)
-    return planned
+def _landings(output) -> list:
+    """(touch-down time, footprint) of the steps the generator planned (replayed without the diagram)."""
+    rule = output.setup.built.diagram.GetSubsystemByName("random_steps").rule
+    return walk_random.planned_landings(output.setup.extras["pattern_generator"], rule, DURATION)
 
 
 def test_the_random_walk_completes_upright(random_walk):
@@ -63,8 +49,11 @@ def test_every_landing_is_on_its_footprint_and_the_steps_are_of_every_kind(rando
     context = plant.CreateDefaultContext()
     phase = arrays["phase"][:, 0]
     ticks = [k for k in range(1, len(phase) - SETTLE) if phase[k - 1] != 0 and phase[k] == 0]
-    steps = _footprints(random_walk)[: len(ticks)]
+    landings = _landings(random_walk)[: len(ticks)]
     assert len(ticks) >= 20, len(ticks)
+    # the replay's touch-down times are the logged ones (single to double support), within a tick
+    np.testing.assert_allclose([t for t, _ in landings], arrays["time"][ticks], atol=0.0051)
+    steps = [step for _, step in landings]
     errors = []
     for k, step in zip(ticks, steps, strict=True):
         plant.SetPositions(context, info.model_instance, arrays["q"][k + SETTLE])
