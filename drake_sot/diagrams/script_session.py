@@ -128,6 +128,7 @@ from drake_sot.diagrams.script_entities import (
     vector_value,
 )
 from drake_sot.script import (
+    COMMAND_SOURCE,
     Call,
     Command,
     Destroy,
@@ -157,8 +158,6 @@ __all__ = [
     "script_scenario",
 ]
 
-#: The source of a command given to :meth:`ScriptSession.execute` as a string.
-COMMAND_SOURCE = "<command>"
 #: The solver's name when the script declares none (``new SOT NAME``).
 DEFAULT_SOT = "sot"
 #: Names the build gives to systems of its own (an entity may not take them).
