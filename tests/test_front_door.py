@@ -451,3 +451,17 @@ def test_a_remote_gain_beyond_the_control_periods_bound_is_refused_and_the_gain_
         client.run("taskRH.controlGain 200")  # the bound itself: λ dt = 1, the goal in one period
         client.run("taskRH.controlGain 1")
         assert len(client.read("dyn.com")) == 3  # served on
+
+
+def test_a_nested_include_error_names_each_location_once(tmp_path):
+    """a.sot runs b.sot, which runs c.sot, which runs a missing d.sot: the innermost line that
+    failed, and the outermost line that ran it, each named once."""
+    for name, runs in (("a", "b"), ("b", "c"), ("c", "d")):
+        (tmp_path / f"{name}.sot").write_text(f"# {name}\nrun {runs}.sot\n")
+    with pytest.raises(SessionError) as raised:
+        load_script(tmp_path / "a.sot")
+    message = str(raised.value)
+    missing = tmp_path / "d.sot"
+    assert message.startswith(f"c.sot, line 2: run d.sot: cannot read the script {str(missing)!r}: ")
+    assert message.endswith(" (run from a.sot, line 2)")
+    assert [message.count(f"{name}.sot, line") for name in "abc"] == [1, 0, 1]
