@@ -700,6 +700,12 @@ def _statement(text: str, line: int, source: str) -> Statement | None:
     return Statement(command, line, source, code)
 
 
+#: The source of a command given alone, not read from a file (a shell's or a remote client's line,
+#: :meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` given a string): its messages
+#: name the line's text, not a source and a line number.
+COMMAND_SOURCE = "<command>"
+
+
 def parse_script(text: str, *, source: str = "<script>") -> tuple[Statement, ...]:
     """The statements of a script, in order (blank and comment lines skipped).
 

@@ -196,6 +196,11 @@ def bounds(name: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndarray]:
 #: for q̇ = -λ e of that size).
 WORKSPACE_RADIUS = 10.0
 
+#: The largest coordinate of a target position a remote client may write [m, world frame]: a
+#: humanoid's hand or foot target, in a scenario that walks a few metres from the origin, lies well
+#: within 10 m; a target beyond is no target (1e300 m reached Drake and ended the run).
+REACH_BOUND = 10.0
+
 
 def position(
     name: str, value, *, size: int = 3, radius: float = WORKSPACE_RADIUS, origin: str = "the world origin"

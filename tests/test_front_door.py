@@ -20,7 +20,6 @@ from served import DRAKE_SOT, REPO, start, stop
 
 from drake_sot import validation
 from drake_sot.app import serving
-from drake_sot.app.serving import REACH_BOUND
 from drake_sot.diagrams.script_session import MAX_INCLUDE_DEPTH, SessionError, load_script
 from drake_sot.remote import Client, RemoteError
 from drake_sot.remote.network import ACCEPT_BACKOFF, MAX_CONNECTIONS, NetworkThread, _is_loopback
@@ -294,17 +293,6 @@ def test_a_request_followed_by_a_half_close_still_gets_its_reply(server):
     assert len(received[0]["result"]) == 3 and "taskPosture" in received[1]["result"].split()
 
 
-def test_a_timed_write_to_a_signal_the_host_applies_is_refused_not_applied_at_once(server):
-    _, host, port = server
-    with Client(host, port) as client:
-        client.read("dyn.com")
-        t = client.t
-        with pytest.raises(
-            RemoteError, match=r"timed write \('at'\) is applied only to the signals declared"
-        ):
-            client.request("write", signal="taskRH.position_des", value=[0.3, -0.25, 0.9], t=t, at=t + 5.0)
-
-
 def test_up_of_the_top_task_and_down_of_the_bottom_one_are_refused_and_change_nothing(server):
     _, host, port = server
     with Client(host, port) as client:
@@ -424,7 +412,8 @@ def test_a_target_position_beyond_the_reach_bound_is_refused_naming_it(server, v
         assert client.list()["writable"]["taskRH.position_des"] == {
             "size": 3,
             "units": "m, world frame",
-            "bound": REACH_BOUND,
+            "bound": validation.REACH_BOUND,
+            "radius": validation.WORKSPACE_RADIUS,
         }
         with pytest.raises(RemoteError, match=re.escape(f"taskRH.position_des: {named}")):
             client.write("taskRH.position_des", value)
@@ -432,7 +421,7 @@ def test_a_target_position_beyond_the_reach_bound_is_refused_naming_it(server, v
 
 
 def test_a_declared_writable_has_a_bound_checked_by_the_one_check():
-    assert REACH_BOUND == 10.0
+    assert validation.REACH_BOUND == 10.0
     assert serving.Writable is server_module.Writable  # one type: the host's and the server's
     builder = DiagramBuilder()
     remote = builder.AddSystem(RemoteCommandServer(0.005))
@@ -445,7 +434,7 @@ def test_a_declared_writable_has_a_bound_checked_by_the_one_check():
     ):
         remote.declare_writable("gain", 2, "1/s", np.array([1.0, 200.0]), bound=100.0)
     remote.declare_writable("gain", 2, "1/s", bound=100.0)
-    writable = remote.writables["gain"]
+    writable = remote.writables["remote.gain"]
     assert writable.check("remote.gain", (100.0, -100.0)) is None  # the bound itself is allowed
     assert writable.check("remote.gain", (100.0, -100.5)) == (
         "remote.gain: value[1] = -100.5: beyond the bound |x| <= 100 (1/s)"
@@ -462,3 +451,17 @@ def test_a_remote_gain_beyond_the_control_periods_bound_is_refused_and_the_gain_
         client.run("taskRH.controlGain 200")  # the bound itself: λ dt = 1, the goal in one period
         client.run("taskRH.controlGain 1")
         assert len(client.read("dyn.com")) == 3  # served on
+
+
+def test_a_nested_include_error_names_each_location_once(tmp_path):
+    """a.sot runs b.sot, which runs c.sot, which runs a missing d.sot: the innermost line that
+    failed, and the outermost line that ran it, each named once."""
+    for name, runs in (("a", "b"), ("b", "c"), ("c", "d")):
+        (tmp_path / f"{name}.sot").write_text(f"# {name}\nrun {runs}.sot\n")
+    with pytest.raises(SessionError) as raised:
+        load_script(tmp_path / "a.sot")
+    message = str(raised.value)
+    missing = tmp_path / "d.sot"
+    assert message.startswith(f"c.sot, line 2: run d.sot: cannot read the script {str(missing)!r}: ")
+    assert message.endswith(" (run from a.sot, line 2)")
+    assert [message.count(f"{name}.sot, line") for name in "abc"] == [1, 0, 1]

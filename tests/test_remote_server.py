@@ -118,7 +118,8 @@ def test_a_context_command_after_a_batch_acts_after_it(served):
 
 def test_a_declared_signal_is_written_at_the_tick_and_refused_when_bad(served):
     simulator, sot, server, inbox = served
-    assert server.writables["gain"].size == 2 and server.writables["gain"].units == "1/s"
+    gain = server.writables["remote.gain"]
+    assert gain.size == 2 and gain.units == "1/s"
     inbox.put(
         Request("write", 1, signal="remote.gain", value=(2.0, 3.0)),
         Request("write", 2, signal="remote.gain", value=(1.0,)),
@@ -129,11 +130,12 @@ def test_a_declared_signal_is_written_at_the_tick_and_refused_when_bad(served):
     )
     _tick(simulator)
     taken = server.taken(simulator.get_context()).requests
-    assert [r.kind for r in taken] == [DONE, DONE, DONE, DONE, HOST]  # the read waits: see below
+    assert [r.kind for r in taken] == [DONE] * 5 + [HOST]  # every write is the server's; the read waits
     assert taken[0].error is None
     assert "1 values, expected 2" in taken[1].error
     assert "value[1]" in taken[2].error and "not finite" in taken[2].error
     assert "not writable" in taken[3].error and "remote.gain" in taken[3].error
+    assert "not writable" in taken[4].error  # no desired pose declared here
     gain = server.GetOutputPort("gain").Eval(server.GetMyContextFromRoot(simulator.get_context()))
     assert np.array_equal(gain, [2.0, 3.0])  # the bad writes after it changed nothing
     log = next(s for s in simulator.get_system().GetSystems() if isinstance(s, VectorLogSink))

@@ -145,7 +145,7 @@ def test_a_write_of_a_wrong_name_or_size_is_refused_naming_it(slave_like, timed)
     assert [r.kind for r in taken] == [DONE] * 3
     declared = "remote.right_hand_force, remote.left_hand_force, remote.head, remote.gripper"
     assert [r.error for r in taken] == [
-        f"signal = remote.'master': not writable (declared: {declared})",
+        f"signal = 'remote.master': not writable (writable: {declared})",
         "remote.head: 3 values, expected 2",
         "remote.right_hand_force: value[1] = nan: not finite",
     ]

@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import os
 import re
+import socket
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -81,3 +83,21 @@ def test_a_served_script_never_replaces_a_file_it_did_not_write(tmp_path):
     finally:
         _stop(proc)
     assert script.read_text() == SCRIPT
+
+
+def test_a_served_script_that_cannot_bind_leaves_no_directory_behind(tmp_path, monkeypatch, capsys):
+    """The fresh directory of a script's files is made once the port is bound, not before."""
+    from drake_sot.app import cli
+
+    script = tmp_path / "served.sot"
+    script.write_text(SCRIPT)
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temporary))
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        with pytest.raises(SystemExit) as exited:
+            cli.main(["serve", str(script), "--port", str(taken.getsockname()[1])])
+    assert exited.value.code == 2 and "serve:" in capsys.readouterr().err
+    assert os.listdir(temporary) == []

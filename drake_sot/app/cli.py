@@ -643,14 +643,15 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if args.port > 65535:
         parser.error(f"port = {args.port}: at most 65535")
     _check_robot(parser, args.robot)
-    scenario, duration = _served(args.target, args.out, parser, args.robot)
+    served, duration = _served(args.target, parser)
     args.duration = duration if args.duration is None else args.duration
+    accepted = served.parameters if isinstance(served, Scenario) else ()  # a script takes none
     parameters = {"robot": args.robot} if args.robot is not None and args.target in SCENARIOS else {}
-    if parameters and "robot" not in scenario.parameters:
+    if parameters and "robot" not in accepted:
         parser.error(f"serve: {args.target} takes no --robot")
     # --- two-process mode ---
     if args.leader is not None:
-        if "leader" not in scenario.parameters:
+        if "leader" not in accepted:
             parser.error(f"serve: {args.target} takes no --leader")
         parameters["leader"] = args.leader
     # --- end two-process mode ---
@@ -663,6 +664,8 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         network = NetworkThread(args.host, args.port, token=args.token)
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
+    # bound: only now is a script's fresh directory made (a refusal before leaves nothing behind)
+    scenario = served if isinstance(served, Scenario) else _served_script(served, args.out, args.robot)
 
     def runner(setup: ScenarioSetup, simulator: Simulator, duration: float, **kwargs) -> RunResult:
         def ready(address: tuple[str, int]) -> None:
@@ -716,11 +719,9 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return _interruptible(serve, ProgressBar(), args.out or "no output directory")
 
 
-def _served(
-    target: str, out: str | None, parser: argparse.ArgumentParser, robot: str | None
-) -> tuple[Scenario, float | None]:
-    """The scenario named ``target``, or the script in the file ``target`` (driving ``robot``,
-    None: the embedded one); and its default duration (None: the scenario's own)."""
+def _served(target: str, parser: argparse.ArgumentParser) -> tuple[Scenario | ScriptProgram, float | None]:
+    """The scenario named ``target``, or the script loaded from the file ``target``; and its
+    default duration (None: the scenario's own)."""
     if target in SCENARIOS:
         return SCENARIOS[target], None
     if not os.path.isfile(target):
@@ -729,12 +730,16 @@ def _served(
         program = load_script(target)
     except (ScriptError, SessionError) as exc:
         parser.error(str(exc))
-    duration = program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
-    if out is None:  # the script's files (pool.writegraph) go to a fresh directory, never the working one
+    return program, program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
+
+
+def _served_script(program: ScriptProgram, out: str | None, robot: str | None) -> Scenario:
+    """The scenario of a served script driving ``robot`` (None: the embedded one), its files in
+    ``out`` or, when None, in a fresh directory (never the working one), named on stderr."""
+    if out is None:
         out = tempfile.mkdtemp(prefix=f"drake_sot_{program.path.stem}_")
         print(f"the script writes its files (pool.writegraph) into {out}", file=sys.stderr, flush=True)
-    scenario = script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
-    return scenario, duration
+    return script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
 
 
 def _echo(statement: Statement, time: float, output: str, stream: TextIO | None = None) -> None:

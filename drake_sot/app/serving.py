@@ -6,7 +6,8 @@ the simulator's step). The socket thread
 :class:`~drake_sot.systems.command_server.RemoteCommandServer` takes them at each control tick, in
 arrival order, in its own periodic event, and applies there what a Drake system may change:
 its own outputs — the stack commands, a batch the ``StackOfTasks`` applies at that tick, and
-the signals the diagram declared writable, output ports wired into what they drive.
+the signals the diagram declared writable, output ports wired into what they drive (a 6D task's
+desired position ``TASK.position_des`` among them): each write acts at the tick that takes it.
 
 A Drake event cannot change another system's context, so the rest is the host's: the thread
 that owns the simulator, here :class:`Serving`, ``simulate``'s ``progress`` hook run one
@@ -14,19 +15,19 @@ control period per step (:func:`serve_run`), so that a served run handles timed 
 signals, a failure and a fall as any run does. After each tick it answers the requests the
 server took at that tick: the stack commands with the solver's ``command_results``, reads
 and subscriptions with the values at the tick (any vector output port, ``<system>.<port>``:
-``sot.errors``, ``dyn.com``, ``device.q``…), and it applies the requests that set another
-system's parameter — a 6D task's desired position (``TASK.position_des``, kept a parameter
-so that the scenario's own timed commands still set it), the run-time commands of a
-scenario's tasks and pattern generator as the script dialect has them (``taskRH.controlGain
-5``, ``pg.parsecmd :stepseq …``), and, when a script is served, all its run-time lines through
-:meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too). Those act
-at the next tick and are answered after it (the server holds what came after them until then,
-so that the changes act in arrival order). Then it sleeps to hold ``realtime`` × real time.
+``sot.errors``, ``dyn.com``, ``device.q``…), and it applies the script lines that set another
+system's parameter — the run-time commands of a scenario's tasks and pattern generator as the
+script dialect has them (``taskRH.controlGain 5``, ``pg.parsecmd :stepseq …``), and, when a script
+is served, all its run-time lines through
+:meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too), each as the server
+parsed it. Those act at the next tick and are answered after it (the server holds what came after
+them until then, so that the changes act in arrival order). Then it sleeps to hold ``realtime`` ×
+real time.
 
-A written value must be of the declared size, finite and within the declared bound (one check,
+A written value must be of the declared size, finite and within the declared bounds (one check,
 :meth:`~drake_sot.systems.command_server.Writable.check`, of one
-:class:`~drake_sot.systems.command_server.Writable` type); only the declared signals and the 6D
-tasks' ``position_des`` (within ±:data:`REACH_BOUND`) can be written.
+:class:`~drake_sot.systems.command_server.Writable` type, in the server); only the signals declared
+on the server can be written.
 
 **Paced by its client** (``paced=True``; the two-process tele-cooperation's slave). A client
 that simulates too (the master site) writes timed values (``at``, applied at that simulated time
@@ -46,13 +47,10 @@ import math
 import subprocess
 import sys
 import time as wallclock
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
-from types import MappingProxyType
 from typing import Any
 
-import numpy as np
-from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
@@ -64,10 +62,9 @@ from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, P
 from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
-from drake_sot.script import Call, Get, parse_line
+from drake_sot.script import Call, Get, Statement
 from drake_sot.stack import VERBS
 from drake_sot.systems.command_server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
-from drake_sot.systems.features import FeaturePoint6d
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.task import Task
@@ -79,10 +76,6 @@ MAX_SUBSCRIPTIONS = 16
 CLIENT_TIMEOUT = 60.0
 #: Times within this of a tick count as that tick [s].
 _EPS = 1e-9
-#: The largest coordinate of a target position a client may write [m, world frame]: a humanoid's
-#: hand or foot target, in a scenario that walks a few metres from the origin, lies well within
-#: 10 m; a target beyond is no target (1e300 m reached Drake and ended the run).
-REACH_BOUND = 10.0
 
 
 @dataclass
@@ -99,8 +92,8 @@ class Serving:
     sends the replies of the requests applied before it; answers the requests the server took
     at the tick in their order — the stack commands with the solver's ``command_results``, the
     writes the server applied, reads, ``list`` and subscriptions with the values at the tick —
-    and applies the others that change the context (a 6D task's ``position_des``, script lines
-    through ``session``), answered after the next tick, when they acted; then calls
+    and applies the script lines that change the context (a task's ``controlGain``, lines through
+    ``session``), answered after the next tick, when they acted; then calls
     ``on_tick``, sends the subscriptions that are due, and sleeps to hold ``realtime`` × real
     time (not when the diagram is slower). What arrives meanwhile is taken at the next tick.
 
@@ -108,10 +101,6 @@ class Serving:
         simulator: an initialized simulator of a diagram holding ``server``.
         server: the diagram's command server, attached to ``network`` here.
         network: the socket thread whose requests are served.
-        writable: the allowlist of the signals the host applies (parameters of other systems),
-            by signal name, each with its ``apply``; the server's declared signals are allowed
-            besides. A write is checked by :meth:`~drake_sot.systems.command_server.Writable.check`, as
-            the server checks its own.
         realtime: the pace, > 0 (inf: as fast as possible).
         on_tick: called with the root context after each tick (e.g. a
             :class:`~drake_sot.app.status.MeshcatStatus` update).
@@ -127,7 +116,6 @@ class Serving:
         server: RemoteCommandServer,
         network: NetworkThread,
         *,
-        writable: Mapping[str, Writable] = MappingProxyType({}),
         realtime: float = 1.0,
         on_tick: Callable[[Context], None] | None = None,
         session: ScriptSession | None = None,
@@ -141,7 +129,6 @@ class Serving:
         self._session = session
         self.period = server.period
         self._realtime = positive("realtime", realtime)
-        self._writable = dict(writable)
         diagram = simulator.get_system()
         self._readable = _readable_ports(diagram)
         self._sots = {s.get_name(): s for s in _systems(diagram) if isinstance(s, StackOfTasks)}
@@ -241,34 +228,27 @@ class Serving:
             self._reply(cid, request.id, text, None if applied else text, now)
             return
         try:
-            result, acts = self._apply(cid, request, context)
+            result, acts = self._apply(cid, request, item.statement, context)
         except Exception as exc:  # noqa: BLE001 - a remote request must not end the served run
             self._reply(cid, request.id, None, f"{type(exc).__name__}: {exc}", now)
             return
         if acts:  # it changed the context: answered after the tick it acts at
-            self.events.append(
-                (now, request.cmd.strip() if request.op == "run" else f"write {request.signal}")
-            )
+            self.events.append((now, request.cmd.strip()))
             self._answers.append((cid, request.id, result, None))
         else:
             self._reply(cid, request.id, result, None, now)
 
-    def _apply(self, cid: int, request: Request, context: Context) -> tuple[Any, bool]:
+    def _apply(
+        self, cid: int, request: Request, statement: Statement | None, context: Context
+    ) -> tuple[Any, bool]:
         """The result of ``request`` (a callable: evaluated when answered), and whether it changed
-        the context; ValueError (or the session's error) when it is refused."""
+        the context; ValueError (or the session's error) when it is refused. ``statement``: a
+        ``run`` line as the server parsed it."""
         if request.op == "read":
             self._port(request.signal)
             return self._read(request.signal), False
-        if request.op == "write":
-            if request.timed:  # the host applies after a tick: it cannot honour an ``at``
-                declared = ", ".join(f"{self._server.get_name()}.{n}" for n in self._server.writables)
-                raise ValueError(
-                    f"{request.signal}: a timed write ('at') is applied only to the signals declared on "
-                    f"the command server ({declared or 'none here'}); send this one without 't' and 'at'"
-                )
-            return self._write(request.signal, request.value, context), True
         if request.op == "run":
-            return self._run(request.cmd, context)
+            return self._run(request.cmd, statement, context)
         if request.op == "list":
             return self._list(), False
         if request.op == "subscribe":
@@ -298,30 +278,18 @@ class Serving:
         system, port = self._port(signal)
         return port.Eval(system.GetMyContextFromRoot(self.context)).tolist()
 
-    def _write(self, signal: str, value: tuple[float, ...], context: Context) -> str:
-        writable = self._writable.get(signal)
-        if writable is None:
-            server = self._server.get_name()
-            allowed = [*self._writable, *(f"{server}.{name}" for name in self._server.writables)]
-            raise ValueError(f"signal = {signal!r}: not writable (writable: {', '.join(allowed) or 'none'})")
-        refused = writable.check(signal, value)
-        if refused is not None:
-            raise ValueError(refused)
-        writable.apply(context, np.array(value))
-        return signal
-
-    def _run(self, cmd: str, context: Context) -> tuple[Any, bool]:
+    def _run(self, cmd: str, statement: Statement | None, context: Context) -> tuple[Any, bool]:
         if cmd.strip() == "help":
             return self._help(), False
-        command = parse_line(cmd, source="<remote>")
-        if command is None:
+        if statement is None:  # a blank or comment line
             return "", False
+        command = statement.command
         if self._session is not None:
             if isinstance(command, Get) or (
                 isinstance(command, Call) and command.command in ("list", "help")
             ):
-                return self._session.execute(cmd, context), False
-            return self._session.execute(cmd, context), True
+                return self._session.execute(statement, context), False
+            return self._session.execute(statement, context), True
         if isinstance(command, Get):
             signal = f"{command.signal.entity}.{command.signal.name}"
             self._port(signal)
@@ -367,15 +335,10 @@ class Serving:
         return f"commands: {stack}, SOT.list (SOT: {sots}); {dialect}; help"
 
     def _list(self) -> dict[str, Any]:
-        server = self._server.get_name()
-        declared = {f"{server}.{name}": _listed(w) for name, w in self._server.writables.items()}
         return {
             "systems": sorted({name.split(".")[0] for name in self._readable}),
             "readable": {name: port.size() for name, (_, port) in self._readable.items()},
-            "writable": {
-                **{name: _listed(w) for name, w in self._writable.items()},
-                **declared,
-            },
+            "writable": {name: _listed(w) for name, w in self._server.writables.items()},
             "commands": self._help(),
             "error_slices": {
                 name: {task: [rows.start, rows.stop] for task, rows in sot.error_slices().items()}
@@ -406,8 +369,9 @@ def _runnable(entity: Entity) -> list[str]:
 
 
 def _listed(writable: Writable) -> dict[str, Any]:
-    """A writable as ``list`` shows it."""
-    return {"size": writable.size, "units": writable.units, "bound": writable.bound}
+    """A writable as ``list`` shows it (its radius when it has one)."""
+    listed = {"size": writable.size, "units": writable.units, "bound": writable.bound}
+    return listed if writable.radius is None else {**listed, "radius": writable.radius}
 
 
 def _resolve(result: Any) -> Any:
@@ -428,32 +392,6 @@ def _readable_ports(diagram: Diagram) -> dict[str, tuple[System, Any]]:
             if port.get_data_type() == PortDataType.kVectorValued and port.size() > 0:
                 ports[f"{system.get_name()}.{port.get_name()}"] = (system, port)
     return ports
-
-
-def desired_position_writables(features: dict[str, System]) -> dict[str, Writable]:
-    """The allowlist of a scenario: ``TASK.position_des`` [3] (m, world frame, each coordinate
-    within ±:data:`REACH_BOUND`) of each ``FeaturePoint6d``; a write moves the target, keeping its
-    orientation (refused, with the feature's reason, when its desired pose is fed by another
-    system)."""
-
-    def setter(feature: FeaturePoint6d) -> Callable[[Context, np.ndarray], None]:
-        def apply(context: Context, p: np.ndarray) -> None:
-            X = feature.desired(context)
-            feature.set_desired(context, RigidTransform(X.rotation(), p))
-
-        return apply
-
-    return {
-        f"{task}.position_des": Writable(3, "m, world frame", REACH_BOUND, setter(feature))
-        for task, feature in features.items()
-        if isinstance(feature, FeaturePoint6d)
-    }
-
-
-def writables(setup: ScenarioSetup) -> dict[str, Writable]:
-    """The allowlist the host applies for a scenario: its 6D tasks' ``position_des`` (the
-    signals its diagram declared on its command server are the server's)."""
-    return desired_position_writables(setup.built.features)
 
 
 def serve_run(
@@ -485,7 +423,6 @@ def serve_run(
         simulator,
         built.remote,
         network,
-        writable=writables(setup),
         realtime=realtime,
         on_tick=status.update if status is not None else None,
         session=setup.extras.get("session"),

@@ -21,12 +21,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.systems.framework import OutputPort
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import Context, OutputPort
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.diagrams.world import BuiltHumanoid
 from drake_sot.systems.command_server import RemoteCommandServer
 from drake_sot.systems.device import Device
+from drake_sot.systems.features import FeaturePoint6d
 from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.stack_history import StackHistory
@@ -39,6 +41,21 @@ class HumanoidSoT(BuiltHumanoid):
     sot: StackOfTasks | None = None
     device: Device | None = None
     remote: RemoteCommandServer | None = None
+
+    def set_desired(self, context: Context, task: str, value: RigidTransform | np.ndarray) -> None:
+        """Set the desired value s* of ``task``'s feature (the root context): in the command
+        server's state when the server holds it (a served 6D task, see :meth:`HumanoidSoTBuilder.build`),
+        else the feature's parameter.
+
+        Raises:
+            KeyError: an unknown task.
+            TypeError, ValueError: a value the feature refuses (named), or one fed by another
+                system's output.
+        """
+        if self.remote is not None and self.remote.holds_desired_pose(task):
+            self.remote.set_desired_pose(context, task, value)
+        else:
+            self.features[task].set_desired(context, value)
 
 
 class HumanoidSoTBuilder(HumanoidTaskBuilder):
@@ -66,6 +83,19 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         within ``±bound``: the output port to wire into what it drives (see
         :meth:`~drake_sot.systems.command_server.RemoteCommandServer.declare_writable`)."""
         return self.command_server().declare_writable(name, size, units, initial, bound=bound)
+
+    def _serve_desired_poses(self, remote: RemoteCommandServer) -> None:
+        """Wire the desired pose of each ``FeaturePoint6d`` task that no other system feeds from
+        ``remote``'s state, starting at the feature's own (a feature shared by tasks: under the
+        first task's name)."""
+        for task_name, feature in self.features.items():
+            if not isinstance(feature, FeaturePoint6d):
+                continue
+            port = feature.GetInputPort("position_des")
+            if self.builder.IsConnectedOrExported(port):
+                continue
+            initial = feature.desired(feature.CreateDefaultContext())
+            self.builder.Connect(remote.declare_desired_pose(task_name, initial), port)
 
     def build(
         self,
@@ -99,7 +129,10 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 connect its outputs (``qdot``, ``errors``, ``stack``) to other systems.
             command_server: add a :class:`~drake_sot.systems.command_server.RemoteCommandServer`
                 driving the solver's stack commands (``built.remote``), to serve the diagram; a
-                builder that declared writable signals has one whatever this says.
+                builder that declared writable signals has one whatever this says. The server then
+                holds the desired pose of each ``FeaturePoint6d`` task whose ``position_des`` no
+                other system feeds (clients write its position, ``TASK.position_des``; set it with
+                :meth:`HumanoidSoT.set_desired`).
         """
         b = self.builder
         period = self.control_period
@@ -118,6 +151,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         remote = self._server
         if remote is not None:
             b.Connect(remote.GetOutputPort("commands"), sot.GetInputPort("commands"))
+            self._serve_desired_poses(remote)
         for task_name, task in self.tasks.items():
             b.Connect(task.GetOutputPort("task"), sot.GetInputPort(task_name))
         if stack_source is not None:

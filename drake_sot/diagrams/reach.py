@@ -56,9 +56,9 @@ def build(
     b.add_op_point_task("taskLH", "left_hand", gain=2.5, desired=target_lh)
     b.add_posture_task("taskPosture", gain=1.0)
     built = b.build(stack=STACK, solver="hqp", command_server=command_server)
-    sot, feature_rh = built.sot, built.features["taskRH"]
+    sot = built.sot
     commands = [
-        Command(1.0, "taskRH target +25 cm x, +20 cm z", lambda c: feature_rh.set_desired(c, target_rh)),
+        Command(1.0, "taskRH target +25 cm x, +20 cm z", lambda c: built.set_desired(c, "taskRH", target_rh)),
         Command(3.0, "push taskLH", lambda c: sot.push(c, "taskLH")),
         Command(3.0, "up taskLH", lambda c: sot.up(c, "taskLH")),
         Command(5.0, "rm taskLH", lambda c: sot.rm(c, "taskLH")),

@@ -128,6 +128,7 @@ from drake_sot.diagrams.script_entities import (
     vector_value,
 )
 from drake_sot.script import (
+    COMMAND_SOURCE,
     Call,
     Command,
     Destroy,
@@ -157,8 +158,6 @@ __all__ = [
     "script_scenario",
 ]
 
-#: The source of a command given to :meth:`ScriptSession.execute` as a string.
-COMMAND_SOURCE = "<command>"
 #: The solver's name when the script declares none (``new SOT NAME``).
 DEFAULT_SOT = "sot"
 #: Names the build gives to systems of its own (an entity may not take them).
@@ -788,10 +787,25 @@ def _inside(root: Path, name: str, what: str) -> Path:
 MAX_INCLUDE_DEPTH = 16
 
 
+class _IncludeError(SessionError):
+    """A ``run FILE`` line that failed: ``inner`` names the innermost such line (where, its text,
+    why), ``outer`` the line of the outermost script that ran it (None: the same), each once."""
+
+    def __init__(self, inner: str, outer: str | None = None) -> None:
+        super().__init__(inner if outer is None else f"{inner} (run from {outer})")
+        self.inner = inner
+
+
 def _expand(path: Path, root: Path, chain: tuple[Path, ...]) -> tuple[Statement, ...]:
     """The statements of a script file with its ``run FILE`` lines replaced by the files'
     statements (read relative to the including file, inside ``root``), nested at most
-    :data:`MAX_INCLUDE_DEPTH` deep."""
+    :data:`MAX_INCLUDE_DEPTH` deep.
+
+    Raises:
+        SessionError: a file that cannot be read, an include outside ``root``, a cycle, too deep a
+            nesting: the message names the innermost ``run FILE`` line that failed and, when it is
+            in an included script, the outermost script's line that ran it.
+    """
     if path in chain:
         raise SessionError(f"{path.name} runs itself: {' -> '.join(p.name for p in (*chain, path))}")
     if len(chain) > MAX_INCLUDE_DEPTH:
@@ -811,8 +825,10 @@ def _expand(path: Path, root: Path, chain: tuple[Path, ...]) -> tuple[Statement,
                 if not included.is_relative_to(root.resolve()):
                     raise SessionError(f"{statement.command.path!r} resolves outside {str(root)!r}")
                 out.extend(_expand(included, root, (*chain, path)))
+            except _IncludeError as error:
+                raise _IncludeError(error.inner, statement.where) from None
             except SessionError as error:
-                raise SessionError(f"{statement.where}: {statement.text}: {error}") from None
+                raise _IncludeError(f"{statement.where}: {statement.text}: {error}") from None
         else:
             out.append(statement)
     return tuple(out)
