@@ -52,7 +52,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import Context, Diagram, PortDataType, System
+from pydrake.systems.framework import Context, Diagram, LeafSystem, PortDataType, System
 
 from drake_sot.app.status import MeshcatStatus
 from drake_sot.blas import limit_blas_threads
@@ -66,6 +66,7 @@ from drake_sot.script import Call, Get, Statement
 from drake_sot.stack import VERBS
 from drake_sot.systems.command_server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
 from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.systems.search import systems_of_type
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive
@@ -131,7 +132,7 @@ class Serving:
         self._realtime = positive("realtime", realtime)
         diagram = simulator.get_system()
         self._readable = _readable_ports(diagram)
-        self._sots = {s.get_name(): s for s in _systems(diagram) if isinstance(s, StackOfTasks)}
+        self._sots = {s.get_name(): s for s in systems_of_type(diagram, StackOfTasks)}
         commanded = [s for s in self._sots.values() if s.HasInputPort("commands")]
         if not commanded:
             raise ValueError(
@@ -354,7 +355,7 @@ def _scenario_entities(diagram: Diagram) -> dict[str, Entity]:
     a served scenario has none, and those commands need only their system."""
     kinds = {Task: TaskEntity, PatternGenerator: PatternGeneratorEntity}
     entities = {}
-    for system in _systems(diagram):
+    for system in systems_of_type(diagram, LeafSystem):
         kind = kinds.get(type(system))
         if kind is not None:
             entity = kind(None, system.get_name(), None)
@@ -378,15 +379,9 @@ def _resolve(result: Any) -> Any:
     return result() if callable(result) else result
 
 
-def _systems(system: System) -> list[System]:
-    if isinstance(system, Diagram):
-        return [s for sub in system.GetSystems() for s in _systems(sub)]
-    return [system]
-
-
 def _readable_ports(diagram: Diagram) -> dict[str, tuple[System, Any]]:
     ports = {}
-    for system in _systems(diagram):
+    for system in systems_of_type(diagram, LeafSystem):
         for i in range(system.num_output_ports()):
             port = system.get_output_port(i)
             if port.get_data_type() == PortDataType.kVectorValued and port.size() > 0:
