@@ -90,7 +90,12 @@ def main() -> None:
     result = output.result
     errors = landing_errors(output, args.duration)
     pelvis = output.arrays["q"][:, 6].min()
-    rss = " / ".join(f"{marks[m]:.0f}" for m in marks)
+    rss = " / ".join("-" if marks[m] is None else f"{marks[m]:.0f}" for m in marks)
+    if not result.completed:
+        print(
+            f"the run did not complete: ended at {result.end_time:.2f} s; fell: {result.fell}; "
+            f"failure: {result.failure!r}"
+        )
     print(f"load average before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     print(
         "| simulated [s] | wall [s] | completed | min pelvis z in the kept logs [m] | landings kept | "
@@ -99,7 +104,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|")
     print(
         f"| {result.end_time:.0f} | {wall:.0f} | {result.completed} | {pelvis:.3f} | {len(errors)} | "
-        f"{1000 * errors.max():.1f} | {rss} | {LOG_WINDOW:g} |"
+        f"{1000 * errors.max() if len(errors) else float('nan'):.1f} | {rss} | {LOG_WINDOW:g} |"
     )
 
 
