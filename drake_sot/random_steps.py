@@ -58,7 +58,7 @@ class RandomStepRule:
     max_forward: float = 0.2
     max_back: float = 0.12
     max_out: float = 0.08
-    max_turn: float = 0.3
+    max_turn: float = 0.2
     home: tuple[float, float] = (0.0, 0.0)
     home_radius: float = 1.5
     pause_period: float = 20.0
