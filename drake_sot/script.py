@@ -61,6 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_sot import stack
+from drake_sot.errors import DrakeSotError
 
 __all__ = [
     "KEYWORDS",
@@ -101,7 +102,7 @@ _BLANK = " \t"
 _FOUND_MAX = 30  # characters of the offending text quoted in a message
 
 
-class ScriptError(ValueError):
+class ScriptError(DrakeSotError, ValueError):
     """Text that is not in the script grammar.
 
     Attributes:

@@ -40,6 +40,7 @@ from types import MappingProxyType
 import numpy as np
 
 from drake_sot import validation
+from drake_sot.errors import prefixed
 from drake_sot.stack import COMMANDS, Clear, Command, Down, Pop, Push, Rm, Stack, StackError, Up
 
 __all__ = [
@@ -339,11 +340,11 @@ class StateMachine:
         try:
             empty = Stack(tasks)
         except StackError as error:
-            raise type(error)(f"{where}: {error}") from None
+            raise prefixed(error, where) from None
         try:
             stack = empty.with_active(stack)
         except StackError as error:
-            raise type(error)(f"{where}: initial stack: {error}") from None
+            raise prefixed(error, f"{where}: initial stack") from None
 
         # --- states
         states = list(states)
@@ -388,7 +389,7 @@ class StateMachine:
                     try:
                         stack.check_known(action.task)
                     except StackError as error:
-                        raise type(error)(f"{at}: entry action {action!r} names {error}") from None
+                        raise prefixed(error, f"{at}: entry action {action!r}") from None
                 if isinstance(action, SetValue):
                     action = self._checked_set_value(at, action, initial_values)
                     set_outputs.add(action.output)
@@ -423,7 +424,7 @@ class StateMachine:
         try:
             entered_stack, entered_values = self._run_entry(initial, stack, self._initial_values)
         except StackError as error:
-            raise type(error)(f"{where}, entering state {initial!r}: {error}") from None
+            raise prefixed(error, f"{where}, entering state {initial!r}") from None
         self._initial_status = Status(initial, 0.0, entered_stack, entered_values, 0)
         if check_paths:
             self._check_paths(self._initial_status)
@@ -596,10 +597,11 @@ class StateMachine:
                     while at is not None:
                         path.append(at[0])
                         at = parents[at]
-                    raise type(error)(
-                        f"sequencer {self._name!r}: entering state {transition.target!r} "
-                        f"by the path {' → '.join(reversed(path))} would fail: {error} "
-                        f"(pass check_paths=False if that path cannot happen)"
+                    raise prefixed(
+                        error,
+                        f"sequencer {self._name!r}: entering state {transition.target!r} by the path "
+                        f"{' → '.join(reversed(path))} would fail (pass check_paths=False if that "
+                        f"path cannot happen)",
                     ) from None
                 child = (transition.target, stack)
                 if child not in parents:

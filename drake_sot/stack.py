@@ -52,6 +52,7 @@ from types import MappingProxyType
 from typing import ClassVar
 
 from drake_sot import validation
+from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.transitions import smooth_step
 
 __all__ = [
@@ -76,7 +77,7 @@ __all__ = [
 ]
 
 
-class StackError(ValueError):
+class StackError(DrakeSotError, ValueError):
     """A hierarchy that is not valid, or a command that does not apply to the stack it meets.
 
     The message names the task and lists the known tasks (unknown name) or the current
@@ -84,15 +85,13 @@ class StackError(ValueError):
     """
 
 
-class UnknownTaskError(StackError, KeyError):
-    """A task name that is not one of the known tasks.
+class UnknownTaskError(StackError, UnknownNameError):
+    """A task name that is not one of the known tasks: a :class:`StackError` (a ValueError) and an
+    :class:`~drake_sot.errors.UnknownNameError` of kind ``"task"`` (a KeyError) listing the known
+    tasks."""
 
-    Both a :class:`StackError` (a ValueError) and a KeyError, like the lookup of an
-    unknown key; its message lists the known tasks.
-    """
-
-    def __str__(self) -> str:
-        return BaseException.__str__(self)  # the message, not KeyError's quoted repr of it
+    def __init__(self, task: object, known: Iterable[str], *, where: str = "") -> None:
+        UnknownNameError.__init__(self, "task", task, known, where=where)
 
 
 def task_names(value: Iterable[str], *, what: str) -> tuple[str, ...]:
@@ -374,7 +373,7 @@ class Stack:
     Raises:
         StackError: at construction, when ``tasks`` or ``active`` is not a tuple of
             distinct names; :class:`UnknownTaskError` when ``active`` names an unknown
-            task (the message lists the culprits and the known tasks). A command raises
+            task (the message names the first and lists the known tasks). A command raises
             UnknownTaskError for an unknown name and StackError when it does not apply.
     """
 
@@ -410,14 +409,10 @@ class Stack:
             raise StackError(f"the stack must be a sequence of task names, got {active!r}")
         unknown = [n for n in active if n not in self.tasks]
         twice = _twice(active)
-        if unknown or twice:
-            problems = []
-            if unknown:
-                problems.append(f"unknown {_tasks(unknown)}")
-            if twice:
-                problems.append(f"{_tasks(twice)} listed twice")
-            error = UnknownTaskError if unknown else StackError
-            raise error(f"the stack {active} has {' and '.join(problems)}; known tasks: {self._known()}")
+        if unknown:
+            raise UnknownTaskError(unknown[0], self.tasks, where=f"the stack {active}")
+        if twice:
+            raise StackError(f"the stack {active} has {_tasks(twice)} listed twice")
         return active
 
     def with_active(self, active: Iterable[str]) -> Stack:
@@ -464,7 +459,7 @@ class Stack:
     def check_known(self, task: str) -> str:
         """``task`` if it is one of the known tasks, else UnknownTaskError listing them."""
         if task not in self.tasks:
-            raise UnknownTaskError(f"unknown task {task!r}; known tasks: {self._known()}")
+            raise UnknownTaskError(task, self.tasks)
         return task
 
     def priority(self, task: str) -> int:

@@ -150,7 +150,7 @@ def test_set_value_makes_new_values_and_leaves_the_old_status_alone():
 
 def test_definition_errors_name_what_is_wrong():
     with pytest.raises(
-        UnknownTaskError, match=r"state 's0': entry action Push\(task='zz'\) names unknown task 'zz'"
+        UnknownTaskError, match=r"state 's0': entry action Push\(task='zz'\): unknown task 'zz'"
     ):
         StateMachine([State("s0", entry=Push("zz"))], "s0", tasks=TASKS)
     with pytest.raises(KeyError):  # an unknown name is a KeyError too
@@ -174,7 +174,11 @@ def test_paths_are_checked_or_the_failure_comes_at_run_time_with_the_time():
         State("grasp", entry=(Rm("b"), Push("c"))),
     ]
     # idle → walking → grasp works; idle → grasp does not: the breadth-first search finds it.
-    with pytest.raises(ValueError, match=r"by the path idle → grasp would fail: entry action Rm\(task='b'\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"by the path idle → grasp would fail \(pass check_paths=False if that path cannot happen\): "
+        r"entry action Rm\(task='b'\)",
+    ):
         StateMachine(states, "idle", tasks=TASKS, stack=("a",))
     machine = StateMachine(states, "idle", tasks=TASKS, stack=("a",), check_paths=False)
     walking = machine.step(machine.start(0.0), 0.0, _Inputs(go=0.0, walk=1.0))

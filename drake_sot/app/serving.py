@@ -62,6 +62,7 @@ from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, si
 from drake_sot.diagrams.scenario import NotServable, Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
 from drake_sot.diagrams.script_session import ScriptSession
+from drake_sot.errors import UnknownNameError
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
 from drake_sot.script import Call, Get, parse_line
@@ -291,7 +292,7 @@ class Serving:
 
     def _port(self, signal: str):
         if signal not in self._readable:
-            raise ValueError(f"signal = {signal!r}: no such vector output (see op 'list')")
+            raise UnknownNameError("vector output", signal, self._readable)
         return self._readable[signal]
 
     def _read(self, signal: str) -> list[float]:
@@ -303,7 +304,7 @@ class Serving:
         if writable is None:
             server = self._server.get_name()
             allowed = [*self._writable, *(f"{server}.{name}" for name in self._server.writables)]
-            raise ValueError(f"signal = {signal!r}: not writable (writable: {', '.join(allowed) or 'none'})")
+            raise UnknownNameError("writable signal", signal, allowed)
         refused = writable.check(signal, value)
         if refused is not None:
             raise ValueError(refused)

@@ -24,6 +24,7 @@ from drake_sot.diagrams.artifacts import (
 from drake_sot.diagrams.pushes import ExternalPush, check_push_times
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
+from drake_sot.errors import DrakeSotError
 from drake_sot.plots import plot_task_errors
 from drake_sot.systems.stack_history import stack_changes
 
@@ -87,11 +88,11 @@ class ScenarioOutput:
     unwritten: dict[str, str] = field(default_factory=dict)
 
 
-class ScenarioParameterError(ValueError):
+class ScenarioParameterError(DrakeSotError, ValueError):
     """A scenario's ``build`` refused the value of one of its parameters: nothing was simulated."""
 
 
-class NotServable(ValueError):
+class NotServable(DrakeSotError, ValueError):
     """A command server was asked of a scenario whose diagram cannot have one (nothing built)."""
 
 

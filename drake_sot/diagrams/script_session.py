@@ -123,10 +123,12 @@ from drake_sot.diagrams.script_entities import (
     SessionError,
     SotEntity,
     TaskEntity,
+    UnknownScriptName,
     Valued,
     format_signal_value,
     vector_value,
 )
+from drake_sot.errors import UnknownNameError, prefixed
 from drake_sot.script import (
     Call,
     Command,
@@ -259,7 +261,7 @@ class ScriptSession:
         if entity is None and name == DEFAULT_SOT and not self._has(SotEntity) and not self.is_built:
             entity = self._add(SotEntity(self, DEFAULT_SOT, None))
         if entity is None:
-            raise SessionError(f"unknown entity {name!r}; entities: {', '.join(self._entities)}")
+            raise UnknownScriptName("entity", name, self._entities)
         return entity
 
     def system(self, name: str) -> System:
@@ -462,7 +464,7 @@ class ScriptSession:
     def _new(self, cls: str, name: str) -> str:
         klass = CLASSES.get(cls)
         if klass is None:
-            raise SessionError(f"unknown class {cls!r}; classes: {', '.join(CLASSES)}")
+            raise UnknownScriptName("class", cls, CLASSES)
         if name in self._entities or name in RESERVED_NAMES or name.startswith("log_"):
             raise SessionError(f"the name {name!r} is taken (entities: {', '.join(self._entities)})")
         if klass in AT_MOST_ONE:
@@ -757,8 +759,12 @@ def _label(statement: Statement) -> str:
 
 
 def _located(error: Exception, statement: Statement | None, command: Command) -> SessionError:
-    """``error`` prefixed with the script line (or the command) that raised it."""
+    """``error`` prefixed with the script line (or the command) that raised it; an unknown name
+    stays one (:class:`UnknownScriptName`)."""
     prefix = _label(statement) if statement else str(command)
+    if isinstance(error, UnknownNameError):
+        where = prefixed(error, prefix).where
+        return UnknownScriptName(error.kind, error.name, error.known, where=where, located=True)
     return SessionError(f"{prefix}: {error}", located=True)
 
 

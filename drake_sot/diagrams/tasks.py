@@ -23,6 +23,7 @@ from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.world import add_humanoid_plant
+from drake_sot.errors import UnknownNameError
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, half_sitting_configuration
@@ -159,7 +160,7 @@ class HumanoidTaskBuilder:
 
     def _frame(self, frame_key: str):
         if frame_key not in self.control_info.frames:
-            raise KeyError(f"unknown frame {frame_key!r}; known: {', '.join(self.control_info.frames)}")
+            raise UnknownNameError("frame", frame_key, self.control_info.frames)
         return self.control_plant.GetFrameByName(self.control_info.frames[frame_key])
 
     # --- tasks -----------------------------------------------------------------------

@@ -47,6 +47,7 @@ from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.channel import Link
+from drake_sot.errors import unknown_name_message
 from drake_sot.remote.protocol import Request
 from drake_sot.script import Call, Get, ScriptError, parse_line, stack_command
 from drake_sot.stack import StackError
@@ -282,8 +283,10 @@ class RemoteCommandServer(LeafSystem):
     def _check(self, name: str, value: tuple[float, ...]) -> str | None:
         """Why a write of ``value`` to the declared writable ``name`` is refused, or None."""
         if name not in self._writables:
-            allowed = ", ".join(f"{self.get_name()}.{n}" for n in self._writables) or "none"
-            return f"signal = {self.get_name()}.{name!r}: not writable (declared: {allowed})"
+            server = self.get_name()
+            return unknown_name_message(
+                "writable signal", f"{server}.{name}", (f"{server}.{n}" for n in self._writables)
+            )
         return self._writables[name][0].check(f"{self.get_name()}.{name}", value)
 
 

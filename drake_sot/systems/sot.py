@@ -13,6 +13,7 @@ from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
+from drake_sot.errors import prefixed
 from drake_sot.hierarchy import LevelReport, level_report, solve_hqp, solve_strict
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Clear, Command, Down, Pop, Push, Rm, Stack, StackError, Up
@@ -247,7 +248,7 @@ class StackOfTasks(LeafSystem):
             empty = Stack(tuple(task_name for task_name, _ in pairs))
             initial = empty.with_active(stack)
         except StackError as error:
-            raise type(error)(f"{where}: {error}") from None
+            raise prefixed(error, where) from None
         if STACK_PORT in empty.tasks:
             raise ValueError(f"{STACK_PORT!r} cannot be a task name: it is the name of the stack input port")
         if commands_input and COMMANDS_PORT in empty.tasks:
