@@ -8,7 +8,7 @@ declared as data: :class:`State` values whose *entry actions* are the SoT's stac
 commands (:class:`~drake_sot.stack.Push`, ``Pop``, ``Rm``, ``Up``, ``Down``, ``Clear``,
 re-exported here from :mod:`drake_sot.stack`, which applies them) or a :class:`SetValue`
 of an output (a task's reference or gain), and :class:`Transition` values guarded by
-input signals (:class:`Signal`, :class:`Below`, :class:`Above`) or by time
+input signals (:class:`Flag`, :class:`Below`, :class:`Above`) or by time
 (:class:`Timeout`).
 
 :class:`StateMachine` checks a definition once (every name, every kind and size, and
@@ -41,7 +41,7 @@ import numpy as np
 
 from drake_sot import validation
 from drake_sot.errors import prefixed
-from drake_sot.stack import COMMANDS, Clear, Command, Down, Pop, Push, Rm, Stack, StackError, Up
+from drake_sot.stack import COMMANDS, Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 
 __all__ = [
     "ACTIONS",
@@ -56,7 +56,7 @@ __all__ = [
     "Push",
     "Rm",
     "SetValue",
-    "Signal",
+    "Flag",
     "State",
     "StateMachine",
     "Status",
@@ -88,7 +88,7 @@ class SetValue:
         validation.nonempty_string("SetValue.output", self.output)
 
 
-Action = Command | SetValue
+Action = StackCommand | SetValue
 #: The action types, for ``isinstance`` checks: the stack commands and SetValue.
 ACTIONS = (*COMMANDS, SetValue)
 
@@ -99,13 +99,14 @@ ACTIONS = (*COMMANDS, SetValue)
 
 
 @dataclass(frozen=True)
-class Signal:
-    """Holds when the (1,) input ``port`` is > 0.5 (a boolean signal)."""
+class Flag:
+    """Holds when the (1,) input ``port`` is > 0.5: a flag raised by a boolean signal (the
+    script's guard ``signal PORT``)."""
 
     port: str
 
     def __post_init__(self) -> None:
-        validation.nonempty_string("Signal.port", self.port)
+        validation.nonempty_string("Flag.port", self.port)
 
     @property
     def size(self) -> int:
@@ -161,9 +162,9 @@ class Timeout:
         object.__setattr__(self, "seconds", validation.nonnegative("Timeout.seconds", self.seconds, unit="s"))
 
 
-Guard = Signal | Below | Above | Timeout
+Guard = Flag | Below | Above | Timeout
 #: The guard types, for ``isinstance`` checks.
-GUARDS = (Signal, Below, Above, Timeout)
+GUARDS = (Flag, Below, Above, Timeout)
 _TIME_TOLERANCE = 1e-9  # [s]
 
 
@@ -542,7 +543,7 @@ class StateMachine:
                 f"sequencer {self._name!r}, state {status.state!r}: input port {guard.port!r} holds "
                 f"NaN or Inf at t = {time:.4f} s: {u}"
             )
-        if isinstance(guard, Signal):
+        if isinstance(guard, Flag):
             return bool(u[0] > 0.5)
         norm = float(np.linalg.norm(u))
         return norm < guard.threshold if isinstance(guard, Below) else norm > guard.threshold

@@ -28,7 +28,7 @@ state machine's entry and Python make the same command and meet the same errors.
 Smooth changes. A command is instantaneous: the control law jumps from the solution of
 one stack to the solution of the next. A stack can instead be *reached* from the one
 before over a transition time T (:meth:`Stack.transition_from`): it then carries a
-:class:`Transition` (the stack it comes from, the start time, T), and
+:class:`StackTransition` (the stack it comes from, the start time, T), and
 :meth:`Stack.blend` says, at any time t, which stacks the control law combines and with
 which weights — the stack left with ``1 - h(t)``, the stack reached with ``h(t)``, where
 ``h`` is the raised-cosine profile of Liu, Lober, Padois 2016, eq. 12
@@ -60,14 +60,14 @@ __all__ = [
     "MAX_TRANSITION",
     "VERBS",
     "Clear",
-    "Command",
+    "StackCommand",
     "Down",
     "Pop",
     "Push",
     "Rm",
     "Stack",
     "StackError",
-    "Transition",
+    "StackTransition",
     "UnknownTaskError",
     "Up",
     "StackVerb",
@@ -234,7 +234,7 @@ class Clear(_Command):
     verb: ClassVar[str] = "clear"
 
 
-Command = Push | Pop | Rm | Up | Down | Clear
+StackCommand = Push | Pop | Rm | Up | Down | Clear
 #: The command types, for ``isinstance`` checks.
 COMMANDS = (Push, Pop, Rm, Up, Down, Clear)
 
@@ -250,7 +250,7 @@ class StackVerb:
         doc: what it does, for help texts.
     """
 
-    command: type[Command]
+    command: type[StackCommand]
     tasks: int
     timed: bool
     doc: str
@@ -292,7 +292,7 @@ def find_verb(word: object) -> StackVerb:
     return found
 
 
-def parse_command(word: object, args: Sequence[object]) -> Command:
+def parse_command(word: object, args: Sequence[object]) -> StackCommand:
     """The command ``word ARG…``: its task names (``str``), then, if the verb is timed, an optional
     transition time [s] (a number; none: 0, at once).
 
@@ -321,7 +321,7 @@ def parse_command(word: object, args: Sequence[object]) -> Command:
 
 
 @dataclass(frozen=True)
-class Transition:
+class StackTransition:
     """A change of the stack in progress: the control law moves from the solution of
     ``origin`` to that of the stack holding this transition over
     ``[start, start + duration]``.
@@ -344,9 +344,9 @@ class Transition:
 
     def __post_init__(self) -> None:
         if not isinstance(self.origin, Stack):
-            raise TypeError(f"Transition.origin must be a Stack, got {type(self.origin).__name__}")
-        object.__setattr__(self, "start", validation.finite("Transition.start", self.start))
-        duration = _transition_time("Transition.duration", self.duration, positive=True)
+            raise TypeError(f"StackTransition.origin must be a Stack, got {type(self.origin).__name__}")
+        object.__setattr__(self, "start", validation.finite("StackTransition.start", self.start))
+        duration = _transition_time("StackTransition.duration", self.duration, positive=True)
         object.__setattr__(self, "duration", duration)
 
     def progress(self, t: float) -> float:
@@ -379,14 +379,14 @@ class Stack:
 
     tasks: tuple[str, ...]
     active: tuple[str, ...] = ()
-    transition: Transition | None = None
+    transition: StackTransition | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tasks", task_names(self.tasks, what="tasks"))
         object.__setattr__(self, "active", self._checked_active(self.active))
         if self.transition is not None:
-            if not isinstance(self.transition, Transition):
-                raise StackError(f"transition must be a Transition or None, got {self.transition!r}")
+            if not isinstance(self.transition, StackTransition):
+                raise StackError(f"transition must be a StackTransition or None, got {self.transition!r}")
             if self.transition.origin.tasks != self.tasks:
                 raise StackError(
                     f"the transition comes from a stack of other known tasks "
@@ -394,7 +394,7 @@ class Stack:
                 )
 
     # --- construction without re-validating what the algebra guarantees ---------------
-    def _with(self, active: tuple[str, ...], transition: Transition | None = None) -> Stack:
+    def _with(self, active: tuple[str, ...], transition: StackTransition | None = None) -> Stack:
         stack = object.__new__(Stack)
         object.__setattr__(stack, "tasks", self.tasks)
         object.__setattr__(stack, "active", active)
@@ -434,7 +434,7 @@ class Stack:
         base = Stack(tasks)
         transition = self.transition
         if transition is not None:
-            transition = Transition(transition.origin.over(tasks), transition.start, transition.duration)
+            transition = StackTransition(transition.origin.over(tasks), transition.start, transition.duration)
         return base._with(base._checked_active(self.active), transition)
 
     # --- the value ---------------------------------------------------------------------
@@ -516,7 +516,7 @@ class Stack:
         """No active task."""
         return self._with(())
 
-    def apply(self, command: Command, *, at: float | None = None) -> Stack:
+    def apply(self, command: StackCommand, *, at: float | None = None) -> Stack:
         """The stack after ``command`` (one of :data:`COMMANDS`): the one way a command acts.
 
         A command with a ``transition`` T > 0 gives the stack reached from this one over
@@ -557,7 +557,7 @@ class Stack:
         """This stack, reached from ``before`` over ``[start, start + duration]``.
 
         ``duration = 0`` returns the stack as it is (an instantaneous change). Otherwise
-        the result carries a :class:`Transition` from ``before`` as it stands at ``start``:
+        the result carries a :class:`StackTransition` from ``before`` as it stands at ``start``:
         its transitions finished by then are dropped, and one that has not progressed
         yet (it starts at ``start`` or later: e.g. ``push`` then ``up`` given at the same
         instant) is composed with this one, which then leads from that transition's
@@ -580,7 +580,7 @@ class Stack:
             origin = origin.transition.origin
         if origin.transition is None and origin.active == self.active:
             return self._with(self.active)
-        return self._with(self.active, Transition(origin, start, duration))
+        return self._with(self.active, StackTransition(origin, start, duration))
 
     def settled(self, t: float) -> Stack:
         """The same stack without the transitions (its own and nested ones) finished at time ``t``."""
@@ -592,7 +592,9 @@ class Stack:
         origin = self.transition.origin.settled(t)
         if origin is self.transition.origin:
             return self
-        return self._with(self.active, Transition(origin, self.transition.start, self.transition.duration))
+        return self._with(
+            self.active, StackTransition(origin, self.transition.start, self.transition.duration)
+        )
 
     def blend(self, t: float) -> tuple[tuple[tuple[str, ...], float], ...]:
         """The stacks the control law combines at time ``t`` and their weights.

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
 
 from drake_sot.errors import UnknownNameError
-from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackError, Transition, Up, task_names
+from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackError, StackTransition, Up, task_names
 
 KNOWN = ("taskTwofeet", "taskCom", "taskRH", "taskLH", "taskPosture")
 ANY_NAME = st.sampled_from(KNOWN + ("taskXX",))
@@ -263,7 +263,7 @@ def test_a_transition_blends_the_stack_before_and_after_with_eq_12():
     before = Stack(KNOWN, ("taskTwofeet", "taskPosture"))
     after = before.push("taskRH").transition_from(before, start=2.0, duration=0.5)
     assert after.active == ("taskTwofeet", "taskPosture", "taskRH")
-    assert after.transition == Transition(before, 2.0, 0.5)
+    assert after.transition == StackTransition(before, 2.0, 0.5)
     assert after.blend(1.0) == after.blend(2.0) == ((before.active, 1.0),)  # nothing has moved yet
     for t in (2.1, 2.25, 2.4):
         (reached, h), (left, rest) = after.blend(t)
@@ -353,15 +353,15 @@ def test_bad_transitions_are_refused_naming_the_value(change, error, message):
     arguments = dict(before=s, start=0.0, duration=0.5) | change
     with pytest.raises(error, match=message):
         s.push("b").transition_from(arguments.pop("before"), **arguments)
-    with pytest.raises(StackError, match="Transition.duration = 0.0 s: must be finite and > 0"):
-        Transition(s, 0.0, 0.0)
-    with pytest.raises(StackError, match=r"^Transition.duration = 1e\+308 s: must be in \[0, 60\] s$"):
-        Transition(s, 0.0, 1e308)  # a change that would never end
-    with pytest.raises(StackError, match=r"^Transition.duration = 60.5 s: must be in \[0, 60\] s$"):
-        Transition(s, 0.0, 60.5)
-    assert Transition(s, 0.0, 60.0).duration == 60.0
+    with pytest.raises(StackError, match="StackTransition.duration = 0.0 s: must be finite and > 0"):
+        StackTransition(s, 0.0, 0.0)
+    with pytest.raises(StackError, match=r"^StackTransition.duration = 1e\+308 s: must be in \[0, 60\] s$"):
+        StackTransition(s, 0.0, 1e308)  # a change that would never end
+    with pytest.raises(StackError, match=r"^StackTransition.duration = 60.5 s: must be in \[0, 60\] s$"):
+        StackTransition(s, 0.0, 60.5)
+    assert StackTransition(s, 0.0, 60.0).duration == 60.0
     with pytest.raises(StackError, match="the transition comes from a stack of other known tasks"):
-        Stack(("a", "b", "c"), ("a",), Transition(s, 0.0, 1.0))
+        Stack(("a", "b", "c"), ("a",), StackTransition(s, 0.0, 1.0))
 
 
 def test_stack_and_sequencing_import_no_drake():

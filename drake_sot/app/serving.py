@@ -58,7 +58,7 @@ from pydrake.systems.framework import Context, Diagram, PortDataType, System
 
 from drake_sot.app.status import MeshcatStatus
 from drake_sot.blas import limit_blas_threads
-from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
+from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, simulate
 from drake_sot.diagrams.scenario import NotServable, Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
 from drake_sot.diagrams.script_session import ScriptSession
@@ -494,7 +494,11 @@ def serve_run(
     )
     start = simulator.get_context().get_time()
     first = (  # the run starts when the client's first horizon is beyond its first tick
-        [Command(start, "paced by its client: its first write came", lambda _: serving.await_client(start))]
+        [
+            TimedCommand(
+                start, "paced by its client: its first write came", lambda _: serving.await_client(start)
+            )
+        ]
         if setup.extras.get("paced_by_client")
         else []
     )

@@ -22,7 +22,7 @@ from drake_sot.diagrams.artifacts import (
     write_svg,
 )
 from drake_sot.diagrams.pushes import ExternalPush, check_push_times
-from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, check_duration, simulate
+from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.errors import DrakeSotError
 from drake_sot.plots import plot_task_errors
@@ -42,7 +42,7 @@ class ScenarioSetup:
     """
 
     built: BuiltHumanoid
-    commands: list[Command]
+    commands: list[TimedCommand]
     duration: float
     targets: dict[str, RigidTransform] = field(default_factory=dict)
     extras: dict[str, Any] = field(default_factory=dict)

@@ -39,12 +39,12 @@ from drake_sot.script import (
 from drake_sot.sequencing import (
     Above,
     Below,
+    Flag,
     SetValue,
     State,
     Timeout,
     Transition,
 )
-from drake_sot.sequencing import Signal as SignalGuard
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.stack import VERBS, Pop, StackError, find_verb
 from drake_sot.systems.features import (
@@ -957,7 +957,7 @@ class AdmittanceEntity(Entity):
         return ("wrench", "sensor_pose", "hand_pose", "wrench_ref", "active")
 
     def outputs(self) -> tuple[str, ...]:
-        return ("pose_des", "velocity_des", "wrench_external", "saturated", "fault", "virtual_mass")
+        return ("position_des", "velocity_des", "wrench_external", "saturated", "fault", "virtual_mass")
 
     @_command(Phase.BUILD, "hand right|left", "the hand (its wrist sensor and poses are wired)")
     def hand(self, args: tuple[Value, ...], context: Context | None) -> str:
@@ -1103,7 +1103,7 @@ class SequencerEntity(Entity):
             )
         elif kind == "signal":
             _arity(rest, "signal PORT", 1)
-            guard = SignalGuard(_text(rest[0], "the port"))
+            guard = Flag(_text(rest[0], "the port"))
         elif kind == "timeout":
             _arity(rest, "timeout S", 1)
             guard = Timeout(_number(rest[0], "S"))

@@ -42,7 +42,7 @@ class                            signals (in → out), commands
                                  ``down``, ``clear`` (each with an optional time [s]), ``list``
 ``PatternGenerator``             → com, com_vel, left_foot, right_foot, waist, zmp_ref, …,
                                  in_process; ``parsecmd``, ``velocity``
-``AdmittanceController``         wrench_ref, active → pose_des, velocity_des, wrench_external,
+``AdmittanceController``         wrench_ref, active → position_des, velocity_des, wrench_external,
                                  saturated, fault; ``hand``, ``mass``, ``damping``, …
 ``TaskSequencer``                <guard inputs> → stack, smooth_stack, state, transitions, <outputs>;
                                  ``addState``, ``addEntry``, ``addTransition``, ``transitionTime``, …
@@ -106,7 +106,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot import validation
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
-from drake_sot.diagrams.run import Command as TimedCommand
+from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.script_entities import (
     AT_MOST_ONE,
@@ -131,7 +131,6 @@ from drake_sot.diagrams.script_entities import (
 from drake_sot.errors import UnknownNameError, prefixed
 from drake_sot.script import (
     Call,
-    Command,
     Destroy,
     Get,
     Name,
@@ -139,6 +138,7 @@ from drake_sot.script import (
     Plug,
     Run,
     RunFor,
+    ScriptCommand,
     ScriptError,
     Set,
     Signal,
@@ -334,7 +334,7 @@ class ScriptSession:
     def is_built(self) -> bool:
         return self.built is not None
 
-    def phase(self, command: Command) -> Phase:
+    def phase(self, command: ScriptCommand) -> Phase:
         """When ``command`` acts (SessionError for an unknown entity or command)."""
         match command:
             case New() | Destroy() | Plug():
@@ -351,7 +351,7 @@ class ScriptSession:
         raise TypeError(f"{command!r} is not a script command")
 
     # --- executing --------------------------------------------------------------------------
-    def execute(self, command: str | Command | Statement, context: Context | None = None) -> str:
+    def execute(self, command: str | ScriptCommand | Statement, context: Context | None = None) -> str:
         """Run one script command; return its output text ("" when it writes nothing).
 
         Build-time commands record the diagram; the first run-time command builds it and
@@ -394,7 +394,7 @@ class ScriptSession:
         """Execute every line of ``text`` (its ``run DURATION`` on the own simulator); the outputs."""
         return [self.execute(statement) for statement in parse_script(text, source=source)]
 
-    def _dispatch(self, command: Command, context: Context | None) -> str:
+    def _dispatch(self, command: ScriptCommand, context: Context | None) -> str:
         if isinstance(command, Run):
             return "\n".join(out for st in self._included(command.path) if (out := self.execute(st, context)))
         phase = self.phase(command)
@@ -425,7 +425,7 @@ class ScriptSession:
                 return self.entity(entity).run_command(name, command.args, context if self.is_built else None)
         raise TypeError(f"{command!r} is not a script command")
 
-    def _require_build_phase(self, command: Command) -> None:
+    def _require_build_phase(self, command: ScriptCommand) -> None:
         if self.is_built:
             raise SessionError(
                 f"the diagram is built (by {self._built_by}) and a Drake diagram is fixed once built: "
@@ -758,7 +758,7 @@ def _label(statement: Statement) -> str:
     return statement.text if statement.source == COMMAND_SOURCE else f"{statement.where}: {statement.text}"
 
 
-def _located(error: Exception, statement: Statement | None, command: Command) -> SessionError:
+def _located(error: Exception, statement: Statement | None, command: ScriptCommand) -> SessionError:
     """``error`` prefixed with the script line (or the command) that raised it; an unknown name
     stays one (:class:`UnknownScriptName`)."""
     prefix = _label(statement) if statement else str(command)
@@ -768,7 +768,7 @@ def _located(error: Exception, statement: Statement | None, command: Command) ->
     return SessionError(f"{prefix}: {error}", located=True)
 
 
-def _keyword(command: Command) -> str:
+def _keyword(command: ScriptCommand) -> str:
     match command:
         case Call(entity, name):
             return f"{entity}.{name}"

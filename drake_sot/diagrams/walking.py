@@ -18,7 +18,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from drake_sot.diagrams.balance import add_stabilizer, add_zmp_estimator
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, alternating_steps
@@ -192,7 +192,7 @@ def build_walk(
         command_server=command_server,
     )
     steps = steps_of(left, right)
-    commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
+    commands = [TimedCommand(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
     duration = START + len(steps) * b.robot.step_timing.period + 2.0
     return ScenarioSetup(
         built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}

@@ -20,7 +20,7 @@ from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.models import HumanoidInfo, add_ground
 from drake_sot.robots import RobotDescription, add_robot_collision, load_robot, weld_robot_base
 from drake_sot.systems.fall_monitor import FallMonitor
-from drake_sot.systems.features import _Feature
+from drake_sot.systems.features import Feature
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.stack_history import StackHistory
 from drake_sot.systems.task import Task
@@ -45,7 +45,7 @@ class BuiltHumanoid:
     control_plant: MultibodyPlant
     dyn: RobotKinematics
     tasks: dict[str, Task]
-    features: dict[str, _Feature]
+    features: dict[str, Feature]
     loggers: dict[str, VectorLogSink]
     q0: np.ndarray
     meshcat: Meshcat | None

@@ -9,7 +9,7 @@ own state what a Drake system may change — its own outputs:
 - **stack commands** (``SOT.push|rm|up|down TASK``, ``SOT.pop``, ``SOT.clear``, ``SOT`` being the
   solver's name given here; each may end with a transition time in seconds, ``SOT.push TASK 0.5``,
   over which the change is blended; read by :func:`drake_sot.script.stack_command`, the
-  vocabulary's parser, into :data:`drake_sot.stack.Command` values) go out as a batch
+  vocabulary's parser, into :data:`drake_sot.stack.StackCommand` values) go out as a batch
   on the ``commands`` output, which a
   :class:`~drake_sot.systems.sot.StackOfTasks` made with ``commands_input=True`` applies at
   the same tick (after its held stack; its ``command_results`` says, per command, if it acted);
@@ -52,7 +52,7 @@ from drake_sot.remote.protocol import Request
 from drake_sot.script import Call, Get, ScriptError, parse_line, stack_command
 from drake_sot.stack import StackError
 from drake_sot.systems._context import own_context
-from drake_sot.systems.sot import StackCommand, StackCommands
+from drake_sot.systems.sot import StackCommands, TimedStackCommand
 
 #: Times within this of a tick count as that tick [s] (sampled times are sums of floats).
 _EPS = 1e-9
@@ -206,7 +206,7 @@ class RemoteCommandServer(LeafSystem):
         if not requests and not timed:
             return
         t = context.get_time()
-        commands: list[StackCommand] = []
+        commands: list[TimedStackCommand] = []
         taken = []
         timed = dict(timed)
         for connection, request in requests:
@@ -230,7 +230,7 @@ class RemoteCommandServer(LeafSystem):
         connection: int,
         request: Request | None,
         t: float,
-        commands: list[StackCommand],
+        commands: list[TimedStackCommand],
         state: DrakeState,
         timed: dict[str, Link],
     ) -> TakenRequest:
@@ -311,7 +311,7 @@ def _host_changes_context(request: Request | None) -> bool:
     return not (isinstance(command, Call) and command.command in _QUERIES)
 
 
-def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:
+def _stack_command(cmd: str, sot: str, t: float) -> TimedStackCommand | str | None:
     """The stack command of a script line ``SOT.VERB …`` for solver ``sot``, given at ``t``; the
     vocabulary's error message when it is not one (an unknown verb, wrong arguments); None when the
     line is something else (for the host)."""
@@ -322,6 +322,6 @@ def _stack_command(cmd: str, sot: str, t: float) -> StackCommand | str | None:
     if not (isinstance(command, Call) and command.entity == sot and command.command not in _QUERIES):
         return None
     try:
-        return StackCommand(t, stack_command(command))
+        return TimedStackCommand(t, stack_command(command))
     except StackError as error:
         return f"{cmd.strip()!r}: {error}"

@@ -455,7 +455,7 @@ def test_pattern_generator_sequencer_and_admittance_act_at_run_time():
         new FeaturePoint6d featureRH
         plug dyn.rhand featureRH.position
         plug dyn.Jrhand featureRH.Jq
-        plug admRH.pose_des featureRH.position_des
+        plug admRH.position_des featureRH.position_des
         plug admRH.velocity_des featureRH.velocity_des
         new Task taskForce
         taskForce.add featureRH
@@ -483,8 +483,8 @@ def test_pattern_generator_sequencer_and_admittance_act_at_run_time():
     assert session.execute("sot.list") == "taskCom taskForce"
     assert session.execute("get admRH.fault") == "[1](0.0)"
     hand = session.built.frame_pose(session.simulator.get_context(), "right_hand")
-    pose_des = parse_value(session.execute("get admRH.pose_des")).array
-    assert np.linalg.norm(pose_des[:3, 3] - hand.translation()) < 0.01
+    position_des = parse_value(session.execute("get admRH.position_des")).array
+    assert np.linalg.norm(position_des[:3, 3] - hand.translation()) < 0.01
     with pytest.raises(
         SessionError,
         match=r"pg.parsecmd :stepheight 2: :stepheight: .*step_height = 2.0 m: must be in \[0.01, 0.3\] m",

@@ -16,7 +16,7 @@ import pytest
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from drake_sot.diagrams.artifacts import log_arrays
-from drake_sot.diagrams.run import Command, simulate
+from drake_sot.diagrams.run import TimedCommand, simulate
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import sole_corner_points
 from drake_sot.quasistatic import SolveStatus
@@ -147,7 +147,7 @@ def short_run():
     limits = {j: 1.1 * abs(tau) + 0.5 for j, tau in _static_torques(b).items()}
     b, built = _com_and_posture(effort_limits=limits)
     com0 = b.initial_com()
-    shift = Command(
+    shift = TimedCommand(
         SHIFT_AT, "CoM +8 cm", lambda c: built.features["taskCom"].set_desired(c, com0 + [0.08, 0.0, 0.0])
     )
     simulator = built.create_simulator()
@@ -217,7 +217,7 @@ def test_the_fallback_in_physics_is_saturated_and_reported():
     )
     bent = b.q0.copy()
     bent[b.control_plant.GetJointByName("chest_pitch").position_start()] += 1.2
-    bend = Command(0.2, "bend", lambda c: built.features["taskPosture"].set_desired(c, bent))
+    bend = TimedCommand(0.2, "bend", lambda c: built.features["taskPosture"].set_desired(c, bent))
     simulator = built.create_simulator()
     assert simulate(simulator, 1.0, [bend]).completed
     context = simulator.get_context()
