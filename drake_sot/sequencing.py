@@ -40,7 +40,7 @@ from types import MappingProxyType
 import numpy as np
 
 from drake_sot import validation
-from drake_sot.errors import prefixed
+from drake_sot.errors import UnknownNameError, prefixed
 from drake_sot.stack import COMMANDS, Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 
 __all__ = [
@@ -358,9 +358,8 @@ class StateMachine:
             if state.name in self._states:
                 raise ValueError(f"{where}: two states are named {state.name!r}")
             self._states[state.name] = state
-        known_states = ", ".join(self._states)
         if initial not in self._states:
-            raise ValueError(f"{where}: initial state {initial!r} does not exist; states: {known_states}")
+            raise UnknownNameError("state", initial, self._states, where=f"{where}: initial state")
         self._initial = initial
 
         # --- outputs set by SetValue: kinds and sizes from the initial values
@@ -398,8 +397,8 @@ class StateMachine:
             self._entries[state.name] = tuple(entry)
             for transition in state.transitions:
                 if transition.target not in self._states:
-                    raise ValueError(
-                        f"{at}: transition to unknown state {transition.target!r}; states: {known_states}"
+                    raise UnknownNameError(
+                        "state", transition.target, self._states, where=f"{at}: transition"
                     )
                 guard = transition.guard
                 if isinstance(guard, Timeout):

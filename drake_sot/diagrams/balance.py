@@ -17,6 +17,7 @@ from pydrake.systems.framework import OutputPort
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
+from drake_sot.errors import UnknownNameError
 from drake_sot.models.humanoid import SOLE
 from drake_sot.recovery import LeanProfile
 from drake_sot.stabilization import StabilizerGains
@@ -62,7 +63,7 @@ def add_stabilizer(
         gains: the stabilizer's gains.
     """
     if com_task not in b.features:
-        raise ValueError(f"com_task = {com_task!r}: no such task; known: {', '.join(b.features)}")
+        raise UnknownNameError("task", com_task, b.features, where="com_task")
     if references is None:
         references = _standing_references(b)
     missing = [name for name in REFERENCES if name not in references]

@@ -19,6 +19,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import Context, LeafSystem, State
 
 from drake_sot import validation
+from drake_sot.errors import UnknownNameError
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, StepTiming, relative_steps
 from drake_sot.systems._context import own_context
 from drake_sot.walk_planner import FOOTPRINTS_AHEAD, WalkPlanner
@@ -235,7 +236,7 @@ class PatternGenerator(LeafSystem):
             ":previewcontroltime": lambda v: self.set_model(context, horizon=_one(v)),
         }
         if verb not in handlers:
-            raise ValueError(f"unknown command {verb!r}; known: {', '.join(handlers)}")
+            raise UnknownNameError("command", verb, handlers)
         try:
             values = [float(a) for a in args]
         except ValueError:

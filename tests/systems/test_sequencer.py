@@ -345,10 +345,10 @@ def test_unknown_task_is_refused_at_construction_with_the_known_names():
             [State("s0", transitions=(Transition(Timeout(1), "nowhere"),))],
             "s0",
             {},
-            "transition to unknown state 'nowhere'; states: s0",
+            "transition: unknown state 'nowhere'; known: s0",
         ),
         ([State("s0"), State("s0")], "s0", {}, "two states are named 's0'"),
-        ([State("s0")], "start", {}, "initial state 'start' does not exist; states: s0"),
+        ([State("s0")], "start", {}, "initial state: unknown state 'start'; known: s0"),
         ([], "s0", {}, "at least one state"),
         (
             [State("s0", entry=(SetValue("ref", 1.0),))],
