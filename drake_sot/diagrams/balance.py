@@ -61,6 +61,10 @@ def add_stabilizer(
             ``{name: pg.GetOutputPort(name)}``); None: standing still, the references are
             the initial CoM at rest, its ground projection as the ZMP.
         gains: the stabilizer's gains.
+
+    Raises:
+        UnknownNameError: ``com_task`` is not a task of ``b`` (lists them).
+        ValueError: ``references`` lacks some of :data:`REFERENCES` (naming them).
     """
     if com_task not in b.features:
         raise UnknownNameError("task", com_task, b.features, where="com_task")

@@ -222,6 +222,11 @@ class PatternGenerator(LeafSystem):
         ``:comheight z`` and ``:previewcontroltime T`` (these two only while standing).
         Timing changes apply to the steps planned afterwards. Values outside
         ``footsteps.WALKING_BOUNDS`` are refused, the error naming the verb and the bound.
+
+        Raises:
+            UnknownNameError: an unknown verb (a ValueError; lists the verbs).
+            ValueError: an empty command, arguments that are not numbers or that the verb
+                refuses (naming the verb).
         """
         words = command.split()
         if not words:
