@@ -5,9 +5,9 @@ base that says what kind of failure it is (ValueError for a bad value, OSError f
 RuntimeError for a missing tool...), so ``except DrakeSotError`` catches what the package
 refuses and ``except ValueError`` still catches what it always did.
 
-A name that is looked up and not found — a task, a frame, a robot, a script entity or
-signal, a writable signal of the command server — raises :class:`UnknownNameError`, whose
-message lists the names that are known, the close ones first.
+A name that is looked up and not found — a task, a frame, a robot, a script's entity, signal,
+command or class, a sequencer state, a served or writable signal — raises
+:class:`UnknownNameError`, whose message lists the names that are known, the close ones first.
 """
 
 from __future__ import annotations
