@@ -53,7 +53,7 @@ import time
 
 import numpy as np
 
-from drake_sot.quasistatic import FrictionCone, QsProblem, QsTask, QuasiStaticQP
+from drake_sot.quasistatic import FrictionCone, QsProblem, QsTask, QuasiStaticQP, SolveStatus
 
 N_BASE, N_A = 6, 30
 N = N_BASE + N_A
@@ -200,8 +200,13 @@ def make_quadprog():
                 np.diag(1.0 / np.sqrt(p.h)), p.h * p.d, Cmat, b, p.A_eq.shape[0], factorized=True
             )[0]
         except ValueError as e:
-            return None, ("infeasible" if "inconsistent" in str(e) else "failed"), str(e), 0
-        return x, "optimal", "", 0
+            return (
+                None,
+                (SolveStatus.INFEASIBLE if "inconsistent" in str(e) else SolveStatus.FAILED),
+                str(e),
+                0,
+            )
+        return x, SolveStatus.OPTIMAL, "", 0
 
     return solve
 
@@ -228,9 +233,14 @@ def make_proxsuite():
         st = qp.results.info.status
         S = proxsuite.proxqp.QPSolverOutput
         if st == S.PROXQP_SOLVED:
-            return qp.results.x.copy(), "optimal", "", int(qp.results.info.iter)
+            return qp.results.x.copy(), SolveStatus.OPTIMAL, "", int(qp.results.info.iter)
         state.pop("qp")
-        return None, ("infeasible" if st == S.PROXQP_PRIMAL_INFEASIBLE else "failed"), str(st), 0
+        return (
+            None,
+            (SolveStatus.INFEASIBLE if st == S.PROXQP_PRIMAL_INFEASIBLE else SolveStatus.FAILED),
+            str(st),
+            0,
+        )
 
     return solve
 
@@ -253,8 +263,13 @@ def make_piqp():
         )
         st = s.solve()
         if st == piqp.PIQP_SOLVED:
-            return s.result.x.copy(), "optimal", "", int(s.result.info.iter)
-        return None, ("infeasible" if st == piqp.PIQP_PRIMAL_INFEASIBLE else "failed"), str(st), 0
+            return s.result.x.copy(), SolveStatus.OPTIMAL, "", int(s.result.info.iter)
+        return (
+            None,
+            (SolveStatus.INFEASIBLE if st == piqp.PIQP_PRIMAL_INFEASIBLE else SolveStatus.FAILED),
+            str(st),
+            0,
+        )
 
     return solve
 
@@ -283,8 +298,8 @@ def make_drake_osqp():
             state["in"].evaluator().UpdateCoefficients(p.A_in, p.lower, p.upper)
         r = solver.Solve(state["prog"], None, opts)
         if r.is_success():
-            return r.GetSolution(), "optimal", "", 0
-        return None, "failed", str(r.get_solution_result()), 0
+            return r.GetSolution(), SolveStatus.OPTIMAL, "", 0
+        return None, SolveStatus.FAILED, str(r.get_solution_result()), 0
 
     return solve
 
@@ -338,9 +353,9 @@ def run(ticks: int) -> None:
             for s in solvers:
                 sol = qps[(s, form)].solve(ts, g, weighted=weighted)
                 times[(s, form)].append(sol.solve_time)
-                if sol.status != "optimal":
+                if sol.status is not SolveStatus.OPTIMAL:
                     fails[(s, form)] += 1
-                    why.setdefault(s, f"{sol.status}: {sol.message}")
+                    why.setdefault(s, f"{sol.status.value}: {sol.message}")
                     continue
                 x = np.concatenate(list(sol.wrenches.values()))
                 if s == "daqp":
@@ -352,7 +367,7 @@ def run(ticks: int) -> None:
                     err[(s, form)] = max(err[(s, form)], float(np.abs(x - ref).max()))
             sol = cold[form].solve(ts, g, weighted=weighted)
             times[("daqp, cold start", form)].append(sol.solve_time)
-            fails[("daqp, cold start", form)] += sol.status != "optimal"
+            fails[("daqp, cold start", form)] += sol.status is not SolveStatus.OPTIMAL
         t0 = time.perf_counter()
         qps[("daqp", "hierarchical eq. 9-11")].build(hier, g)
         build.append(time.perf_counter() - t0)
@@ -363,7 +378,7 @@ def run(ticks: int) -> None:
         sol = tick_qp.solve(with_projectors(raw, P), g)
         full.append(time.perf_counter() - t0)
         proj.append(t1 - t0)
-        assert sol.status == "optimal", sol.message
+        assert sol.status is SolveStatus.OPTIMAL, sol.message
 
     def us(v):
         return f"{1e6 * v:.0f} µs"

@@ -38,9 +38,9 @@ the :class:`QsProblem` (the benchmark does so to compare them through the same b
 Infeasibility. When the constraints cannot hold together (a minimum normal force that the
 robot's weight cannot provide, torque bounds that the equilibrium violates, an equilibrium
 that the task Jacobians cannot reach because nothing supports the base, ...) the solution
-has ``status == "infeasible"``; when the solver stops for another reason (iteration limit,
+has ``status`` :attr:`SolveStatus.INFEASIBLE`; when the solver stops for another reason (iteration limit,
 numerical trouble) or returns a point that violates the constraints beyond tolerance, it is
-``"failed"``. In both cases ``wrenches`` and ``tau`` are all NaN, never a partial answer,
+:attr:`SolveStatus.FAILED`. In both cases ``wrenches`` and ``tau`` are all NaN, never a partial answer,
 and ``message`` says what went wrong. The caller must then not use ``tau``: it applies a
 safe torque instead (e.g. the last feasible ``tau`` held for a few ticks, then a damped
 hold of the posture) and reports the event; relaxing the stack (dropping a goal task,
@@ -51,6 +51,7 @@ infeasible: the goal is a cost term, and the solution is the closest admissible 
 
 from __future__ import annotations
 
+import enum
 import math
 import time
 from collections import OrderedDict
@@ -68,6 +69,7 @@ __all__ = [
     "QsSolution",
     "QsTask",
     "QuasiStaticQP",
+    "SolveStatus",
     "StackedQP",
     "StaticCapacity",
     "static_capacity",
@@ -82,6 +84,49 @@ _INEQ_TOL = 1e-6
 _CACHE_SIZE = 8
 # static_capacity: the largest factor tried on the torque bounds before reporting inf.
 _LARGEST_SCALE = 1e15
+
+
+class SolveStatus(enum.Enum):
+    """How a solve of the torque layer ended: the QP's :attr:`QsSolution.status` (a plug-in
+    solver returns one too) and the generalized controller's verdict on it, which its ``status``
+    output carries as :attr:`code`.
+
+    The QP returns OPTIMAL, INFEASIBLE or FAILED (see the module docstring); SHORT is the
+    controller's: the QP was optimal but a goal-directed task falls short of its desired wrench
+    by more than the threshold. The value is the name logs and reports show.
+    """
+
+    OPTIMAL = "optimal"
+    SHORT = "short"
+    INFEASIBLE = "infeasible"
+    FAILED = "failed"
+
+    @property
+    def code(self) -> float:
+        """The status as a number for a vector port: 0 optimal, 1 short, 2 infeasible, 3 failed."""
+        return _CODES[self]
+
+    @classmethod
+    def of_code(cls, code: float) -> SolveStatus:
+        """The status whose :attr:`code` is ``code``.
+
+        Raises:
+            ValueError: ``code`` is none of the codes (named, with the codes).
+        """
+        for status, value in _CODES.items():
+            if value == code:
+                return status
+        raise ValueError(
+            f"status code = {code!r}: must be one of {', '.join(f'{v:g}' for v in _CODES.values())}"
+        )
+
+    @property
+    def fallback(self) -> bool:
+        """True when the QP gave no answer (INFEASIBLE, FAILED): its torque must not be used."""
+        return self in (SolveStatus.INFEASIBLE, SolveStatus.FAILED)
+
+
+_CODES = {status: float(i) for i, status in enumerate(SolveStatus)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -189,7 +234,8 @@ class QsSolution:
     Attributes:
         wrenches: task name → optimal task wrench ``w_i*`` (m_i,) (NaN unless optimal).
         tau: (n_a,) actuated torques ``τ`` of eq. 10 / eq. 7 [N·m] (NaN unless optimal).
-        status: "optimal", "infeasible" (constraints cannot hold together) or "failed".
+        status: OPTIMAL, INFEASIBLE (constraints cannot hold together) or FAILED
+            (:class:`SolveStatus`).
         cost: ``Σ_goal ω‖wᵈ − w‖² + Σ_non-goal ω_r‖w‖²`` at the solution (the weights of
             the form solved: 1 for goal tasks in the hierarchical form); NaN unless optimal.
         root_residual: ``max |[Σ P_i J_iᵀ w_i + g]_root|`` (N, N·m); NaN unless optimal.
@@ -200,7 +246,7 @@ class QsSolution:
 
     wrenches: dict[str, np.ndarray]
     tau: np.ndarray
-    status: str
+    status: SolveStatus
     cost: float
     root_residual: float
     solve_time: float
@@ -248,7 +294,7 @@ class QsProblem:
 
 
 # A plug-in solver: QsProblem -> (x or None, status, message, iterations).
-SolverFn = Callable[[QsProblem], tuple[np.ndarray | None, str, str, int]]
+SolverFn = Callable[[QsProblem], tuple[np.ndarray | None, SolveStatus, str, int]]
 
 
 class _Layout:
@@ -423,7 +469,7 @@ class QuasiStaticQP:
             fixed base: then there is no equilibrium constraint).
         tau_min, tau_max: (n - n_base,) torque bounds [N·m]; None or ±inf for no bound.
         solver: "daqp" (default), or a callable ``f(problem: QsProblem) -> (x, status,
-            message, iterations)`` with status "optimal" / "infeasible" / "failed" (x None
+            message, iterations)`` with a :class:`SolveStatus` OPTIMAL, INFEASIBLE or FAILED (x None
             unless optimal), to solve the same QP with another solver.
         warm_start: let DAQP start from the previous tick's active set while the problem
             structure (tasks, sizes, contact cones) is unchanged.
@@ -604,18 +650,21 @@ class QuasiStaticQP:
             x, status, message, iters = self._solve_daqp(lay)
         else:
             x, status, message, iters = self.solver(lay.problem)
-        if status == "optimal":
+        if status is SolveStatus.OPTIMAL:
             x = np.asarray(x, dtype=float)
             status, message = self._check(lay, x)
-            if status != "optimal":
+            if status is not SolveStatus.OPTIMAL:
                 lay.model = None  # do not warm-start from it
-        elif status not in ("infeasible", "failed"):
-            status, message = "failed", f"unknown solver status {status!r} ({message})"
-        if status == "infeasible" and not message:
+        elif status not in (SolveStatus.INFEASIBLE, SolveStatus.FAILED):
+            status, message = (
+                SolveStatus.FAILED,
+                f"solver status {status!r}: not OPTIMAL, INFEASIBLE or FAILED ({message})",
+            )
+        if status is SolveStatus.INFEASIBLE and not message:
             message = self._diagnose(lay)
         return self._solution(lay, g, x, status, message, iters, t0)
 
-    def _solve_daqp(self, lay: _Layout) -> tuple[np.ndarray | None, str, str, int]:
+    def _solve_daqp(self, lay: _Layout) -> tuple[np.ndarray | None, SolveStatus, str, int]:
         warm = self.warm_start and lay.model is not None
         if warm:
             if lay.H_changed:
@@ -635,20 +684,25 @@ class QuasiStaticQP:
             return self._solve_daqp(lay)
         iters = int(info.get("iterations", 0))
         if flag > 0:
-            return x, "optimal", "", iters
+            return x, SolveStatus.OPTIMAL, "", iters
         lay.model = None  # do not warm-start from a failed solve
         if flag == -1:
-            return None, "infeasible", "", iters
+            return None, SolveStatus.INFEASIBLE, "", iters
         if flag == -6:  # DAQP: overdetermined active set, e.g. inconsistent equilibrium rows
             if self._equilibrium_gap(lay) is not None:
-                return None, "infeasible", "", iters
-            return None, "failed", "DAQP: linearly dependent active constraints (exitflag -6)", iters
-        return None, "failed", f"DAQP stopped with exitflag {flag}", iters
+                return None, SolveStatus.INFEASIBLE, "", iters
+            return (
+                None,
+                SolveStatus.FAILED,
+                "DAQP: linearly dependent active constraints (exitflag -6)",
+                iters,
+            )
+        return None, SolveStatus.FAILED, f"DAQP stopped with exitflag {flag}", iters
 
-    def _check(self, lay: _Layout, x: np.ndarray) -> tuple[str, str]:
+    def _check(self, lay: _Layout, x: np.ndarray) -> tuple[SolveStatus, str]:
         """Verify an answer independently of the solver: equilibrium and every inequality."""
         if x.shape != (lay.m,) or not math.isfinite(x.sum()):
-            return "failed", f"solver returned a non-finite or mis-shaped x {x.shape}"
+            return SolveStatus.FAILED, f"solver returned a non-finite or mis-shaped x {x.shape}"
         nb = self.n_base
         r = lay.C @ x
         r -= lay.upper
@@ -656,13 +710,16 @@ class QuasiStaticQP:
             eq = np.abs(r[:nb]).max()
             scale = 1.0 + np.abs(lay.upper[:nb]).max() + np.abs(lay.C[:nb]).max() * np.abs(x).max()
             if eq > _EQ_TOL * scale:
-                return "failed", f"equilibrium residual {eq:.3g} after the solve"
+                return SolveStatus.FAILED, f"equilibrium residual {eq:.3g} after the solve"
         viol = r[nb:].max(initial=0.0)
         r += lay.upper
         viol = max(viol, (lay.lower[nb:] - r[nb:]).max(initial=0.0))
         if viol > _INEQ_TOL:
-            return "failed", f"a friction or torque-bound row is violated by {viol:.3g} after the solve"
-        return "optimal", ""
+            return (
+                SolveStatus.FAILED,
+                f"a friction or torque-bound row is violated by {viol:.3g} after the solve",
+            )
+        return SolveStatus.OPTIMAL, ""
 
     def _equilibrium_gap(self, lay: _Layout) -> float | None:
         """Least-squares residual of the equilibrium rows alone, or None if they can be met."""
@@ -689,7 +746,7 @@ class QuasiStaticQP:
 
     def _solution(self, lay, g, x, status, message, iters, t0) -> QsSolution:
         nb = self.n_base
-        if status != "optimal":
+        if status is not SolveStatus.OPTIMAL:
             nan = float("nan")
             return QsSolution(
                 wrenches={name: np.full(sl.stop - sl.start, nan) for name, sl in lay.slices.items()},
@@ -707,7 +764,7 @@ class QuasiStaticQP:
         return QsSolution(
             wrenches={name: x[sl] for name, sl in lay.slices.items()},
             tau=gen[nb:],
-            status="optimal",
+            status=SolveStatus.OPTIMAL,
             cost=float(lay.h @ (e * e)),
             root_residual=float(np.abs(gen[:nb]).max()) if nb else 0.0,
             solve_time=time.perf_counter() - t0,
@@ -784,7 +841,7 @@ def static_capacity(
             tau = g[n_base:].copy()
             return tau if low_s is None or np.all((low_s <= tau) & (tau <= high_s)) else None
         sol = QuasiStaticQP(g.size, n_base, low_s, high_s, warm_start=False).solve(contacts, g)
-        return sol.tau if sol.status == "optimal" else None
+        return sol.tau if sol.status is SolveStatus.OPTIMAL else None
 
     tau = solve(1.0)
     if tau is not None:

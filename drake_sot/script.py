@@ -61,11 +61,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_sot import stack
+from drake_sot.errors import DrakeSotError
 
 __all__ = [
     "KEYWORDS",
     "Call",
-    "Command",
+    "ScriptCommand",
     "Destroy",
     "Get",
     "Matrix",
@@ -101,7 +102,7 @@ _BLANK = " \t"
 _FOUND_MAX = 30  # characters of the offending text quoted in a message
 
 
-class ScriptError(ValueError):
+class ScriptError(DrakeSotError, ValueError):
     """Text that is not in the script grammar.
 
     Attributes:
@@ -302,7 +303,7 @@ class Call:
         return " ".join([f"{self.entity}.{self.command}", *map(format_value, self.args)])
 
 
-def stack_command(call: Call) -> stack.Command:
+def stack_command(call: Call) -> stack.StackCommand:
     """The stack command of a script call ``SOT.VERB [TASK] [SECONDS]`` (``sot.push taskLH 0.5``):
     its words (a name or a quoted string for a task) and values given to
     :func:`drake_sot.stack.parse_command`, the one parser of stack commands.
@@ -310,7 +311,7 @@ def stack_command(call: Call) -> stack.Command:
     The paper's commands take their task name, if any (``sot.push taskLH``, ``sot.pop``); this
     dialect also accepts a transition time in seconds after it (``sot.push taskLH 0.5``,
     ``sot.clear 1``): the change is then blended over that time
-    (:class:`drake_sot.stack.Transition`), instead of made at once (no time, or 0).
+    (:class:`drake_sot.stack.StackTransition`), instead of made at once (no time, or 0).
 
     Raises:
         drake_sot.stack.StackError: as :func:`~drake_sot.stack.parse_command` (an unknown verb,
@@ -342,7 +343,7 @@ class RunFor:
         return f"run {_number_text(self.duration)}"
 
 
-Command = New | Destroy | Plug | Set | Get | Call | Run | RunFor
+ScriptCommand = New | Destroy | Plug | Set | Get | Call | Run | RunFor
 
 
 @dataclass(frozen=True)
@@ -350,7 +351,7 @@ class Statement:
     """A parsed line: its ``command``, where it comes from (``source``, ``line`` from 1) and its
     ``text`` (the line without its comment)."""
 
-    command: Command
+    command: ScriptCommand
     line: int
     source: str
     text: str
@@ -634,7 +635,7 @@ class _Parser:
         if self.k < len(self.tokens):
             raise self.error("the end of the line (or a '#' comment)")
 
-    def command(self) -> Command | None:
+    def command(self) -> ScriptCommand | None:
         if not self.tokens:
             return None
         first = self.tokens[0]
@@ -645,7 +646,7 @@ class _Parser:
         self.k = 1
         if word == "new":
             cls = self.name("a class name (e.g. FeatureGeneric)")
-            command: Command = New(cls, self.name("the new entity's name (letters, digits, _)"))
+            command: ScriptCommand = New(cls, self.name("the new entity's name (letters, digits, _)"))
         elif word == "destroy":
             command = Destroy(self.name("the name of the entity to destroy"))
         elif word == "plug":
@@ -681,7 +682,7 @@ class _Parser:
         raise self.error(expected, token)
 
 
-def parse_line(text: str, *, line: int = 1, source: str = "<script>") -> Command | None:
+def parse_line(text: str, *, line: int = 1, source: str = "<script>") -> ScriptCommand | None:
     """The command on one line of script, or None for a blank or comment line.
 
     Raises:

@@ -8,7 +8,7 @@ declared as data: :class:`State` values whose *entry actions* are the SoT's stac
 commands (:class:`~drake_sot.stack.Push`, ``Pop``, ``Rm``, ``Up``, ``Down``, ``Clear``,
 re-exported here from :mod:`drake_sot.stack`, which applies them) or a :class:`SetValue`
 of an output (a task's reference or gain), and :class:`Transition` values guarded by
-input signals (:class:`Signal`, :class:`Below`, :class:`Above`) or by time
+input signals (:class:`Flag`, :class:`Below`, :class:`Above`) or by time
 (:class:`Timeout`).
 
 :class:`StateMachine` checks a definition once (every name, every kind and size, and
@@ -40,7 +40,8 @@ from types import MappingProxyType
 import numpy as np
 
 from drake_sot import validation
-from drake_sot.stack import COMMANDS, Clear, Command, Down, Pop, Push, Rm, Stack, StackError, Up
+from drake_sot.errors import UnknownNameError, prefixed
+from drake_sot.stack import COMMANDS, Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 
 __all__ = [
     "ACTIONS",
@@ -55,7 +56,7 @@ __all__ = [
     "Push",
     "Rm",
     "SetValue",
-    "Signal",
+    "Flag",
     "State",
     "StateMachine",
     "Status",
@@ -87,7 +88,7 @@ class SetValue:
         validation.nonempty_string("SetValue.output", self.output)
 
 
-Action = Command | SetValue
+Action = StackCommand | SetValue
 #: The action types, for ``isinstance`` checks: the stack commands and SetValue.
 ACTIONS = (*COMMANDS, SetValue)
 
@@ -98,13 +99,14 @@ ACTIONS = (*COMMANDS, SetValue)
 
 
 @dataclass(frozen=True)
-class Signal:
-    """Holds when the (1,) input ``port`` is > 0.5 (a boolean signal)."""
+class Flag:
+    """Holds when the (1,) input ``port`` is > 0.5: a flag raised by a boolean signal (the
+    script's guard ``signal PORT``)."""
 
     port: str
 
     def __post_init__(self) -> None:
-        validation.nonempty_string("Signal.port", self.port)
+        validation.nonempty_string("Flag.port", self.port)
 
     @property
     def size(self) -> int:
@@ -160,9 +162,9 @@ class Timeout:
         object.__setattr__(self, "seconds", validation.nonnegative("Timeout.seconds", self.seconds, unit="s"))
 
 
-Guard = Signal | Below | Above | Timeout
+Guard = Flag | Below | Above | Timeout
 #: The guard types, for ``isinstance`` checks.
-GUARDS = (Signal, Below, Above, Timeout)
+GUARDS = (Flag, Below, Above, Timeout)
 _TIME_TOLERANCE = 1e-9  # [s]
 
 
@@ -339,11 +341,11 @@ class StateMachine:
         try:
             empty = Stack(tasks)
         except StackError as error:
-            raise type(error)(f"{where}: {error}") from None
+            raise prefixed(error, where) from None
         try:
             stack = empty.with_active(stack)
         except StackError as error:
-            raise type(error)(f"{where}: initial stack: {error}") from None
+            raise prefixed(error, f"{where}: initial stack") from None
 
         # --- states
         states = list(states)
@@ -356,9 +358,8 @@ class StateMachine:
             if state.name in self._states:
                 raise ValueError(f"{where}: two states are named {state.name!r}")
             self._states[state.name] = state
-        known_states = ", ".join(self._states)
         if initial not in self._states:
-            raise ValueError(f"{where}: initial state {initial!r} does not exist; states: {known_states}")
+            raise UnknownNameError("state", initial, self._states, where=f"{where}: initial state")
         self._initial = initial
 
         # --- outputs set by SetValue: kinds and sizes from the initial values
@@ -388,7 +389,7 @@ class StateMachine:
                     try:
                         stack.check_known(action.task)
                     except StackError as error:
-                        raise type(error)(f"{at}: entry action {action!r} names {error}") from None
+                        raise prefixed(error, f"{at}: entry action {action!r}") from None
                 if isinstance(action, SetValue):
                     action = self._checked_set_value(at, action, initial_values)
                     set_outputs.add(action.output)
@@ -396,8 +397,8 @@ class StateMachine:
             self._entries[state.name] = tuple(entry)
             for transition in state.transitions:
                 if transition.target not in self._states:
-                    raise ValueError(
-                        f"{at}: transition to unknown state {transition.target!r}; states: {known_states}"
+                    raise UnknownNameError(
+                        "state", transition.target, self._states, where=f"{at}: transition"
                     )
                 guard = transition.guard
                 if isinstance(guard, Timeout):
@@ -423,7 +424,7 @@ class StateMachine:
         try:
             entered_stack, entered_values = self._run_entry(initial, stack, self._initial_values)
         except StackError as error:
-            raise type(error)(f"{where}, entering state {initial!r}: {error}") from None
+            raise prefixed(error, f"{where}, entering state {initial!r}") from None
         self._initial_status = Status(initial, 0.0, entered_stack, entered_values, 0)
         if check_paths:
             self._check_paths(self._initial_status)
@@ -541,7 +542,7 @@ class StateMachine:
                 f"sequencer {self._name!r}, state {status.state!r}: input port {guard.port!r} holds "
                 f"NaN or Inf at t = {time:.4f} s: {u}"
             )
-        if isinstance(guard, Signal):
+        if isinstance(guard, Flag):
             return bool(u[0] > 0.5)
         norm = float(np.linalg.norm(u))
         return norm < guard.threshold if isinstance(guard, Below) else norm > guard.threshold
@@ -596,10 +597,11 @@ class StateMachine:
                     while at is not None:
                         path.append(at[0])
                         at = parents[at]
-                    raise type(error)(
-                        f"sequencer {self._name!r}: entering state {transition.target!r} "
-                        f"by the path {' → '.join(reversed(path))} would fail: {error} "
-                        f"(pass check_paths=False if that path cannot happen)"
+                    raise prefixed(
+                        error,
+                        f"sequencer {self._name!r}: entering state {transition.target!r} by the path "
+                        f"{' → '.join(reversed(path))} would fail (pass check_paths=False if that "
+                        f"path cannot happen)",
                     ) from None
                 child = (transition.target, stack)
                 if child not in parents:

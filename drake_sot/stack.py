@@ -28,7 +28,7 @@ state machine's entry and Python make the same command and meet the same errors.
 Smooth changes. A command is instantaneous: the control law jumps from the solution of
 one stack to the solution of the next. A stack can instead be *reached* from the one
 before over a transition time T (:meth:`Stack.transition_from`): it then carries a
-:class:`Transition` (the stack it comes from, the start time, T), and
+:class:`StackTransition` (the stack it comes from, the start time, T), and
 :meth:`Stack.blend` says, at any time t, which stacks the control law combines and with
 which weights — the stack left with ``1 - h(t)``, the stack reached with ``h(t)``, where
 ``h`` is the raised-cosine profile of Liu, Lober, Padois 2016, eq. 12
@@ -52,6 +52,7 @@ from types import MappingProxyType
 from typing import ClassVar
 
 from drake_sot import validation
+from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.transitions import smooth_step
 
 __all__ = [
@@ -59,14 +60,14 @@ __all__ = [
     "MAX_TRANSITION",
     "VERBS",
     "Clear",
-    "Command",
+    "StackCommand",
     "Down",
     "Pop",
     "Push",
     "Rm",
     "Stack",
     "StackError",
-    "Transition",
+    "StackTransition",
     "UnknownTaskError",
     "Up",
     "StackVerb",
@@ -76,7 +77,7 @@ __all__ = [
 ]
 
 
-class StackError(ValueError):
+class StackError(DrakeSotError, ValueError):
     """A hierarchy that is not valid, or a command that does not apply to the stack it meets.
 
     The message names the task and lists the known tasks (unknown name) or the current
@@ -84,15 +85,13 @@ class StackError(ValueError):
     """
 
 
-class UnknownTaskError(StackError, KeyError):
-    """A task name that is not one of the known tasks.
+class UnknownTaskError(StackError, UnknownNameError):
+    """A task name that is not one of the known tasks: a :class:`StackError` (a ValueError) and an
+    :class:`~drake_sot.errors.UnknownNameError` of kind ``"task"`` (a KeyError) listing the known
+    tasks."""
 
-    Both a :class:`StackError` (a ValueError) and a KeyError, like the lookup of an
-    unknown key; its message lists the known tasks.
-    """
-
-    def __str__(self) -> str:
-        return BaseException.__str__(self)  # the message, not KeyError's quoted repr of it
+    def __init__(self, task: object, known: Iterable[str], *, where: str = "") -> None:
+        UnknownNameError.__init__(self, "task", task, known, where=where)
 
 
 def task_names(value: Iterable[str], *, what: str) -> tuple[str, ...]:
@@ -235,7 +234,7 @@ class Clear(_Command):
     verb: ClassVar[str] = "clear"
 
 
-Command = Push | Pop | Rm | Up | Down | Clear
+StackCommand = Push | Pop | Rm | Up | Down | Clear
 #: The command types, for ``isinstance`` checks.
 COMMANDS = (Push, Pop, Rm, Up, Down, Clear)
 
@@ -251,7 +250,7 @@ class StackVerb:
         doc: what it does, for help texts.
     """
 
-    command: type[Command]
+    command: type[StackCommand]
     tasks: int
     timed: bool
     doc: str
@@ -293,7 +292,7 @@ def find_verb(word: object) -> StackVerb:
     return found
 
 
-def parse_command(word: object, args: Sequence[object]) -> Command:
+def parse_command(word: object, args: Sequence[object]) -> StackCommand:
     """The command ``word ARG…``: its task names (``str``), then, if the verb is timed, an optional
     transition time [s] (a number; none: 0, at once).
 
@@ -322,7 +321,7 @@ def parse_command(word: object, args: Sequence[object]) -> Command:
 
 
 @dataclass(frozen=True)
-class Transition:
+class StackTransition:
     """A change of the stack in progress: the control law moves from the solution of
     ``origin`` to that of the stack holding this transition over
     ``[start, start + duration]``.
@@ -345,9 +344,9 @@ class Transition:
 
     def __post_init__(self) -> None:
         if not isinstance(self.origin, Stack):
-            raise TypeError(f"Transition.origin must be a Stack, got {type(self.origin).__name__}")
-        object.__setattr__(self, "start", validation.finite("Transition.start", self.start))
-        duration = _transition_time("Transition.duration", self.duration, positive=True)
+            raise TypeError(f"StackTransition.origin must be a Stack, got {type(self.origin).__name__}")
+        object.__setattr__(self, "start", validation.finite("StackTransition.start", self.start))
+        duration = _transition_time("StackTransition.duration", self.duration, positive=True)
         object.__setattr__(self, "duration", duration)
 
     def progress(self, t: float) -> float:
@@ -374,20 +373,20 @@ class Stack:
     Raises:
         StackError: at construction, when ``tasks`` or ``active`` is not a tuple of
             distinct names; :class:`UnknownTaskError` when ``active`` names an unknown
-            task (the message lists the culprits and the known tasks). A command raises
+            task (the message names the first and lists the known tasks). A command raises
             UnknownTaskError for an unknown name and StackError when it does not apply.
     """
 
     tasks: tuple[str, ...]
     active: tuple[str, ...] = ()
-    transition: Transition | None = None
+    transition: StackTransition | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tasks", task_names(self.tasks, what="tasks"))
         object.__setattr__(self, "active", self._checked_active(self.active))
         if self.transition is not None:
-            if not isinstance(self.transition, Transition):
-                raise StackError(f"transition must be a Transition or None, got {self.transition!r}")
+            if not isinstance(self.transition, StackTransition):
+                raise StackError(f"transition must be a StackTransition or None, got {self.transition!r}")
             if self.transition.origin.tasks != self.tasks:
                 raise StackError(
                     f"the transition comes from a stack of other known tasks "
@@ -395,7 +394,7 @@ class Stack:
                 )
 
     # --- construction without re-validating what the algebra guarantees ---------------
-    def _with(self, active: tuple[str, ...], transition: Transition | None = None) -> Stack:
+    def _with(self, active: tuple[str, ...], transition: StackTransition | None = None) -> Stack:
         stack = object.__new__(Stack)
         object.__setattr__(stack, "tasks", self.tasks)
         object.__setattr__(stack, "active", active)
@@ -410,14 +409,10 @@ class Stack:
             raise StackError(f"the stack must be a sequence of task names, got {active!r}")
         unknown = [n for n in active if n not in self.tasks]
         twice = _twice(active)
-        if unknown or twice:
-            problems = []
-            if unknown:
-                problems.append(f"unknown {_tasks(unknown)}")
-            if twice:
-                problems.append(f"{_tasks(twice)} listed twice")
-            error = UnknownTaskError if unknown else StackError
-            raise error(f"the stack {active} has {' and '.join(problems)}; known tasks: {self._known()}")
+        if unknown:
+            raise UnknownTaskError(unknown[0], self.tasks, where=f"the stack {active}")
+        if twice:
+            raise StackError(f"the stack {active} has {_tasks(twice)} listed twice")
         return active
 
     def with_active(self, active: Iterable[str]) -> Stack:
@@ -439,7 +434,7 @@ class Stack:
         base = Stack(tasks)
         transition = self.transition
         if transition is not None:
-            transition = Transition(transition.origin.over(tasks), transition.start, transition.duration)
+            transition = StackTransition(transition.origin.over(tasks), transition.start, transition.duration)
         return base._with(base._checked_active(self.active), transition)
 
     # --- the value ---------------------------------------------------------------------
@@ -464,7 +459,7 @@ class Stack:
     def check_known(self, task: str) -> str:
         """``task`` if it is one of the known tasks, else UnknownTaskError listing them."""
         if task not in self.tasks:
-            raise UnknownTaskError(f"unknown task {task!r}; known tasks: {self._known()}")
+            raise UnknownTaskError(task, self.tasks)
         return task
 
     def priority(self, task: str) -> int:
@@ -521,7 +516,7 @@ class Stack:
         """No active task."""
         return self._with(())
 
-    def apply(self, command: Command, *, at: float | None = None) -> Stack:
+    def apply(self, command: StackCommand, *, at: float | None = None) -> Stack:
         """The stack after ``command`` (one of :data:`COMMANDS`): the one way a command acts.
 
         A command with a ``transition`` T > 0 gives the stack reached from this one over
@@ -562,7 +557,7 @@ class Stack:
         """This stack, reached from ``before`` over ``[start, start + duration]``.
 
         ``duration = 0`` returns the stack as it is (an instantaneous change). Otherwise
-        the result carries a :class:`Transition` from ``before`` as it stands at ``start``:
+        the result carries a :class:`StackTransition` from ``before`` as it stands at ``start``:
         its transitions finished by then are dropped, and one that has not progressed
         yet (it starts at ``start`` or later: e.g. ``push`` then ``up`` given at the same
         instant) is composed with this one, which then leads from that transition's
@@ -585,7 +580,7 @@ class Stack:
             origin = origin.transition.origin
         if origin.transition is None and origin.active == self.active:
             return self._with(self.active)
-        return self._with(self.active, Transition(origin, start, duration))
+        return self._with(self.active, StackTransition(origin, start, duration))
 
     def settled(self, t: float) -> Stack:
         """The same stack without the transitions (its own and nested ones) finished at time ``t``."""
@@ -597,7 +592,9 @@ class Stack:
         origin = self.transition.origin.settled(t)
         if origin is self.transition.origin:
             return self
-        return self._with(self.active, Transition(origin, self.transition.start, self.transition.duration))
+        return self._with(
+            self.active, StackTransition(origin, self.transition.start, self.transition.duration)
+        )
 
     def blend(self, t: float) -> tuple[tuple[tuple[str, ...], float], ...]:
         """The stacks the control law combines at time ``t`` and their weights.

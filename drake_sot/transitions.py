@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drake_sot.errors import UnknownNameError
 from drake_sot.validation import finite, nonnegative
 
 __all__ = ["AlphaSchedule", "AlphaTransition", "Priorities", "smooth_step"]
@@ -240,12 +241,13 @@ class AlphaSchedule:
         return max((tr.end for trs in self._pairs.values() for tr in trs), default=-np.inf)
 
     def index(self, task: str | int) -> int:
-        """Row/column of ``task`` (a name or an index), or raise ValueError listing the known names."""
+        """Row/column of ``task`` (a name or an index); an unknown name raises
+        :class:`~drake_sot.errors.UnknownNameError` (a ValueError) listing the known ones."""
         if isinstance(task, str):
             try:
                 return self._index[task]
             except KeyError:
-                raise ValueError(f"unknown task {task!r}; known tasks: {', '.join(self._names)}") from None
+                raise UnknownNameError("task", task, self._names) from None
         if isinstance(task, (int, np.integer)) and not isinstance(task, bool):
             k = int(task)
             if not 0 <= k < len(self._names):

@@ -18,6 +18,7 @@ from drake_sot.app import cli
 from drake_sot.diagrams.artifacts import atomic_path
 from drake_sot.diagrams.run import simulate
 from drake_sot.diagrams.scenario import Scenario, run_scenario
+from drake_sot.robots.description import LOGICAL_FRAMES
 
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 
@@ -215,7 +216,7 @@ def test_importing_the_scenarios_leaves_the_matplotlib_backend_alone():
         ("nan,pelvis,0,300,0,0.1", "T = nan s: must be finite and >= 0"),
         (
             "1,elbow,0,300,0,0.1",
-            "BODY = 'elbow': unknown frame; known: pelvis, waist, torso, head, head_camera, left_foot",
+            f"BODY: unknown frame 'elbow'; known: {', '.join(sorted(LOGICAL_FRAMES))}",
         ),
         ("1,pelvis,inf,300,0,0.1", "FX = inf: must be a finite number"),
         ("1,pelvis,0,N,0,0.1", "FY = 'N': must be a number"),

@@ -13,7 +13,7 @@ from headless import chromium, screenshot
 from drake_sot.app import cli
 from drake_sot.diagrams import reach
 from drake_sot.diagrams import scenario as scenario_module
-from drake_sot.diagrams.run import STOP_SIGNALS, Command, Interrupted, RunResult, SignalGuard
+from drake_sot.diagrams.run import STOP_SIGNALS, Interrupted, RunResult, SignalGuard, TimedCommand
 from drake_sot.diagrams.scenario import Scenario, run_scenario
 from drake_sot.systems.fall_monitor import Fall
 
@@ -102,7 +102,7 @@ def test_replay_is_standalone_and_renders(recorded_run, tmp_path):
     assert len(colours) > 50, "the replay rendered as a blank page"
 
 
-def _scenario_with(command: Command) -> Scenario:
+def _scenario_with(command: TimedCommand) -> Scenario:
     def build(meshcat):
         setup = reach.build(meshcat)
         setup.commands.append(command)
@@ -121,7 +121,7 @@ def _fail(context):
 
 def test_interrupted_run_keeps_what_was_simulated(tmp_path):
     output = run_scenario(
-        _scenario_with(Command(0.3, "Ctrl-C", _interrupt)), tmp_path, duration=2.0, record=True
+        _scenario_with(TimedCommand(0.3, "Ctrl-C", _interrupt)), tmp_path, duration=2.0, record=True
     )
     assert output.result.interrupted and not output.result.completed
     assert output.result.interrupted_by == signal.SIGINT  # a KeyboardInterrupt is what Ctrl-C raises
@@ -131,7 +131,7 @@ def test_interrupted_run_keeps_what_was_simulated(tmp_path):
 
 
 def test_failed_run_reports_and_keeps_artefacts(tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(cli.SCENARIOS, "reach", _scenario_with(Command(0.2, "boom", _fail)))
+    monkeypatch.setitem(cli.SCENARIOS, "reach", _scenario_with(TimedCommand(0.2, "boom", _fail)))
     code = cli.main(["run", "reach", "--duration", "1", "--no-record", "--out", str(tmp_path)])
     assert code == 1
     assert "the run failed at t = 0.200 s: sensor exploded" in capsys.readouterr().err
@@ -205,7 +205,7 @@ def _sigterm(context):
 
 def test_sigterm_in_process_stops_the_run_like_ctrl_c(tmp_path, monkeypatch, capsys):
     before = signal.getsignal(signal.SIGTERM)
-    monkeypatch.setitem(cli.SCENARIOS, "reach", _scenario_with(Command(0.2, "SIGTERM", _sigterm)))
+    monkeypatch.setitem(cli.SCENARIOS, "reach", _scenario_with(TimedCommand(0.2, "SIGTERM", _sigterm)))
     code = cli.main(["run", "reach", "--duration", "1", "--no-record", "--out", str(tmp_path)])
     assert code == 143
     assert "interrupted by SIGTERM" in capsys.readouterr().err

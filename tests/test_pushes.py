@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from drake_sot.diagrams.pushes import PUSH_DTYPE, ExternalPush, check_pushes, pushes_record
+from drake_sot.errors import UnknownNameError
 from drake_sot.models.humanoid import FRAMES
 
 
@@ -28,8 +29,18 @@ def test_a_push_refuses_bad_fields(args, message):
 
 
 def test_a_push_on_an_unknown_frame_is_refused_with_the_known_ones():
-    with pytest.raises(ValueError, match="push body = 'elbow': unknown frame; known: pelvis, waist, torso"):
+    with pytest.raises(
+        ValueError, match=f"^push body: unknown frame 'elbow'; known: {', '.join(sorted(FRAMES))}$"
+    ):
         check_pushes([ExternalPush(0.5, "elbow", (0, 1, 0), 0.1)], FRAMES)
+    with pytest.raises(UnknownNameError) as caught:
+        check_pushes([ExternalPush(0.5, "right_hnd", (0, 1, 0), 0.1)], FRAMES)
+    assert (caught.value.kind, caught.value.name, caught.value.known) == (
+        "frame",
+        "right_hnd",
+        tuple(sorted(FRAMES)),
+    )
+    assert "(did you mean 'right_hand'?)" in str(caught.value)
 
 
 def test_pushes_on_one_frame_may_follow_but_not_overlap():

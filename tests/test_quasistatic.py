@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, static_capacity
+from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, SolveStatus, static_capacity
 
 G0 = 9.81
 
@@ -169,7 +169,7 @@ def test_matches_kkt_solution_when_no_inequality_is_active(weighted: bool) -> No
     x = np.linalg.solve(K, np.concatenate([2 * h * d, -g[:6]]))[:m]
 
     sol = QuasiStaticQP(n).solve(tasks, g, weighted=weighted)
-    assert sol.status == "optimal", sol.message
+    assert sol.status == SolveStatus.OPTIMAL, sol.message
     got = np.concatenate([sol.wrenches[t.name] for t in tasks])
     np.testing.assert_allclose(got, x, atol=1e-9)
     np.testing.assert_allclose(sol.tau, (A @ x + g)[6:], atol=1e-9)
@@ -185,7 +185,7 @@ def test_solution_satisfies_equilibrium_friction_and_torque_bounds(weighted: boo
     n, tasks, g = humanoid_like(rng, push=3.0)
     tau_max = np.full(n - 6, 25.0)
     sol = QuasiStaticQP(n, tau_min=-tau_max, tau_max=tau_max).solve(tasks, g, weighted=weighted)
-    assert sol.status == "optimal", sol.message
+    assert sol.status == SolveStatus.OPTIMAL, sol.message
     gen = generalized(tasks, sol.wrenches, g, weighted)
     assert np.abs(gen[:6]).max() < 1e-8  # eq. 9b, computed here
     assert sol.root_residual < 1e-8
@@ -207,7 +207,7 @@ def test_torques_sit_on_the_active_bound(last: float) -> None:
     d = np.array([10.0, -10.0, 9.0])
     lo, hi = np.array([-4.0, -4.0, -last]), np.array([5.0, 5.0, last])
     sol = QuasiStaticQP(n, n_base=0, tau_min=lo, tau_max=hi).solve([QsTask("joint", np.eye(3), desired=d)], g)
-    assert sol.status == "optimal", sol.message
+    assert sol.status == SolveStatus.OPTIMAL, sol.message
     np.testing.assert_allclose(sol.tau, np.clip(d + g, lo, hi), atol=1e-9)
     assert sol.tau[0] == pytest.approx(hi[0], abs=1e-9) and sol.tau[1] == pytest.approx(lo[1], abs=1e-9)
 
@@ -222,7 +222,7 @@ def test_goal_beyond_friction_stays_in_the_cone() -> None:
     tasks[0] = QsTask("c0", tasks[0].jacobian, desired=push, friction=cone)
     g = gravity_term(n, mass, np.zeros(3))
     sol = QuasiStaticQP(n, n_base=6).solve(tasks, g)
-    assert sol.status == "optimal", sol.message
+    assert sol.status == SolveStatus.OPTIMAL, sol.message
     assert_in_pyramids(tasks, sol)
     total = -sum(sol.wrenches[t.name] for t in tasks)
     np.testing.assert_allclose(total, [0.0, 0.0, mass * G0], atol=1e-8)
@@ -239,7 +239,7 @@ def test_impossible_minimum_normal_force_is_infeasible() -> None:
     ]
     qp = QuasiStaticQP(n)
     sol = qp.solve(tasks, gravity_term(n, mass, np.zeros(3)))
-    assert sol.status == "infeasible"
+    assert sol.status == SolveStatus.INFEASIBLE
     assert sol.message
     assert np.isnan(sol.tau).all() and all(np.isnan(w).all() for w in sol.wrenches.values())
     # The next feasible tick of the same structure solves again (no stale warm start).
@@ -248,14 +248,42 @@ def test_impossible_minimum_normal_force_is_infeasible() -> None:
         [QsTask(t.name, t.jacobian, weight=1e-3, friction=light) for t in tasks],
         gravity_term(n, mass, np.zeros(3)),
     )
-    assert ok.status == "optimal", ok.message
+    assert ok.status == SolveStatus.OPTIMAL, ok.message
+
+
+def test_a_plug_in_solver_answers_with_a_solve_status() -> None:
+    """A plug-in's OPTIMAL answer is checked like DAQP's; an answer that is not a SolveStatus
+    (a string, the vocabulary before the enum) is FAILED, naming what came back."""
+    n, mass = 6, 40.0
+    tasks = [
+        QsTask(f"c{i}", point_jacobian(p, n), weight=1e-3, friction=FrictionCone(mu=0.8))
+        for i, p in enumerate(feet_points())
+    ]
+    g = gravity_term(n, mass, np.zeros(3))
+    reference = QuasiStaticQP(n).solve(tasks, g)
+    assert reference.status is SolveStatus.OPTIMAL, reference.message
+    x = np.concatenate([reference.wrenches[t.name] for t in tasks])
+    plugged = QuasiStaticQP(n, solver=lambda problem: (x, SolveStatus.OPTIMAL, "", 0)).solve(tasks, g)
+    assert plugged.status is SolveStatus.OPTIMAL and np.allclose(plugged.tau, reference.tau)
+    stringly = QuasiStaticQP(n, solver=lambda problem: (x, "optimal", "", 0)).solve(tasks, g)
+    assert stringly.status is SolveStatus.FAILED and "'optimal'" in stringly.message
+    assert np.isnan(stringly.tau).all()
+
+
+def test_the_status_codes_are_the_documented_ones() -> None:
+    codes = {"optimal": 0.0, "short": 1.0, "infeasible": 2.0, "failed": 3.0}  # the controller's docstring
+    assert {status.value: status.code for status in SolveStatus} == codes
+    assert all(SolveStatus.of_code(code) is SolveStatus(name) for name, code in codes.items())
+    assert [s for s in SolveStatus if s.fallback] == [SolveStatus.INFEASIBLE, SolveStatus.FAILED]
+    with pytest.raises(ValueError, match=r"status code = 4.0: must be one of 0, 1, 2, 3"):
+        SolveStatus.of_code(4.0)
 
 
 def test_unsupported_base_is_infeasible() -> None:
     n = 9
     posture = QsTask("posture", np.hstack([np.zeros((3, 6)), np.eye(3)]), weight=1e-3)
     sol = QuasiStaticQP(n).solve([posture], gravity_term(n, 10.0, np.zeros(3)))
-    assert sol.status == "infeasible"
+    assert sol.status == SolveStatus.INFEASIBLE
     assert "equilibrium" in sol.message
 
 
@@ -274,9 +302,9 @@ def test_torque_bounds_the_equilibrium_violates_are_infeasible() -> None:
     g = gravity_term(n, mass, np.array([0.0, -0.1, 0.0]), np.array([1.0]))
     required = -c * mass * G0 + 1.0
     ok = QuasiStaticQP(n, tau_min=[required - 1.0], tau_max=[required + 1.0]).solve(tasks, g)
-    assert ok.status == "optimal" and ok.tau[0] == pytest.approx(required, abs=1e-9)
+    assert ok.status == SolveStatus.OPTIMAL and ok.tau[0] == pytest.approx(required, abs=1e-9)
     bad = QuasiStaticQP(n, tau_min=[required + 1.0], tau_max=[required + 5.0]).solve(tasks, g)
-    assert bad.status == "infeasible"
+    assert bad.status == SolveStatus.INFEASIBLE
     assert np.isnan(bad.tau).all()
 
 
@@ -349,7 +377,7 @@ def test_standing_on_eight_points_carries_the_weight_evenly() -> None:
     tasks.append(QsTask("posture", np.hstack([np.zeros((n_a, 6)), np.eye(n_a)]), weight=1e-3))
     com = np.array([0.025, 0.0, 0.0])  # centred between the points of each foot
     sol = QuasiStaticQP(n).solve(tasks, gravity_term(n, mass, com))
-    assert sol.status == "optimal", sol.message
+    assert sol.status == SolveStatus.OPTIMAL, sol.message
     f = np.array([-sol.wrenches[f"c{i}"] for i in range(8)])
     assert f[:, 2].sum() == pytest.approx(mass * G0, rel=1e-12)
     np.testing.assert_allclose(f[:, 2], mass * G0 / 8, rtol=1e-9)
@@ -390,7 +418,7 @@ def test_strict_priority_meets_the_higher_task_where_weights_compromise() -> Non
     qp = QuasiStaticQP(2, n_base=0, tau_min=[-1.2, -5.0], tau_max=[1.2, 5.0])
     hier = qp.solve(tasks, np.zeros(2))
     weig = qp.solve(tasks, np.zeros(2), weighted=True)
-    assert hier.status == weig.status == "optimal"
+    assert hier.status == weig.status == SolveStatus.OPTIMAL
     # Hierarchical: tau = J1^T w1 + P2 J2^T w2 = (w1, w2): nothing binds, both targets met;
     # the torque seen along task 1 (J1^T)^+ tau is exactly its desired wrench.
     np.testing.assert_allclose([hier.wrenches["t1"][0], hier.wrenches["t2"][0]], [d1, d2], atol=1e-9)
@@ -411,7 +439,7 @@ def test_agrees_with_scipy_slsqp_polished_on_its_active_set(weighted: bool, seed
     n, tasks, g = humanoid_like(rng, push=3.0)
     tau_max = np.full(n - 6, 25.0)
     sol = QuasiStaticQP(n, tau_min=-tau_max, tau_max=tau_max).solve(tasks, g, weighted=weighted)
-    assert sol.status == "optimal", sol.message
+    assert sol.status == SolveStatus.OPTIMAL, sol.message
     # The same QP assembled here from the task definitions: min sum h (x - d)^2, E x = e, G x <= c.
     A = np.hstack(
         [((np.eye(n) if (weighted or t.projector is None) else t.projector) @ t.jacobian.T) for t in tasks]
@@ -543,7 +571,7 @@ def test_structure_change_and_return_reuse_buffers_correctly() -> None:
     b = qp.solve(tasks[:-1], g)  # posture removed: another structure
     c = qp.solve(tasks, 1.1 * g)  # back to the first one, other data
     fresh = QuasiStaticQP(n).solve(tasks, 1.1 * g)
-    assert a.status == b.status == c.status == "optimal"
+    assert a.status == b.status == c.status == SolveStatus.OPTIMAL
     assert "posture" not in b.wrenches
     for name, w in kept.items():  # an earlier solution is not overwritten by later ticks
         np.testing.assert_array_equal(a.wrenches[name], w)
@@ -570,7 +598,7 @@ def test_stacked_qp_gives_the_answer_of_solve(weighted: bool, seed: int) -> None
         ticked = [replace(t, desired=scale * t.desired) if t.desired is not None else t for t in tasks]
         expected = QuasiStaticQP(n, tau_min=-tau_max, tau_max=tau_max).solve(ticked, g, weighted=weighted)
         got = stacked.solve(rows, desired, g)
-        assert got.status == expected.status == "optimal", (got.message, expected.message)
+        assert got.status == expected.status == SolveStatus.OPTIMAL, (got.message, expected.message)
         for t in tasks:
             np.testing.assert_allclose(got.wrenches[t.name], expected.wrenches[t.name], atol=1e-8)
         np.testing.assert_allclose(got.tau, expected.tau, atol=1e-8)

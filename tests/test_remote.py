@@ -194,8 +194,8 @@ def test_a_written_target_changes_the_error_then_the_motion(server):
     [
         ("taskRH.position_des", [0.1, 0.2], "2 values, expected 3"),
         ("taskRH.position_des", [0.1, float("nan"), 0.3], "value[1]"),
-        ("dyn.com", [0.0, 0.0, 0.8], "not writable"),
-        ("sot.nothing", [1.0], "not writable"),
+        ("dyn.com", [0.0, 0.0, 0.8], "unknown writable signal 'dyn.com'; known: "),
+        ("sot.nothing", [1.0], "unknown writable signal 'sot.nothing'; known: "),
     ],
 )
 def test_a_bad_write_is_refused_and_names_why(server, signal, value, named):
@@ -302,7 +302,7 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     assert lines[0].split()[:4] == ["taskJL", "taskLF", "taskRF", "taskCom"]
     com = [float(x) for x in lines[1].split()]
     assert len(com) == 3 and 0.5 < com[2] < 1.0  # the CoM of a standing humanoid, about 0.8 m up
-    assert lines[2].startswith("error:") and "not writable" in lines[2]
+    assert lines[2].startswith("error:") and "unknown writable signal" in lines[2]
     assert lines[3].startswith("error:") and "nothing.here" in lines[3]
     assert "SOT.push" in proc.stdout.split("server:")[1] and "(SOT: sot)" in proc.stdout  # help: both
 

@@ -143,9 +143,11 @@ def test_a_write_of_a_wrong_name_or_size_is_refused_naming_it(slave_like, timed)
     _tick(simulator)
     taken = server.taken(simulator.get_context()).requests
     assert [r.kind for r in taken] == [DONE] * 3
-    declared = "remote.right_hand_force, remote.left_hand_force, remote.head, remote.gripper"
+    declared = ", ".join(
+        sorted(f"remote.{n}" for n in ("right_hand_force", "left_hand_force", "head", "gripper"))
+    )
     assert [r.error for r in taken] == [
-        f"signal = 'remote.master': not writable (writable: {declared})",
+        f"unknown writable signal 'remote.master'; known: {declared}",
         "remote.head: 3 values, expected 2",
         "remote.right_hand_force: value[1] = nan: not finite",
     ]

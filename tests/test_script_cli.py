@@ -116,7 +116,7 @@ def test_a_bad_script_is_refused_with_one_line_before_anything_runs(tmp_path, ca
     unknown.write_text("new FeatureCoM f\nplug dyn.com g.com\nrun 1\n")
     code, _, err = _main(["script", str(unknown), "--out", str(tmp_path / "o"), "--no-record"], capsys)
     assert code == 2
-    assert "unknown.sot, line 2: plug dyn.com g.com: unknown entity 'g'; entities: pool, dyn, f" in err
+    assert "unknown.sot, line 2: plug dyn.com g.com: unknown entity 'g'; known: dyn, f, pool" in err
     assert not (tmp_path / "o" / "unknown.svg").exists()  # refused before anything was built
 
 

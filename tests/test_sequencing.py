@@ -10,11 +10,11 @@ from drake_sot.sequencing import (
     Below,
     Clear,
     Down,
+    Flag,
     Pop,
     Push,
     Rm,
     SetValue,
-    Signal,
     State,
     StateMachine,
     Timeout,
@@ -41,7 +41,7 @@ class _Inputs:
 def test_the_first_holding_transition_fires_and_later_guards_are_not_read():
     machine = StateMachine(
         [
-            State("s0", transitions=(Transition(Signal("p"), "s1"), Transition(Signal("q"), "s2"))),
+            State("s0", transitions=(Transition(Flag("p"), "s1"), Transition(Flag("q"), "s2"))),
             State("s1", entry=Push("a")),
             State("s2", entry=Push("b")),
         ],
@@ -120,7 +120,7 @@ def test_below_and_above_compare_the_euclidean_norm(vector):
 
 
 def test_a_non_finite_input_names_the_port_and_the_state():
-    machine = StateMachine([State("s0", transitions=Transition(Signal("go"), "s0"))], "s0", tasks=TASKS)
+    machine = StateMachine([State("s0", transitions=Transition(Flag("go"), "s0"))], "s0", tasks=TASKS)
     with pytest.raises(RuntimeError, match=r"state 's0': input port 'go' holds NaN or Inf at t = 0.2500 s"):
         machine.step(machine.start(0.0), 0.25, _Inputs(go=np.nan))
 
@@ -150,7 +150,7 @@ def test_set_value_makes_new_values_and_leaves_the_old_status_alone():
 
 def test_definition_errors_name_what_is_wrong():
     with pytest.raises(
-        UnknownTaskError, match=r"state 's0': entry action Push\(task='zz'\) names unknown task 'zz'"
+        UnknownTaskError, match=r"state 's0': entry action Push\(task='zz'\): unknown task 'zz'"
     ):
         StateMachine([State("s0", entry=Push("zz"))], "s0", tasks=TASKS)
     with pytest.raises(KeyError):  # an unknown name is a KeyError too
@@ -169,12 +169,16 @@ def test_definition_errors_name_what_is_wrong():
 
 def test_paths_are_checked_or_the_failure_comes_at_run_time_with_the_time():
     states = [
-        State("idle", transitions=(Transition(Signal("go"), "grasp"), Transition(Signal("walk"), "walking"))),
+        State("idle", transitions=(Transition(Flag("go"), "grasp"), Transition(Flag("walk"), "walking"))),
         State("walking", entry=Push("b"), transitions=Transition(Timeout(1.0), "grasp")),
         State("grasp", entry=(Rm("b"), Push("c"))),
     ]
     # idle → walking → grasp works; idle → grasp does not: the breadth-first search finds it.
-    with pytest.raises(ValueError, match=r"by the path idle → grasp would fail: entry action Rm\(task='b'\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"by the path idle → grasp would fail \(pass check_paths=False if that path cannot happen\): "
+        r"entry action Rm\(task='b'\)",
+    ):
         StateMachine(states, "idle", tasks=TASKS, stack=("a",))
     machine = StateMachine(states, "idle", tasks=TASKS, stack=("a",), check_paths=False)
     walking = machine.step(machine.start(0.0), 0.0, _Inputs(go=0.0, walk=1.0))
@@ -188,8 +192,8 @@ def test_paths_are_checked_or_the_failure_comes_at_run_time_with_the_time():
 def test_definitions_are_values():
     assert Push("a") == Push("a") and Timeout(1) == Timeout(1.0)
     assert Below("e", 1, size=2.0).size == 2 and isinstance(Below("e", 1).threshold, float)
-    state = State("s", entry=Push("a"), transitions=Transition(Signal("p"), "s"))
-    assert state.entry == (Push("a"),) and state.transitions == (Transition(Signal("p"), "s"),)
+    state = State("s", entry=Push("a"), transitions=Transition(Flag("p"), "s"))
+    assert state.entry == (Push("a"),) and state.transitions == (Transition(Flag("p"), "s"),)
     with pytest.raises(ValueError, match=r"Below\('e'\).threshold = 0.0: must be finite and > 0"):
         Below("e", 0.0)  # a norm is never below 0
     with pytest.raises(ValueError, match=r"Above\('e'\).threshold = nan"):

@@ -11,7 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
 
-from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackError, Transition, Up, task_names
+from drake_sot.errors import UnknownNameError
+from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackError, StackTransition, Up, task_names
 
 KNOWN = ("taskTwofeet", "taskCom", "taskRH", "taskLH", "taskPosture")
 ANY_NAME = st.sampled_from(KNOWN + ("taskXX",))
@@ -57,7 +58,7 @@ class _ListModel:
 def _error_kind(error: StackError, task) -> str:
     """Which of the model's error kinds the message of ``error`` describes."""
     text = str(error)
-    if text.startswith(f"unknown task {task!r}; known tasks: "):
+    if text.startswith(f"unknown task {task!r}") and text.endswith(f"; known: {', '.join(sorted(KNOWN))}"):
         return "unknown"
     if text.startswith(f"task {task!r} is already in the stack "):
         return "already"
@@ -172,10 +173,19 @@ def test_the_papers_example_stack():
 
 def test_errors_name_the_task_and_list_the_known_ones_or_the_stack():
     s = Stack(KNOWN, ("taskCom", "taskRH"))
-    known = "known tasks: taskTwofeet, taskCom, taskRH, taskLH, taskPosture"
+    known = "known: taskCom, taskLH, taskPosture, taskRH, taskTwofeet"  # KNOWN sorted
     for command in ("push", "rm", "up", "down", "priority"):
         with pytest.raises(StackError, match=f"^unknown task 'taskXX'; {known}$"):
             getattr(s, command)("taskXX")
+    with pytest.raises(
+        UnknownNameError, match=r"^unknown task 'taskPostur' \(did you mean 'taskPosture'\?\); "
+    ) as caught:
+        s.push("taskPostur")
+    assert (caught.value.kind, caught.value.name, caught.value.known) == (
+        "task",
+        "taskPostur",
+        tuple(sorted(KNOWN)),
+    )
     with pytest.raises(StackError, match=r"^task 'taskCom' is already in the stack \('taskCom', 'taskRH'\)$"):
         s.push("taskCom")
     for command in ("rm", "up", "down", "priority"):
@@ -203,8 +213,13 @@ def test_errors_name_the_task_and_list_the_known_ones_or_the_stack():
         (
             ("a", "b", "c"),
             ("a", "zz", "b", "a"),
-            r"the stack \('a', 'zz', 'b', 'a'\) has unknown task 'zz' and task 'a' listed twice; "
-            "known tasks: a, b, c",
+            r"^the stack \('a', 'zz', 'b', 'a'\): unknown task 'zz'; known: a, b, c$",
+        ),
+        (("a", "b", "c"), ("a", "b", "a"), r"^the stack \('a', 'b', 'a'\) has task 'a' listed twice$"),
+        (
+            ("a", "b", "c"),
+            ("a", "b", "y", "z"),
+            r"^the stack \('a', 'b', 'y', 'z'\): unknown task 'y'; known: a, b, c$",  # the first one
         ),
     ],
 )
@@ -218,8 +233,7 @@ def test_with_active_validates_like_the_constructor():
     assert s.with_active(["c", "b"]) == Stack(("a", "b", "c"), ("c", "b"))
     with pytest.raises(
         StackError,
-        match=r"the stack \('c', 'd', 'e', 'a', 'a'\) has unknown tasks 'd', 'e' and task 'a' listed twice; "
-        "known tasks: a, b, c",
+        match=r"^the stack \('c', 'd', 'e', 'a', 'a'\): unknown task 'd'; known: a, b, c$",
     ):
         s.with_active(("c", "d", "e", "a", "a"))
     assert task_names(["x", "y"], what="names") == ("x", "y")
@@ -249,7 +263,7 @@ def test_a_transition_blends_the_stack_before_and_after_with_eq_12():
     before = Stack(KNOWN, ("taskTwofeet", "taskPosture"))
     after = before.push("taskRH").transition_from(before, start=2.0, duration=0.5)
     assert after.active == ("taskTwofeet", "taskPosture", "taskRH")
-    assert after.transition == Transition(before, 2.0, 0.5)
+    assert after.transition == StackTransition(before, 2.0, 0.5)
     assert after.blend(1.0) == after.blend(2.0) == ((before.active, 1.0),)  # nothing has moved yet
     for t in (2.1, 2.25, 2.4):
         (reached, h), (left, rest) = after.blend(t)
@@ -339,15 +353,15 @@ def test_bad_transitions_are_refused_naming_the_value(change, error, message):
     arguments = dict(before=s, start=0.0, duration=0.5) | change
     with pytest.raises(error, match=message):
         s.push("b").transition_from(arguments.pop("before"), **arguments)
-    with pytest.raises(StackError, match="Transition.duration = 0.0 s: must be finite and > 0"):
-        Transition(s, 0.0, 0.0)
-    with pytest.raises(StackError, match=r"^Transition.duration = 1e\+308 s: must be in \[0, 60\] s$"):
-        Transition(s, 0.0, 1e308)  # a change that would never end
-    with pytest.raises(StackError, match=r"^Transition.duration = 60.5 s: must be in \[0, 60\] s$"):
-        Transition(s, 0.0, 60.5)
-    assert Transition(s, 0.0, 60.0).duration == 60.0
+    with pytest.raises(StackError, match="StackTransition.duration = 0.0 s: must be finite and > 0"):
+        StackTransition(s, 0.0, 0.0)
+    with pytest.raises(StackError, match=r"^StackTransition.duration = 1e\+308 s: must be in \[0, 60\] s$"):
+        StackTransition(s, 0.0, 1e308)  # a change that would never end
+    with pytest.raises(StackError, match=r"^StackTransition.duration = 60.5 s: must be in \[0, 60\] s$"):
+        StackTransition(s, 0.0, 60.5)
+    assert StackTransition(s, 0.0, 60.0).duration == 60.0
     with pytest.raises(StackError, match="the transition comes from a stack of other known tasks"):
-        Stack(("a", "b", "c"), ("a",), Transition(s, 0.0, 1.0))
+        Stack(("a", "b", "c"), ("a",), StackTransition(s, 0.0, 1.0))
 
 
 def test_stack_and_sequencing_import_no_drake():

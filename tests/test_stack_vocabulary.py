@@ -36,7 +36,7 @@ WELL_FORMED = [
     ("clear", "", ()),
 ]
 
-KNOWN = "known tasks: ta, tb, tc, td"
+KNOWN = "known: ta, tb, tc, td"
 # a line after "sot.", what the one error of the vocabulary says (by hand)
 MALFORMED = [
     ("push", "push TASK [SECONDS]: takes 1 task name(s) and an optional time, got 0 value(s)"),  # arity

@@ -53,6 +53,7 @@ from drake_sot.diagrams.scenario import (
 )
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
 from drake_sot.diagrams.world import loopback_meshcat
+from drake_sot.errors import UnknownNameError
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.peer import PeerError
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
@@ -162,7 +163,7 @@ def _push(text: str) -> ExternalPush:
     body = fields[1]
     if body not in LOGICAL_FRAMES:
         raise argparse.ArgumentTypeError(
-            f"{text!r}: BODY = {body!r}: unknown frame; known: {', '.join(LOGICAL_FRAMES)}"
+            f"{text!r}: {UnknownNameError('frame', body, LOGICAL_FRAMES, where='BODY')}"
         )
     try:
         return ExternalPush(values["T"], body, (values["FX"], values["FY"], values["FZ"]), values["DURATION"])

@@ -56,10 +56,11 @@ from pydrake.systems.framework import Context, Diagram, LeafSystem, PortDataType
 
 from drake_sot.app.status import MeshcatStatus
 from drake_sot.blas import limit_blas_threads
-from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, simulate
+from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, simulate
 from drake_sot.diagrams.scenario import NotServable, Runner, ScenarioSetup
 from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
 from drake_sot.diagrams.script_session import ScriptSession
+from drake_sot.errors import UnknownNameError
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import Request, error, ok
 from drake_sot.script import Call, Get, Statement
@@ -272,7 +273,7 @@ class Serving:
 
     def _port(self, signal: str):
         if signal not in self._readable:
-            raise ValueError(f"signal = {signal!r}: no such vector output (see op 'list')")
+            raise UnknownNameError("vector output", signal, self._readable)
         return self._readable[signal]
 
     def _read(self, signal: str) -> list[float]:
@@ -425,7 +426,11 @@ def serve_run(
     )
     start = simulator.get_context().get_time()
     first = (  # the run starts when the client's first horizon is beyond its first tick
-        [Command(start, "paced by its client: its first write came", lambda _: serving.await_client(start))]
+        [
+            TimedCommand(
+                start, "paced by its client: its first write came", lambda _: serving.await_client(start)
+            )
+        ]
         if setup.extras.get("paced_by_client")
         else []
     )

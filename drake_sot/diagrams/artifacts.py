@@ -26,9 +26,10 @@ from pydrake.systems.framework import Context, Diagram
 from drake_sot.diagrams.pushes import pushes_record
 from drake_sot.diagrams.run import RunResult
 from drake_sot.diagrams.world import BuiltHumanoid
+from drake_sot.errors import DrakeSotError
 
 
-class GraphvizMissing(RuntimeError):
+class GraphvizMissing(DrakeSotError, RuntimeError):
     """Graphviz's ``dot`` is not installed: the diagram was written as ``.dot`` source instead."""
 
 

@@ -17,6 +17,7 @@ from pydrake.systems.framework import OutputPort
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer
 
 from drake_sot.diagrams.tasks import HumanoidTaskBuilder
+from drake_sot.errors import UnknownNameError
 from drake_sot.models.humanoid import SOLE
 from drake_sot.recovery import LeanProfile
 from drake_sot.stabilization import StabilizerGains
@@ -60,9 +61,13 @@ def add_stabilizer(
             ``{name: pg.GetOutputPort(name)}``); None: standing still, the references are
             the initial CoM at rest, its ground projection as the ZMP.
         gains: the stabilizer's gains.
+
+    Raises:
+        UnknownNameError: ``com_task`` is not a task of ``b`` (lists them).
+        ValueError: ``references`` lacks some of :data:`REFERENCES` (naming them).
     """
     if com_task not in b.features:
-        raise ValueError(f"com_task = {com_task!r}: no such task; known: {', '.join(b.features)}")
+        raise UnknownNameError("task", com_task, b.features, where="com_task")
     if references is None:
         references = _standing_references(b)
     missing = [name for name in REFERENCES if name not in references]

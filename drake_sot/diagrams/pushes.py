@@ -18,6 +18,7 @@ import numpy as np
 
 from drake_sot import validation
 from drake_sot.diagrams.run import MAX_DURATION
+from drake_sot.errors import UnknownNameError
 
 #: The largest push [N] (norm of the force): 10 kN, sixteen times the embedded humanoid's
 #: weight (61 kg) and eleven times TALOS's (93 kg). Held for the shortest push the scenarios
@@ -74,15 +75,16 @@ def check_pushes(pushes: Sequence[ExternalPush], frames: Collection[str]) -> tup
     two on the same frame at once.
 
     Raises:
-        ValueError: a push that is not a :class:`ExternalPush`, an unknown frame (listing the known
-            ones), or two pushes on one frame that overlap in time (naming both).
+        ValueError: a push that is not a :class:`ExternalPush`, an unknown frame
+            (:class:`~drake_sot.errors.UnknownNameError`, listing the known ones), or two pushes
+            on one frame that overlap in time (naming both).
     """
     pushes = tuple(pushes)
     for push in pushes:
         if not isinstance(push, ExternalPush):
             raise ValueError(f"pushes: {push!r} is not an ExternalPush")
         if push.body not in frames:
-            raise ValueError(f"push body = {push.body!r}: unknown frame; known: {', '.join(frames)}")
+            raise UnknownNameError("frame", push.body, frames, where="push body")
     for i, a in enumerate(pushes):
         for b in pushes[i + 1 :]:
             if a.body == b.body and a.time < b.end and b.time < a.end:

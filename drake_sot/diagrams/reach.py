@@ -24,7 +24,7 @@ from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 
 RIGHT_HAND_OFFSET = np.array([0.25, 0.0, 0.20])  # [m] from the initial hand position, world frame
@@ -58,10 +58,12 @@ def build(
     built = b.build(stack=STACK, solver="hqp", command_server=command_server)
     sot = built.sot
     commands = [
-        Command(1.0, "taskRH target +25 cm x, +20 cm z", lambda c: built.set_desired(c, "taskRH", target_rh)),
-        Command(3.0, "push taskLH", lambda c: sot.push(c, "taskLH")),
-        Command(3.0, "up taskLH", lambda c: sot.up(c, "taskLH")),
-        Command(5.0, "rm taskLH", lambda c: sot.rm(c, "taskLH")),
+        TimedCommand(
+            1.0, "taskRH target +25 cm x, +20 cm z", lambda c: built.set_desired(c, "taskRH", target_rh)
+        ),
+        TimedCommand(3.0, "push taskLH", lambda c: sot.push(c, "taskLH")),
+        TimedCommand(3.0, "up taskLH", lambda c: sot.up(c, "taskLH")),
+        TimedCommand(5.0, "rm taskLH", lambda c: sot.rm(c, "taskLH")),
     ]
     return ScenarioSetup(
         built=built,

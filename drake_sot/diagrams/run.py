@@ -47,7 +47,7 @@ def check_duration(name: str, value: float) -> float:
 
 
 @dataclass(frozen=True)
-class Command:
+class TimedCommand:
     """A command applied to the root context at ``time`` [s]; ``label`` is what the logs show."""
 
     time: float
@@ -194,7 +194,7 @@ Progress = Callable[[float, float, float], None]
 def simulate(
     simulator: Simulator,
     duration: float,
-    commands: Sequence[Command] = (),
+    commands: Sequence[TimedCommand] = (),
     *,
     progress: Progress | None = None,
     chunk: float = 0.1,

@@ -23,8 +23,9 @@ from drake_sot.diagrams.artifacts import (
 )
 from drake_sot.diagrams.log_window import LOG_WINDOW
 from drake_sot.diagrams.pushes import ExternalPush, check_push_times
-from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, check_duration, simulate
+from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
+from drake_sot.errors import DrakeSotError
 from drake_sot.plots import plot_task_errors
 from drake_sot.systems.stack_history import stack_changes
 
@@ -42,7 +43,7 @@ class ScenarioSetup:
     """
 
     built: BuiltHumanoid
-    commands: list[Command]
+    commands: list[TimedCommand]
     duration: float
     targets: dict[str, RigidTransform] = field(default_factory=dict)
     extras: dict[str, Any] = field(default_factory=dict)
@@ -88,11 +89,11 @@ class ScenarioOutput:
     unwritten: dict[str, str] = field(default_factory=dict)
 
 
-class ScenarioParameterError(ValueError):
+class ScenarioParameterError(DrakeSotError, ValueError):
     """A scenario's ``build`` refused the value of one of its parameters: nothing was simulated."""
 
 
-class NotServable(ValueError):
+class NotServable(DrakeSotError, ValueError):
     """A command server was asked of a scenario whose diagram cannot have one (nothing built)."""
 
 

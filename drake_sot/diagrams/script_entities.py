@@ -22,6 +22,7 @@ from pydrake.systems.framework import Context, InputPort, OutputPort, System
 from drake_sot import validation
 from drake_sot.diagrams.artifacts import WRITE_ERRORS, atomic_path, write_svg
 from drake_sot.diagrams.walking import add_pattern_generator
+from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.gains import AdaptiveGain, Gain, validate_gain
 from drake_sot.script import (
     Call,
@@ -38,12 +39,12 @@ from drake_sot.script import (
 from drake_sot.sequencing import (
     Above,
     Below,
+    Flag,
     SetValue,
     State,
     Timeout,
     Transition,
 )
-from drake_sot.sequencing import Signal as SignalGuard
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.stack import VERBS, Pop, StackError, find_verb
 from drake_sot.systems.features import (
@@ -69,12 +70,13 @@ __all__ = [
     "Entity",
     "Phase",
     "SessionError",
+    "UnknownScriptName",
     "format_signal_value",
     "vector_value",
 ]
 
 
-class SessionError(ValueError):
+class SessionError(DrakeSotError, ValueError):
     """A command that cannot act here: the message names the entity, signal, command or
     value at fault, says why, and starts with ``<source>, line <n>: <the line>:`` when the
     command came from a script (``located`` is then True)."""
@@ -83,6 +85,19 @@ class SessionError(ValueError):
         super().__init__(message)
         self.located = located
         self.building = building
+
+
+class UnknownScriptName(SessionError, UnknownNameError):
+    """An entity, signal, command, class or task that a script names and the session does not
+    know: a :class:`SessionError` (a ValueError) and an
+    :class:`~drake_sot.errors.UnknownNameError` (a KeyError) listing the known names."""
+
+    def __init__(
+        self, kind: str, name: object, known: Iterable[str], *, where: str = "", located: bool = False
+    ) -> None:
+        UnknownNameError.__init__(self, kind, name, known, where=where)
+        self.located = located
+        self.building = False
 
 
 class Phase(enum.Enum):
@@ -331,9 +346,7 @@ class Entity:
     def command_spec(self, command: str) -> CommandSpec:
         spec = self._commands.get(command)
         if spec is None:
-            raise SessionError(
-                f"{self.describe()} has no command {command!r}; commands: {', '.join(self._commands)}"
-            )
+            raise UnknownScriptName("command", command, self._commands, where=self.describe())
         return spec
 
     def run_command(self, name: str, args: tuple[Value, ...], context: Context | None) -> str:
@@ -362,10 +375,7 @@ class Entity:
                     {"i": "an input", "o": "an output", "p": "a parameter"}[k] for k in kinds
                 )
                 raise SessionError(f"{self.name}.{signal} is {what} signal; {allowed} signal is needed here")
-        raise SessionError(
-            f"{self.describe()} has no signal {signal!r}; "
-            f"signals: {', '.join(self.signal_names()) or '(none)'}"
-        )
+        raise UnknownScriptName("signal", signal, self.signal_names(), where=self.describe())
 
     @_command(Phase.INFO, "help", "this text")
     def help(self, args: tuple[Value, ...], context: Context | None) -> str:
@@ -947,7 +957,7 @@ class AdmittanceEntity(Entity):
         return ("wrench", "sensor_pose", "hand_pose", "wrench_ref", "active")
 
     def outputs(self) -> tuple[str, ...]:
-        return ("pose_des", "velocity_des", "wrench_external", "saturated", "fault", "virtual_mass")
+        return ("position_des", "velocity_des", "wrench_external", "saturated", "fault", "virtual_mass")
 
     @_command(Phase.BUILD, "hand right|left", "the hand (its wrist sensor and poses are wired)")
     def hand(self, args: tuple[Value, ...], context: Context | None) -> str:
@@ -1099,7 +1109,7 @@ class SequencerEntity(Entity):
             )
         elif kind == "signal":
             _arity(rest, "signal PORT", 1)
-            guard = SignalGuard(_text(rest[0], "the port"))
+            guard = Flag(_text(rest[0], "the port"))
         elif kind == "timeout":
             _arity(rest, "timeout S", 1)
             guard = Timeout(_number(rest[0], "S"))

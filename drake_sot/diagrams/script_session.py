@@ -42,7 +42,7 @@ class                            signals (in → out), commands
                                  ``down``, ``clear`` (each with an optional time [s]), ``list``
 ``PatternGenerator``             → com, com_vel, left_foot, right_foot, waist, zmp_ref, …,
                                  in_process; ``parsecmd``, ``velocity``
-``AdmittanceController``         wrench_ref, active → pose_des, velocity_des, wrench_external,
+``AdmittanceController``         wrench_ref, active → position_des, velocity_des, wrench_external,
                                  saturated, fault; ``hand``, ``mass``, ``damping``, …
 ``TaskSequencer``                <guard inputs> → stack, smooth_stack, state, transitions, <outputs>;
                                  ``addState``, ``addEntry``, ``addTransition``, ``transitionTime``, …
@@ -106,7 +106,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot import validation
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
-from drake_sot.diagrams.run import Command as TimedCommand
+from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.script_entities import (
     AT_MOST_ONE,
@@ -123,14 +123,15 @@ from drake_sot.diagrams.script_entities import (
     SessionError,
     SotEntity,
     TaskEntity,
+    UnknownScriptName,
     Valued,
     format_signal_value,
     vector_value,
 )
+from drake_sot.errors import UnknownNameError, prefixed
 from drake_sot.script import (
     COMMAND_SOURCE,
     Call,
-    Command,
     Destroy,
     Get,
     Name,
@@ -138,6 +139,7 @@ from drake_sot.script import (
     Plug,
     Run,
     RunFor,
+    ScriptCommand,
     ScriptError,
     Set,
     Signal,
@@ -258,7 +260,7 @@ class ScriptSession:
         if entity is None and name == DEFAULT_SOT and not self._has(SotEntity) and not self.is_built:
             entity = self._add(SotEntity(self, DEFAULT_SOT, None))
         if entity is None:
-            raise SessionError(f"unknown entity {name!r}; entities: {', '.join(self._entities)}")
+            raise UnknownScriptName("entity", name, self._entities)
         return entity
 
     def system(self, name: str) -> System:
@@ -331,7 +333,7 @@ class ScriptSession:
     def is_built(self) -> bool:
         return self.built is not None
 
-    def phase(self, command: Command) -> Phase:
+    def phase(self, command: ScriptCommand) -> Phase:
         """When ``command`` acts (SessionError for an unknown entity or command)."""
         match command:
             case New() | Destroy() | Plug():
@@ -348,7 +350,7 @@ class ScriptSession:
         raise TypeError(f"{command!r} is not a script command")
 
     # --- executing --------------------------------------------------------------------------
-    def execute(self, command: str | Command | Statement, context: Context | None = None) -> str:
+    def execute(self, command: str | ScriptCommand | Statement, context: Context | None = None) -> str:
         """Run one script command; return its output text ("" when it writes nothing).
 
         Build-time commands record the diagram; the first run-time command builds it and
@@ -391,7 +393,7 @@ class ScriptSession:
         """Execute every line of ``text`` (its ``run DURATION`` on the own simulator); the outputs."""
         return [self.execute(statement) for statement in parse_script(text, source=source)]
 
-    def _dispatch(self, command: Command, context: Context | None) -> str:
+    def _dispatch(self, command: ScriptCommand, context: Context | None) -> str:
         if isinstance(command, Run):
             return "\n".join(out for st in self._included(command.path) if (out := self.execute(st, context)))
         phase = self.phase(command)
@@ -422,7 +424,7 @@ class ScriptSession:
                 return self.entity(entity).run_command(name, command.args, context if self.is_built else None)
         raise TypeError(f"{command!r} is not a script command")
 
-    def _require_build_phase(self, command: Command) -> None:
+    def _require_build_phase(self, command: ScriptCommand) -> None:
         if self.is_built:
             raise SessionError(
                 f"the diagram is built (by {self._built_by}) and a Drake diagram is fixed once built: "
@@ -461,7 +463,7 @@ class ScriptSession:
     def _new(self, cls: str, name: str) -> str:
         klass = CLASSES.get(cls)
         if klass is None:
-            raise SessionError(f"unknown class {cls!r}; classes: {', '.join(CLASSES)}")
+            raise UnknownScriptName("class", cls, CLASSES)
         if name in self._entities or name in RESERVED_NAMES or name.startswith("log_"):
             raise SessionError(f"the name {name!r} is taken (entities: {', '.join(self._entities)})")
         if klass in AT_MOST_ONE:
@@ -755,13 +757,17 @@ def _label(statement: Statement) -> str:
     return statement.text if statement.source == COMMAND_SOURCE else f"{statement.where}: {statement.text}"
 
 
-def _located(error: Exception, statement: Statement | None, command: Command) -> SessionError:
-    """``error`` prefixed with the script line (or the command) that raised it."""
+def _located(error: Exception, statement: Statement | None, command: ScriptCommand) -> SessionError:
+    """``error`` prefixed with the script line (or the command) that raised it; an unknown name
+    stays one (:class:`UnknownScriptName`)."""
     prefix = _label(statement) if statement else str(command)
+    if isinstance(error, UnknownNameError):
+        where = prefixed(error, prefix).where
+        return UnknownScriptName(error.kind, error.name, error.known, where=where, located=True)
     return SessionError(f"{prefix}: {error}", located=True)
 
 
-def _keyword(command: Command) -> str:
+def _keyword(command: ScriptCommand) -> str:
     match command:
         case Call(entity, name):
             return f"{entity}.{name}"

@@ -33,7 +33,7 @@ from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
@@ -68,7 +68,7 @@ FORCE_PI = (0.5, 4.0)  # (kp, ki) of eq. 3
 
 
 @dataclass(frozen=True)
-class Phase:
+class PoundingPhase:
     """A state of the machine: when it starts [s], its name, the hand that acts."""
 
     start: float
@@ -78,13 +78,13 @@ class Phase:
 
 #: The state machine's script: reaching 1.5 s (over the table, then down), contact 2 s, release 1 s.
 PHASES = (
-    Phase(0.0, "idle", None),
-    Phase(1.0, "rh-reaching", "right"),
-    Phase(2.5, "rh-contact", "right"),
-    Phase(4.5, "rh-release", "right"),
-    Phase(5.5, "lh-reaching", "left"),
-    Phase(7.0, "lh-contact", "left"),
-    Phase(9.0, "lh-release", "left"),
+    PoundingPhase(0.0, "idle", None),
+    PoundingPhase(1.0, "rh-reaching", "right"),
+    PoundingPhase(2.5, "rh-contact", "right"),
+    PoundingPhase(4.5, "rh-release", "right"),
+    PoundingPhase(5.5, "lh-reaching", "left"),
+    PoundingPhase(7.0, "lh-contact", "left"),
+    PoundingPhase(9.0, "lh-release", "left"),
 )
 DURATION = 10.5
 REST = -TABLE_MASS * 9.81 / STIFFNESS  # [m] the slide's rest position under the table's weight
@@ -261,7 +261,7 @@ def build(
     )
 
 
-def _script(built, schedule, X, transition: float) -> list[Command]:
+def _script(built, schedule, X, transition: float) -> list[TimedCommand]:
     """The state machine as timed commands: hand targets and priority rearrangements (by task name)."""
 
     def target(side: str, height: float) -> RigidTransform:
@@ -288,15 +288,15 @@ def _script(built, schedule, X, transition: float) -> list[Command]:
         side = phase.hand
         if phase.name.endswith("reaching"):
             commands += [
-                Command(phase.start, f"{phase.name}: over the table", move(side, 0.08)),
-                Command(phase.start + 0.8, f"{phase.name}: down", move(side, 0.0)),
+                TimedCommand(phase.start, f"{phase.name}: over the table", move(side, 0.08)),
+                TimedCommand(phase.start + 0.8, f"{phase.name}: down", move(side, 0.0)),
             ]
         elif phase.name.endswith("contact"):
-            commands.append(Command(phase.start, phase.name, priorities(side, True)))
+            commands.append(TimedCommand(phase.start, phase.name, priorities(side, True)))
         elif phase.name.endswith("release"):
             commands += [
-                Command(phase.start, phase.name, priorities(side, False)),
-                Command(phase.start, f"{phase.name}: up", move(side, 0.08)),
+                TimedCommand(phase.start, phase.name, priorities(side, False)),
+                TimedCommand(phase.start, f"{phase.name}: up", move(side, 0.08)),
             ]
     return commands
 

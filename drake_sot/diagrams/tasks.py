@@ -23,6 +23,7 @@ from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.world import add_humanoid_plant
+from drake_sot.errors import UnknownNameError
 from drake_sot.features import SelectionLike
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, half_sitting_configuration
@@ -30,13 +31,13 @@ from drake_sot.robots import RobotDescription, get_robot, make_robot_control_mod
 from drake_sot.systems.admittance import AdmittanceController
 from drake_sot.systems.fall_monitor import FallCriteria, FallMonitor
 from drake_sot.systems.features import (
+    Feature,
     FeatureCoM,
     FeatureJointLimits,
     FeaturePoint6d,
     FeaturePoint6dRelative,
     FeaturePosture,
     FeatureVisualPoint,
-    _Feature,
 )
 from drake_sot.systems.force_sensor import ForceSensor, payload
 from drake_sot.systems.generalized_controller import VECTOR_OUTPUTS
@@ -140,7 +141,7 @@ class HumanoidTaskBuilder:
         self.dyn = self.builder.AddSystem(RobotKinematics(self.control_plant))
         self.dyn.set_name("dyn")
         self.tasks: dict[str, Task | InequalityTask] = {}
-        self.features: dict[str, _Feature] = {}
+        self.features: dict[str, Feature] = {}
         self._pose_feature_frames: dict[FeaturePoint6d, str] = {}  # op-point feature -> its frame key
         self._q_consumers: list = [self.dyn.GetInputPort("q")]
         self._qdot_consumers: list = []  # inputs of the q̇ the solver committed (its output)
@@ -159,7 +160,7 @@ class HumanoidTaskBuilder:
 
     def _frame(self, frame_key: str):
         if frame_key not in self.control_info.frames:
-            raise KeyError(f"unknown frame {frame_key!r}; known: {', '.join(self.control_info.frames)}")
+            raise UnknownNameError("frame", frame_key, self.control_info.frames)
         return self.control_plant.GetFrameByName(self.control_info.frames[frame_key])
 
     # --- tasks -----------------------------------------------------------------------
@@ -176,7 +177,7 @@ class HumanoidTaskBuilder:
             self.dyn.add_operational_point(frame_key, frame_name)
         return frame_key
 
-    def _connect_frame(self, op: str, feature: _Feature, suffix: str = "") -> None:
+    def _connect_frame(self, op: str, feature: Feature, suffix: str = "") -> None:
         """Feed a pose feature's ``frame<suffix>`` input with the operational point's pose and
         Jacobian in one value (one port evaluation a tick, not two)."""
         self.builder.Connect(
@@ -200,7 +201,7 @@ class HumanoidTaskBuilder:
         self._q_consumers.append(port)
 
     def _add_task(
-        self, task_name: str, feature: _Feature, gain: Gain, selection: SelectionLike = None
+        self, task_name: str, feature: Feature, gain: Gain, selection: SelectionLike = None
     ) -> Task:
         """A task reading ``feature`` (added to the diagram unless it is there already, shared)."""
         if task_name in self.tasks:
@@ -386,7 +387,7 @@ class HumanoidTaskBuilder:
                 virtual mass is the hand's apparent inertia, from ``dyn.inertia`` and the hand's
                 Jacobian (``mass`` then gives the rotation's only).
         Returns:
-            the controller; its ``pose_des`` and ``velocity_des`` are for a hand feature,
+            the controller; its ``position_des`` and ``velocity_des`` are for a hand feature,
             its ``active`` and ``wrench_ref`` inputs are left for the caller to drive
             (active and zero when unconnected).
         """
@@ -461,7 +462,7 @@ class HumanoidTaskBuilder:
         )
         self.add_op_point_task(task_name, f"{side}_hand", gain=gain, selection=selection)
         feature = self.features[task_name]
-        self.builder.Connect(admittance.GetOutputPort("pose_des"), feature.GetInputPort("position_des"))
+        self.builder.Connect(admittance.GetOutputPort("position_des"), feature.GetInputPort("position_des"))
         self.builder.Connect(admittance.GetOutputPort("velocity_des"), feature.GetInputPort("velocity_des"))
         return admittance
 

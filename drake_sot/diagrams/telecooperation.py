@@ -134,7 +134,9 @@ LEADERS = ("operator", "cooperator")
 #: ``HAND_ADMITTANCE``; ``weighted``, eq. 5-7, the translation's virtual mass the hand's apparent
 #: inertia Λ = (J A⁻¹ Jᵀ)⁻¹ at every tick (see the docstring).
 ADMITTANCES = ("plain", "weighted")
-SIDES = ("right", "left")
+#: The hands, right first: the order of ALTITUDE_TASKS, HAND_TASKS and of the hands' stacked
+#: positions the master and the slave exchange (not footsteps' left-first SIDES).
+HANDS = ("right", "left")
 ALTITUDE_TASKS = ("e_zr", "e_zl")
 HAND_TASKS = ("e_fr", "e_fl")
 STACK = (
@@ -199,7 +201,7 @@ def _initial_hands() -> dict[str, RigidTransform]:
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, carrying_configuration())
     return {
-        side: plant.GetFrameByName(info.frames[f"{side}_hand"]).CalcPoseInWorld(context) for side in SIDES
+        side: plant.GetFrameByName(info.frames[f"{side}_hand"]).CalcPoseInWorld(context) for side in HANDS
     }
 
 
@@ -220,7 +222,7 @@ def _add_board(plant: MultibodyPlant, info: HumanoidInfo, hands: dict[str, Rigid
         "board",
         np.array([0.6, 0.45, 0.3, 1.0]),
     )
-    for side in SIDES:
+    for side in HANDS:
         hand = plant.GetFrameByName(info.frames[f"{side}_hand"], info.model_instance)
         grip = plant.AddFrame(
             FixedOffsetFrame(f"board_{side}_grip", board.body_frame(), X_WB.InvertAndCompose(hands[side]))
@@ -288,7 +290,7 @@ def initial_link_values() -> tuple[np.ndarray, np.ndarray]:
     ``[right; left]`` [m] at their initial position."""
     hands = _initial_hands()
     forward = np.concatenate(list(initial_master_values().values()))
-    return forward, np.concatenate([hands[side].translation() for side in SIDES])
+    return forward, np.concatenate([hands[side].translation() for side in HANDS])
 
 
 def add_master_site(
@@ -398,20 +400,20 @@ def build(
     )
     builder = b.builder
     pg, left, right = add_walking(b, limits=STEP_LIMITS, stabilizer_gains=STABILIZER)
-    x_s0 = np.concatenate([hands0[side].translation() for side in SIDES])
+    x_s0 = np.concatenate([hands0[side].translation() for side in HANDS])
 
     # --- slave side: the seven tasks ------------------------------------------------------
     # The CoM's height, below the hands: without it the least-norm motion of the hands lowers
     # the whole body (the robot squats under the board's weight and to reach forward); above
     # the hands, it drives the arms into the body (a 100 N contact at the wrists).
     b.add_com_task("taskComZ", selection="001", gain=5.0)
-    for task_name, side in zip(ALTITUDE_TASKS, SIDES, strict=True):
+    for task_name, side in zip(ALTITUDE_TASKS, HANDS, strict=True):
         b.add_op_point_task(task_name, f"{side}_hand", selection="001000", gain=5.0)
     admittances = {
         task_name: b.add_admittance_task(
             task_name, side, selection="111000", weighted=admittance == "weighted", **HAND_ADMITTANCE
         )
-        for task_name, side in zip(HAND_TASKS, SIDES, strict=True)
+        for task_name, side in zip(HAND_TASKS, HANDS, strict=True)
     }
     # The co-operator leading: the balance stabilizer's model has the hands' measured wrenches (the
     # board's weight and the co-operator's pull); without them it answered the pull by moving the
@@ -423,21 +425,21 @@ def build(
             builder.GetMutableSubsystemByName("stabilizer"),
             {
                 side: admittances[task].GetOutputPort("wrench_external")
-                for task, side in zip(HAND_TASKS, SIDES, strict=True)
+                for task, side in zip(HAND_TASKS, HANDS, strict=True)
             },
         )
     b.add_op_point_task("e_head", "head", selection="000111", gain=5.0)
     b.add_posture_task("e_grip", GRIPPERS, gain=5.0)
     b.add_posture_task("taskPosture", gain=1.0)
     references = builder.AddSystem(SlaveReferences(b.control_plant, b.q0, GRIPPERS))
-    for task_name, side in zip(HAND_TASKS, SIDES, strict=True):
+    for task_name, side in zip(HAND_TASKS, HANDS, strict=True):
         builder.Connect(
             references.GetOutputPort(f"wrench_ref_{side}"), admittances[task_name].GetInputPort("wrench_ref")
         )
     builder.Connect(references.GetOutputPort("head_pose"), b.features["e_head"].GetInputPort("position_des"))
     builder.Connect(references.GetOutputPort("posture"), b.features["e_grip"].GetInputPort("sdes"))
     hand_positions = builder.AddSystem(HandPositions())
-    for side in SIDES:
+    for side in HANDS:
         builder.Connect(
             b.dyn.GetOutputPort(b.op_point(f"{side}_hand")), hand_positions.GetInputPort(f"{side}_hand")
         )

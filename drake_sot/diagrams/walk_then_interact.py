@@ -22,7 +22,7 @@ from pydrake.systems.framework import OutputPort
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
 from drake_sot.diagrams.walking import add_walking, forward_steps
@@ -195,7 +195,7 @@ def _finish(
     steps = forward_steps(left, right, n=4, stride=0.15)
     return ScenarioSetup(
         built=built,
-        commands=[Command(0.0, f"walk {len(steps)} steps", lambda c: pg.add_steps(c, steps))],
+        commands=[TimedCommand(0.0, f"walk {len(steps)} steps", lambda c: pg.add_steps(c, steps))],
         duration=RELEASE_AT + 1.0,
         extras={
             "pattern_generator": pg,

@@ -19,7 +19,7 @@ from pydrake.systems.framework import System
 from drake_sot.diagrams.balance import add_stabilizer, add_zmp_estimator
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.run import Command
+from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, alternating_steps
@@ -201,7 +201,9 @@ def build_walk(
         command_server=command_server,
     )
     steps = steps_of(left, right)
-    commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))] if steps else []
+    commands = (
+        [TimedCommand(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))] if steps else []
+    )
     duration = START + len(steps) * b.robot.step_timing.period + 2.0
     return ScenarioSetup(
         built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}

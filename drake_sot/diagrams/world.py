@@ -17,10 +17,11 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from drake_sot.diagrams.pushes import ExternalPush
+from drake_sot.errors import UnknownNameError
 from drake_sot.models import HumanoidInfo, add_ground
 from drake_sot.robots import RobotDescription, add_robot_collision, load_robot, weld_robot_base
 from drake_sot.systems.fall_monitor import FallMonitor
-from drake_sot.systems.features import _Feature
+from drake_sot.systems.features import Feature
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.stack_history import StackHistory
 from drake_sot.systems.task import Task
@@ -45,7 +46,7 @@ class BuiltHumanoid:
     control_plant: MultibodyPlant
     dyn: RobotKinematics
     tasks: dict[str, Task]
-    features: dict[str, _Feature]
+    features: dict[str, Feature]
     loggers: dict[str, VectorLogSink]
     q0: np.ndarray
     meshcat: Meshcat | None
@@ -66,7 +67,13 @@ class BuiltHumanoid:
 
     def frame_pose(self, root_context, frame_key: str) -> RigidTransform:
         """Pose in world of a humanoid frame (logical name, e.g. ``"right_hand"``) in the
-        *simulated* plant."""
+        *simulated* plant.
+
+        Raises:
+            UnknownNameError: ``frame_key`` is not a frame of the robot (lists its frames).
+        """
+        if frame_key not in self.info.frames:
+            raise UnknownNameError("frame", frame_key, self.info.frames)
         plant_context = self.plant.GetMyContextFromRoot(root_context)
         return self.plant.GetFrameByName(
             self.info.frames[frame_key], self.info.model_instance

@@ -17,10 +17,11 @@ from collections import deque
 from collections.abc import Iterator, Sequence
 from typing import Any
 
+from drake_sot.errors import DrakeSotError
 from drake_sot.remote.protocol import decode_vector, encode
 
 
-class RemoteError(RuntimeError):
+class RemoteError(DrakeSotError, RuntimeError):
     """The server refused a request; the message is its ``error``."""
 
 

@@ -31,6 +31,7 @@ from collections import deque
 from collections.abc import Mapping, Sequence
 
 from drake_sot import validation
+from drake_sot.errors import DrakeSotError
 from drake_sot.remote.client import Client, RemoteError
 from drake_sot.remote.protocol import decode_vector, encode
 
@@ -38,7 +39,7 @@ Packet = tuple[float, dict[str, tuple[float, ...]]]
 """``(the sender's simulated time [s], {signal: value})``."""
 
 
-class PeerError(RuntimeError):
+class PeerError(DrakeSotError, RuntimeError):
     """The link to the served diagram failed (the message says which thread and why)."""
 
 

@@ -40,6 +40,8 @@ import sys
 from dataclasses import dataclass
 from typing import Any
 
+from drake_sot.errors import DrakeSotError
+
 #: The longest line accepted, newline included [bytes].
 MAX_LINE = 64 * 1024
 
@@ -55,7 +57,7 @@ OPS: dict[str, tuple[str, ...]] = {
 }
 
 
-class ProtocolError(ValueError):
+class ProtocolError(DrakeSotError, ValueError):
     """A line that is not a valid request; ``request_id`` is its id when one could be read."""
 
     def __init__(self, message: str, request_id: Any = None) -> None:

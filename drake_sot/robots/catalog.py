@@ -16,6 +16,7 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.footsteps import StepTiming
 from drake_sot.robots.description import (
     CollisionShape,
@@ -35,7 +36,7 @@ DATA_ENV = "DRAKE_SOT_EXAMPLE_ROBOT_DATA"
 INSTALL_HINT = "pip install 'drake_sot[robots]'  (i.e. example-robot-data==6.0.0 and trimesh)"
 
 
-class RobotDataMissing(RuntimeError):
+class RobotDataMissing(DrakeSotError, RuntimeError):
     """A robot's model files are not installed; the message says how to install them."""
 
 
@@ -352,11 +353,12 @@ ROBOTS: dict[str, Callable[[], RobotDescription]] = {
 def get_robot(name: str | RobotDescription) -> RobotDescription:
     """The description of robot ``name`` (a description passes through).
 
-    Raises ValueError for an unknown name (listing the known ones), RobotDataMissing when
-    its model files are not installed.
+    Raises :class:`~drake_sot.errors.UnknownNameError` (a ValueError and a KeyError) for an
+    unknown name (listing the known ones), RobotDataMissing when its model files are not
+    installed.
     """
     if isinstance(name, RobotDescription):
         return name
     if name not in ROBOTS:
-        raise ValueError(f"robot = {name!r}: unknown; known robots: {', '.join(ROBOTS)}")
+        raise UnknownNameError("robot", name, ROBOTS)
     return ROBOTS[name]()

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from drake_sot.errors import DrakeSotError
 
-class RobotFileError(OSError):
+
+class RobotFileError(DrakeSotError, OSError):
     """A file of a robot (its model, SRDF, a mesh, the mesh cache) is truncated, corrupt or not
     what it should be; the message names the file and says what is wrong with it, on one line."""
 

@@ -34,6 +34,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from drake_sot.errors import UnknownNameError
 from drake_sot.robots.errors import RobotFileMissing
 
 #: Mass [kg] and inertia [kg m^2] of an added sensor link (Drake needs a positive mass
@@ -56,13 +57,14 @@ class AddedWeld:
 def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
     """The file of a ``package://name/relative/path`` URI through ``packages`` (name → directory).
 
-    Raises ValueError for an unknown package name (listing the known ones) and
+    Raises :class:`~drake_sot.errors.UnknownNameError` (a ValueError) for an unknown package
+    name (listing the known ones) and
     RobotFileMissing (a FileNotFoundError) for a file that is not there (naming it).
     """
     rest = uri.removeprefix("package://").lstrip("/")
     name, _, relative = rest.partition("/")
     if name not in packages:
-        raise ValueError(f"URI {uri!r}: unknown package {name!r}; known: {', '.join(sorted(packages))}")
+        raise UnknownNameError("package", name, packages, where=f"URI {uri!r}")
     path = Path(packages[name]) / relative
     if not path.is_file():
         raise RobotFileMissing(f"URI {uri!r}: file {path} does not exist")

@@ -94,7 +94,7 @@ class AdmittanceController(LeafSystem):
     Timing: a periodic discrete update at ``period`` (offset 0) reads the inputs and
     updates the state; every output is read from the state (no direct feedthrough).
     An initialization event sets the reference to ``hand_pose`` (when connected), so
-    ``pose_des`` is the hand pose before the first tick; a freshly created context
+    ``position_des`` is the hand pose before the first tick; a freshly created context
     holds the identity pose until the first update.
 
     Input ports:
@@ -109,8 +109,8 @@ class AdmittanceController(LeafSystem):
             zero velocity; when it rises the dynamics start from the current hand
             pose. Unconnected: always active.
     Output ports:
-        pose_des: abstract ``RigidTransform``, the reference pose of the hand frame
-            (for ``FeaturePoint6d.position_des``).
+        position_des: abstract ``RigidTransform``, the reference pose of the hand frame
+            (for ``FeaturePoint6d.position_des``, the SoT signal of the same name: a pose).
         velocity_des: (6,) ``[v [m/s]; ω [rad/s]]`` reference velocity, world frame,
             translation first (for ``FeaturePoint6d.velocity_des``).
         wrench_external: (6,) ``[τ [N m]; f [N]]`` external wrench on the hand about
@@ -212,7 +212,7 @@ class AdmittanceController(LeafSystem):
 
         ticket = {self.discrete_state_ticket(self._state)}
         self.DeclareAbstractOutputPort(
-            "pose_des",
+            "position_des",
             lambda: AbstractValue.Make(RigidTransform()),
             lambda c, value: value.set_value(self._pose(self._x(c))),
             prerequisites_of_calc=ticket,
@@ -246,7 +246,7 @@ class AdmittanceController(LeafSystem):
         return RigidTransform(RotationMatrix(quaternion_to_rotation(x[_Q])), x[_P])
 
     def reference(self, context: Context) -> tuple[RigidTransform, np.ndarray]:
-        """``(pose_des, velocity_des)`` held in the state (own or root context)."""
+        """``(position_des, velocity_des)`` held in the state (own or root context)."""
         x = self._x(own_context(self, context))
         return self._pose(x), x[_V].copy()
 

@@ -9,7 +9,7 @@ own state what a Drake system may change — its own outputs:
 - **stack commands** (``SOT.push|rm|up|down TASK``, ``SOT.pop``, ``SOT.clear``, ``SOT`` being the
   solver's name given here; each may end with a transition time in seconds, ``SOT.push TASK 0.5``,
   over which the change is blended; read by :func:`drake_sot.script.stack_command`, the
-  vocabulary's parser, into :data:`drake_sot.stack.Command` values) go out as a batch
+  vocabulary's parser, into :data:`drake_sot.stack.StackCommand` values) go out as a batch
   on the ``commands`` output, which a
   :class:`~drake_sot.systems.sot.StackOfTasks` made with ``commands_input=True`` applies at
   the same tick (after its held stack; its ``command_results`` says, per command, if it acted);
@@ -53,12 +53,13 @@ from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.channel import Link
+from drake_sot.errors import unknown_name_message
 from drake_sot.remote.protocol import Request
 from drake_sot.script import COMMAND_SOURCE, Call, Get, ScriptError, Statement, parse_script, stack_command
 from drake_sot.stack import StackError
 from drake_sot.systems._context import own_context
 from drake_sot.systems.features import check_desired_pose
-from drake_sot.systems.sot import StackCommand, StackCommands
+from drake_sot.systems.sot import StackCommands, TimedStackCommand
 
 #: Times within this of a tick count as that tick [s] (sampled times are sums of floats).
 _EPS = 1e-9
@@ -287,7 +288,7 @@ class RemoteCommandServer(LeafSystem):
         if not requests and not timed:
             return
         t = context.get_time()
-        commands: list[StackCommand] = []
+        commands: list[TimedStackCommand] = []
         taken = []
         timed = dict(timed)
         for connection, request in requests:
@@ -311,7 +312,7 @@ class RemoteCommandServer(LeafSystem):
         connection: int,
         request: Request | None,
         t: float,
-        commands: list[StackCommand],
+        commands: list[TimedStackCommand],
         state: DrakeState,
         timed: dict[str, Link],
     ) -> TakenRequest:
@@ -385,7 +386,7 @@ class RemoteCommandServer(LeafSystem):
         """Why a write of ``value`` to ``signal`` is refused, or None."""
         slot = self._signals.get(signal)
         if slot is None:
-            return f"signal = {signal!r}: not writable (writable: {', '.join(self._signals) or 'none'})"
+            return unknown_name_message("writable signal", signal, self._signals)
         return slot.writable.check(signal, value)
 
 
@@ -403,7 +404,7 @@ def _host_changes_context(item: TakenRequest) -> bool:
     return not (isinstance(command, Get) or isinstance(command, Call) and command.command in _QUERIES)
 
 
-def _stack_command(statement: Statement | None, sot: str, t: float) -> StackCommand | str | None:
+def _stack_command(statement: Statement | None, sot: str, t: float) -> TimedStackCommand | str | None:
     """The stack command of a script line ``SOT.VERB …`` for solver ``sot``, given at ``t``; the
     vocabulary's error message when it is not one (an unknown verb, wrong arguments); None when the
     line is something else (for the host)."""
@@ -411,6 +412,6 @@ def _stack_command(statement: Statement | None, sot: str, t: float) -> StackComm
     if not (isinstance(command, Call) and command.entity == sot and command.command not in _QUERIES):
         return None
     try:
-        return StackCommand(t, stack_command(command))
+        return TimedStackCommand(t, stack_command(command))
     except StackError as error:
         return f"{statement.text!r}: {error}"

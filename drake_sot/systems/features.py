@@ -54,8 +54,9 @@ from drake_sot.systems._context import own_context, settable_context
 from drake_sot.validation import WORKSPACE_RADIUS, nonnegative, position, within
 
 
-class _Feature(LeafSystem):
-    """Selection, desired value and the two outputs shared by every feature."""
+class Feature(LeafSystem):
+    """The base of every feature, the type a :class:`~drake_sot.systems.task.Task` takes:
+    selection, desired value and the two outputs shared by every feature."""
 
     def __init__(self, size: int, selection: fmath.SelectionLike, name: str | None) -> None:
         super().__init__()
@@ -187,7 +188,7 @@ class _Feature(LeafSystem):
         value.set_value(FeatureSignal(e, J, ff))
 
 
-class FeatureGeneric(_Feature):
+class FeatureGeneric(Feature):
     """A feature whose value and Jacobian come from input signals (SoT ``FeatureGeneric``).
 
     ``e = s - s*`` with ``s`` = ``errorIN``; ``J`` = ``jacobianIN``.
@@ -299,7 +300,7 @@ def check_desired_pose(name: str, value, *, origin: str = "the world origin") ->
     return value
 
 
-class _PoseFeature(_Feature):
+class _PoseFeature(Feature):
     """A 6D feature on an operational point: inputs ``frame`` (or ``position`` and ``Jq``),
     ``position_des``."""
 
@@ -399,7 +400,7 @@ class FeaturePoint6dRelative(_PoseFeature):
         return e, J, np.zeros(6)
 
 
-class FeatureVisualPoint(_Feature):
+class FeatureVisualPoint(Feature):
     """A point of the world seen by a pinhole camera (SoT ``FeatureVisualPoint``, the fourth
     feature family of Mansard et al. 2009, with the interaction matrix of Chaumette &
     Hutchinson 2006).
@@ -461,7 +462,7 @@ class FeatureVisualPoint(_Feature):
             raise ValueError(f"{self.get_name()!r} at t = {context.get_time():.4f} s: {error}") from None
 
 
-class FeaturePosture(_Feature):
+class FeaturePosture(Feature):
     """Joint positions against a reference posture, on a selection of joints.
 
     ``e = q[joints] - q*[joints]``; ``J`` selects the joints' velocity columns.
@@ -550,7 +551,7 @@ def _one_dof_joint_names(plant: MultibodyPlant) -> list[str]:
     return [j.name() for j in joints if j.num_positions() == 1 and j.num_velocities() == 1]
 
 
-class FeatureJointLimits(_Feature):
+class FeatureJointLimits(Feature):
     """Keeps joints inside their position limits: one row per joint, active near a limit.
 
     For a joint inside ``[lower + margin, upper - margin]`` the row is zero (error 0,

@@ -11,12 +11,12 @@ motion task's desired wrench is eq. 2 with its :class:`MotionTask`'s own ``kp`` 
 a moving reference is followed with the lag of that PD. One Task can so feed both the
 kinematic SoT (which uses λ) and this controller (which does not).
 
-Status is not success. At each tick the controller says what it did, on ``status`` and
-in the ``report``:
+Status is not success. At each tick the controller says what it did, a
+:class:`~drake_sot.quasistatic.SolveStatus`, on ``status`` (its ``code``) and in the ``report``:
 
-- ``STATUS_OPTIMAL`` (0): the QP is optimal and every goal-directed task got its desired
+- OPTIMAL (0): the QP is optimal and every goal-directed task got its desired
   wrench ``w^d`` to within the shortfall threshold;
-- ``STATUS_SHORT`` (1): the QP is optimal, but the constraints (torque bounds, friction
+- SHORT (1): the QP is optimal, but the constraints (torque bounds, friction
   cones, minimum normal forces, the base's equilibrium) kept at least one goal task from
   its desired wrench: its *relative shortfall* ``‖w* − w^d‖ / max(‖w^d‖, wrench_floor)``
   exceeds ``shortfall_threshold`` (defaults :data:`SHORTFALL_THRESHOLD` = 0.1 and
@@ -25,7 +25,7 @@ in the ``report``:
   goal tasks stay within ~1 % of their desired wrenches (what the contact forces'
   regularisation ω_r trades), so 10 % is ten times that noise, while a bound that really
   holds a task back cuts much more;
-- ``STATUS_INFEASIBLE`` (2) / ``STATUS_FAILED`` (3): the QP has no solution (or the
+- INFEASIBLE (2) / FAILED (3): the QP has no solution (or the
   solver failed); the controller applies its fallback — gravity compensation on the
   contacts plus a posture PD — *saturated at the torque bounds*: ``saturation`` and the
   report say which joints were cut and by how much. No commanded torque ever exceeds its
@@ -55,7 +55,7 @@ from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from drake_sot.hierarchy import projected_jacobians
 from drake_sot.linalg import pinv
-from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, static_capacity
+from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, SolveStatus, static_capacity
 from drake_sot.signals import TaskSignal
 from drake_sot.statics import contact_torques
 from drake_sot.systems.kinematics import momentum_rows
@@ -64,7 +64,6 @@ from drake_sot.task_wrenches import pd_wrench, pi_force_wrench
 from drake_sot.transitions import Priorities
 from drake_sot.validation import matrix, nonnegative, per_axis, positive, positive_int, vector
 
-#: ``status`` output values (see the module docstring).
 #: The controller's vector output ports (held in its discrete state), in declaration order.
 VECTOR_OUTPUTS = (
     "tau",
@@ -76,14 +75,6 @@ VECTOR_OUTPUTS = (
     "status",
     "saturation",
 )
-STATUS_OPTIMAL, STATUS_SHORT, STATUS_INFEASIBLE, STATUS_FAILED = 0.0, 1.0, 2.0, 3.0
-#: ``status`` value → the name the report uses.
-STATUS_NAMES = {
-    STATUS_OPTIMAL: "optimal",
-    STATUS_SHORT: "short",
-    STATUS_INFEASIBLE: "infeasible",
-    STATUS_FAILED: "failed",
-}
 #: Default relative shortfall above which a goal task counts as short.
 SHORTFALL_THRESHOLD = 0.1
 #: Default floor [N or N·m] of the desired wrench's norm in the relative shortfall.
@@ -202,7 +193,7 @@ class ControllerReport:
     """What the controller did at its last tick: the ``report`` output.
 
     Attributes:
-        status: "optimal", "short", "infeasible" or "failed" (module docstring).
+        status: how the tick's solve ended (module docstring).
         tasks: task name → :class:`TaskWrench`, every goal-directed task.
         short: ``(task, shortfall)`` of the tasks above the threshold, largest first.
         saturated: ``(actuated joint, cut [N·m])`` on fallback: the torque the fallback
@@ -210,7 +201,7 @@ class ControllerReport:
         threshold: the shortfall threshold in force.
     """
 
-    status: str
+    status: SolveStatus
     tasks: Mapping[str, TaskWrench]
     short: tuple[tuple[str, float], ...]
     saturated: tuple[tuple[str, float], ...]
@@ -219,17 +210,17 @@ class ControllerReport:
     @property
     def fallback(self) -> bool:
         """True when the QP had no answer and the fallback torque was applied."""
-        return self.status in ("infeasible", "failed")
+        return self.status.fallback
 
     def summary(self) -> str:
         """One line: ``"optimal"``, ``"short: taskCom 87 %, ..."`` or ``"infeasible → fallback
         (saturated: r_knee by 12.3 N·m, ...)"``."""
-        if self.status == "short":
+        if self.status is SolveStatus.SHORT:
             return "short: " + ", ".join(f"{name} {100 * value:.0f} %" for name, value in self.short)
         if self.fallback:
             cut = ", ".join(f"{joint} by {value:+.3g} N·m" for joint, value in self.saturated)
-            return f"{self.status} → fallback" + (f" (saturated: {cut})" if cut else "")
-        return self.status
+            return f"{self.status.value} → fallback" + (f" (saturated: {cut})" if cut else "")
+        return self.status.value
 
 
 def _gravity_rows(plant: MultibodyPlant) -> tuple[slice, np.ndarray] | None:
@@ -348,8 +339,8 @@ class GeneralizedHierarchyController(LeafSystem):
         shortfall: (n_t,) each goal task's relative shortfall ‖w* − w^d‖ / max(‖w^d‖,
             wrench_floor), :attr:`task_names` order (NaN on fallback).
         contact_forces: (3·k,) [N] ground forces on the robot at the contact points, world.
-        status: (1,) ``STATUS_OPTIMAL`` 0, ``STATUS_SHORT`` 1, ``STATUS_INFEASIBLE`` 2,
-            ``STATUS_FAILED`` 3 (2 and 3: fallback).
+        status: (1,) the :class:`~drake_sot.quasistatic.SolveStatus` code: OPTIMAL 0, SHORT 1,
+            INFEASIBLE 2, FAILED 3 (2 and 3: fallback).
         saturation: (na,) [N·m] actuator order: on fallback, the torque wanted minus the
             torque commanded (nonzero where a bound cut it); 0 when the QP answered.
         report: abstract :class:`ControllerReport`: all of the above by task and joint name.
@@ -539,7 +530,7 @@ class GeneralizedHierarchyController(LeafSystem):
             self.DeclareStateOutputPort(port_name, index)
         self.DeclareAbstractOutputPort(
             "report",
-            lambda: AbstractValue.Make(ControllerReport("optimal", {}, (), (), 0.0)),
+            lambda: AbstractValue.Make(ControllerReport(SolveStatus.OPTIMAL, {}, (), (), 0.0)),
             self._calc_report,
             prerequisites_of_calc={self.xd_ticket()},
         )
@@ -684,7 +675,7 @@ class GeneralizedHierarchyController(LeafSystem):
         rows[goal_rows:] = contact_jacobians
         solution = self._stacked.solve(rows, desired, g)
         saturation = np.zeros(self._na)
-        if solution.status == "optimal":
+        if solution.status is SolveStatus.OPTIMAL:
             # Within the QP check's 1e-6 N·m of the bounds: hold them exactly.
             tau_v = np.clip(solution.tau, -self._tau_v, self._tau_v)
             wrenches = np.concatenate([solution.wrenches[n] for n in self._names])
@@ -697,7 +688,7 @@ class GeneralizedHierarchyController(LeafSystem):
             )
             gap2, need2 = np.add.reduceat(np.square([wrenches - desired, desired]), self._starts, axis=1)
             shortfall = np.sqrt(gap2 / np.maximum(need2, self._floor**2))
-            status = STATUS_SHORT if (shortfall > self._threshold).any() else STATUS_OPTIMAL
+            status = SolveStatus.SHORT if (shortfall > self._threshold).any() else SolveStatus.OPTIMAL
         else:
             wanted = self._fallback(q, v, g, contact_jacobians)
             tau_v = np.clip(wanted, -self._tau_v, self._tau_v)
@@ -705,7 +696,7 @@ class GeneralizedHierarchyController(LeafSystem):
             wrenches = np.full(desired.size, np.nan)
             shortfall = np.full(len(self._names), np.nan)
             contact = np.zeros(3 * len(self._contact_points))
-            status = STATUS_INFEASIBLE if solution.status == "infeasible" else STATUS_FAILED
+            status = solution.status
             integral[:] = 0.0  # the force tasks do not act: no wind-up (task_wrenches' policy)
         for port_name, value in (
             ("tau", tau_v[self._v_act - self._n_base]),
@@ -714,7 +705,7 @@ class GeneralizedHierarchyController(LeafSystem):
             ("errors", errors),
             ("shortfall", shortfall),
             ("contact_forces", contact),
-            ("status", np.array([status])),
+            ("status", np.array([status.code])),
             ("saturation", saturation),
         ):
             discrete_state.set_value(self._x[port_name], value)  # one binding call, not two
@@ -724,7 +715,7 @@ class GeneralizedHierarchyController(LeafSystem):
         alpha = self._alpha(context)
         diagonal = alpha.diagonal()
         rank = np.where(diagonal < 1.0, alpha.sum(axis=1) - diagonal, np.inf)  # inf: deactivated
-        status = float(context.get_discrete_state(self._x["status"]).get_value()[0])
+        status = SolveStatus.of_code(context.get_discrete_state(self._x["status"]).get_value()[0])
         shortfall = context.get_discrete_state(self._x["shortfall"]).get_value()
         saturation = context.get_discrete_state(self._x["saturation"]).get_value()
         active = sorted((k for k in range(len(self._names)) if math.isfinite(rank[k])), key=lambda k: rank[k])
@@ -732,8 +723,8 @@ class GeneralizedHierarchyController(LeafSystem):
         tokens += [
             f"short:{n}" for n, short in zip(self._names, shortfall > self._threshold, strict=True) if short
         ]
-        if status in (STATUS_INFEASIBLE, STATUS_FAILED):
-            tokens.append(f"fallback:{STATUS_NAMES[status]}")
+        if status.fallback:
+            tokens.append(f"fallback:{status.value}")
         tokens += [f"saturated:{j}" for j, cut in zip(self._actuated, saturation, strict=True) if cut]
         value.set_value(tuple(tokens))
 
@@ -762,7 +753,7 @@ class GeneralizedHierarchyController(LeafSystem):
         )
         value.set_value(
             ControllerReport(
-                status=STATUS_NAMES[float(get["status"][0])],
+                status=SolveStatus.of_code(get["status"][0]),
                 tasks=tasks,
                 short=tuple(short),
                 saturated=saturated,

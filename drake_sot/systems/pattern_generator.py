@@ -19,6 +19,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import Context, LeafSystem, State
 
 from drake_sot import validation
+from drake_sot.errors import UnknownNameError
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, StepTiming, relative_steps
 from drake_sot.systems._context import own_context
 from drake_sot.walk_planner import FOOTPRINTS_AHEAD, WalkPlanner
@@ -221,6 +222,11 @@ class PatternGenerator(LeafSystem):
         ``:comheight z`` and ``:previewcontroltime T`` (these two only while standing).
         Timing changes apply to the steps planned afterwards. Values outside
         ``footsteps.WALKING_BOUNDS`` are refused, the error naming the verb and the bound.
+
+        Raises:
+            UnknownNameError: an unknown verb (a ValueError; lists the verbs).
+            ValueError: an empty command, arguments that are not numbers or that the verb
+                refuses (naming the verb).
         """
         words = command.split()
         if not words:
@@ -235,7 +241,7 @@ class PatternGenerator(LeafSystem):
             ":previewcontroltime": lambda v: self.set_model(context, horizon=_one(v)),
         }
         if verb not in handlers:
-            raise ValueError(f"unknown command {verb!r}; known: {', '.join(handlers)}")
+            raise UnknownNameError("command", verb, handlers)
         try:
             values = [float(a) for a in args]
         except ValueError:

@@ -55,7 +55,7 @@ class TaskSequencer(LeafSystem):
     new stack at the very tick the transition fires.
 
     Input ports:
-        <guard port>: one per distinct port named by a ``Signal`` (size 1), ``Below``
+        <guard port>: one per distinct port named by a ``Flag`` (size 1), ``Below``
             or ``Above`` (size ``size``) guard, in order of first appearance. Only the
             ports of the current state's guards are read; one that is then
             unconnected, or carries NaN/Inf, raises a RuntimeError naming it.

@@ -13,9 +13,10 @@ from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
+from drake_sot.errors import prefixed
 from drake_sot.hierarchy import LevelReport, level_report, solve_hqp, solve_strict
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
-from drake_sot.stack import Clear, Command, Down, Pop, Push, Rm, Stack, StackError, Up
+from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.inequalities import InequalityTask
 from drake_sot.systems.task import Task
@@ -30,12 +31,12 @@ COMMANDS_PORT = "commands"
 
 # --- stack commands sent by another system (a remote command server) -------------------------
 @dataclass(frozen=True)
-class StackCommand:
-    """A stack command (:data:`drake_sot.stack.Command`: its task and its transition time, by
+class TimedStackCommand:
+    """A stack command (:data:`drake_sot.stack.StackCommand`: its task and its transition time, by
     name) given at ``time`` [s], where its transition starts (see :class:`StackOfTasks`)."""
 
     time: float
-    command: Command
+    command: StackCommand
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,7 @@ class StackCommands:
     order the sender took them); the solver applies each batch once."""
 
     batch: int = 0
-    commands: tuple[StackCommand, ...] = ()
+    commands: tuple[TimedStackCommand, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,7 @@ class StackOfTasks(LeafSystem):
     :class:`drake_sot.stack.Stack` value held in the context and changed at run time
     with :meth:`push`, :meth:`pop`, :meth:`rm`, :meth:`up`, :meth:`down` and
     :meth:`clear`, as in the paper, or with :meth:`apply` and any
-    :data:`drake_sot.stack.Command` (the algebra and its errors are ``Stack``'s). Index 0
+    :data:`drake_sot.stack.StackCommand` (the algebra and its errors are ``Stack``'s). Index 0
     of the stack is the highest priority; ``push`` appends at the lowest. Tasks outside
     the stack are not evaluated and cost nothing.
 
@@ -247,7 +248,7 @@ class StackOfTasks(LeafSystem):
             empty = Stack(tuple(task_name for task_name, _ in pairs))
             initial = empty.with_active(stack)
         except StackError as error:
-            raise type(error)(f"{where}: {error}") from None
+            raise prefixed(error, where) from None
         if STACK_PORT in empty.tasks:
             raise ValueError(f"{STACK_PORT!r} cannot be a task name: it is the name of the stack input port")
         if commands_input and COMMANDS_PORT in empty.tasks:
@@ -386,8 +387,8 @@ class StackOfTasks(LeafSystem):
         """The active tasks, highest priority first (own or root context); the input's when driven."""
         return self._current_stack(own_context(self, context)).active
 
-    def apply(self, context: Context, command: Command) -> Stack:
-        """Apply a stack command (:data:`drake_sot.stack.Command`) to the context's stack with
+    def apply(self, context: Context, command: StackCommand) -> Stack:
+        """Apply a stack command (:data:`drake_sot.stack.StackCommand`) to the context's stack with
         :meth:`drake_sot.stack.Stack.apply`, its transition starting at the context's time;
         return the stack before. The paper's commands below make their command and call this.
 

@@ -14,7 +14,7 @@ from drake_sot.features import SelectionLike
 from drake_sot.gains import MAX_GAIN_PERIOD, AdaptiveGain, Gain, check_gain_period, validate_gain
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.systems._context import own_context, settable_context
-from drake_sot.systems.features import _Feature
+from drake_sot.systems.features import Feature
 from drake_sot.validation import positive
 
 #: Name of the optional input port that drives λ.
@@ -76,7 +76,7 @@ class Task(LeafSystem):
         """Total dimension m of the task (sum of its features' selected components)."""
         return sum(m for _, m, _ in self._features)
 
-    def add(self, feature: _Feature, *, selection: SelectionLike = None) -> InputPort:
+    def add(self, feature: Feature, *, selection: SelectionLike = None) -> InputPort:
         """Add a feature (the paper's ``task.add feature``) and return the input port to plug it into.
 
         ``selection`` keeps some of the feature's (already selected) components in this

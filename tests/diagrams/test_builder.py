@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.errors import UnknownNameError
+from drake_sot.robots.description import LOGICAL_FRAMES
 
 
 def test_relative_feet_task_holds_the_stance_while_the_robot_stands():
@@ -30,10 +32,21 @@ def test_duplicate_and_unknown_names_are_refused():
     b.add_com_task("taskCom")
     with pytest.raises(ValueError, match="'taskCom' exists already"):
         b.add_com_task("taskCom")
-    with pytest.raises(KeyError, match="unknown frame 'nose'; known: .*right_hand"):
+    frames = ", ".join(sorted(LOGICAL_FRAMES))  # the embedded robot gives exactly the logical frames
+    with pytest.raises(UnknownNameError, match=f"^unknown frame 'nose'; known: {frames}$") as caught:
         b.add_op_point_task("taskNose", "nose")
-    with pytest.raises(KeyError, match="unknown task 'taskX'; known tasks: taskCom"):
+    assert caught.value.kind == "frame" and isinstance(caught.value, KeyError)
+    with pytest.raises(
+        UnknownNameError,
+        match=r"^StackOfTasks 'sot': the stack \('taskX',\): unknown task 'taskX'; known: taskCom$",
+    ):
         b.build(stack=["taskX"])
+    built = b.build(stack=["taskCom"])
+    with pytest.raises(
+        UnknownNameError,
+        match=f"^unknown frame 'left_hnd' \\(did you mean 'left_hand'\\?\\); known: {frames}$",
+    ):
+        built.frame_pose(built.diagram.CreateDefaultContext(), "left_hnd")
 
 
 def test_tasks_on_one_frame_can_share_its_pose_feature():

@@ -112,7 +112,7 @@ def test_floating_base_builders_monitor_falls_unless_asked_not_to():
     ("kwargs", "message"),
     [
         ({"fall_criteria": 0.4}, "fall_criteria = 0.4: must be a FallCriteria or None"),
-        ({"pushes": [ExternalPush(1.0, "elbow", (0, 1, 0), 0.1)]}, "push body = 'elbow': unknown frame"),
+        ({"pushes": [ExternalPush(1.0, "elbow", (0, 1, 0), 0.1)]}, "push body: unknown frame 'elbow'"),
         ({"pushes": [(1.0, "pelvis", (0, 1, 0), 0.1)]}, "is not an ExternalPush"),
     ],
 )

@@ -9,7 +9,7 @@ import pytest
 from pydrake.math import RigidTransform
 
 from drake_sot.diagrams import reach
-from drake_sot.diagrams.run import Command, RunResult, fall_causes, simulate
+from drake_sot.diagrams.run import RunResult, TimedCommand, fall_causes, simulate
 from drake_sot.systems.fall_monitor import Fall
 
 LIFT = 1.5  # [m] up, from the left foot's target (a stance foot)
@@ -25,7 +25,7 @@ def lifted():
         foot.set_desired(context, RigidTransform(X.rotation(), X.translation() + [0.0, 0.0, LIFT]))
 
     simulator = setup.built.create_simulator()
-    result = simulate(simulator, 3.0, [Command(0.5, "lift taskLF 1.5 m", lift)])
+    result = simulate(simulator, 3.0, [TimedCommand(0.5, "lift taskLF 1.5 m", lift)])
     return setup, simulator, result
 
 

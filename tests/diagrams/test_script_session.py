@@ -16,6 +16,7 @@ from drake_sot.diagrams.script_session import (
     load_script,
     schedule,
 )
+from drake_sot.errors import UnknownNameError
 from drake_sot.models import half_sitting_configuration, make_control_model
 from drake_sot.script import Plug, ScriptError, parse_script, parse_value
 
@@ -185,17 +186,17 @@ def test_refusals_name_what_is_wrong():
     session = ScriptSession()
     session.run_script("new FeatureGeneric f\nnew Task t\nt.add f\nnew FeaturePoint6d p")
     cases = {
-        "new Featurexyz g": "unknown class 'Featurexyz'; classes: FeatureGeneric",
+        "new Featurexyz g": f"unknown class 'Featurexyz'; known: {', '.join(sorted(CLASSES))}",
         "new Task t": "the name 't' is taken",
         "new Task device": "the name 'device' is taken",
         "new SOT a\nnew SOT b": "the diagram has one SOT, 'a', already",
-        "plug dyn.nope f.errorIN": "'dyn' (Dynamic) has no signal 'nope'; signals: q, com, Jcom",
+        "plug dyn.nope f.errorIN": "'dyn' (Dynamic): unknown signal 'nope'; known: Jcom, com, inertia, q",
         "plug f.errorIN f.sdes": "f.errorIN is an input signal; an output signal is needed here",
         "plug dyn.com dyn.q": "dyn.q is fed by the build: the reference configuration",
-        "plug zzz.com f.errorIN": "unknown entity 'zzz'; entities: pool, dyn, f, t, p",
+        "plug zzz.com f.errorIN": "unknown entity 'zzz'; known: a, dyn, f, p, pool, t",  # a: the SOT above
         "t.add dyn": "'dyn' (Dynamic) is not a feature",
         "t.add f": "t has f already",
-        "t.fly 3": "'t' (Task) has no command 'fly'; commands: help, add, controlGain",
+        "t.fly 3": "'t' (Task): unknown command 'fly'; known: add, controlGain, controlGainAdaptive, help",
         "t.controlGain -1": "gain = -1.0 1/s: must be finite and > 0",
         "set f.sdes t": "'t' (Task) is not a feature",
         "set f.errorIN featureX": "only a feature's desired value takes another feature's name",
@@ -215,6 +216,29 @@ def test_refusals_name_what_is_wrong():
         assert expected in str(caught.value), (text, str(caught.value))
         assert str(caught.value).startswith(lines[-1] + ": ")
     assert not session.is_built
+
+
+def test_an_unknown_name_raises_an_unknown_name_error_of_its_kind():
+    session = ScriptSession()
+    session.run_script("new FeatureGeneric f\nnew Task t")
+    cases = {
+        "plug zzz.com f.errorIN": ("entity", "zzz", {"pool", "dyn", "f", "t"}),
+        "plug dyn.nope f.errorIN": ("signal", "nope", {"q", "com", "Jcom", "inertia"}),
+        "t.fly 3": ("command", "fly", {"help", "add", "controlGain", "controlGainAdaptive"}),
+        "new Featurexyz g": ("class", "Featurexyz", set(CLASSES)),
+    }
+    for text, (kind, name, known) in cases.items():
+        with pytest.raises(UnknownNameError) as caught:
+            session.execute(text)
+        assert isinstance(caught.value, SessionError) and isinstance(caught.value, KeyError)
+        assert (caught.value.kind, caught.value.name, caught.value.known) == (
+            kind,
+            name,
+            tuple(sorted(known)),
+        )
+        assert str(caught.value).startswith(f"{text}: ") and str(caught.value).endswith(
+            f"unknown {kind} {name!r}; known: {', '.join(sorted(known))}"
+        )
 
 
 def test_build_errors_name_the_entity_and_its_line():
@@ -278,8 +302,11 @@ def test_sot_commands_act_on_the_context_given(paper_session):
     session.execute("sot.rm taskLeftFoot", context)
     assert session.execute("sot.pop", context) == "taskCom"
     assert session.built.sot.list(context) == ("taskTwofeet",)
-    with pytest.raises(SessionError, match="unknown task 'taskX'; known tasks: "):
+    with pytest.raises(SessionError, match="unknown task 'taskX'; known: ") as caught:
         session.execute("sot.push taskX", context)
+    assert isinstance(caught.value, UnknownNameError) and caught.value.kind == "task"
+    assert caught.value.known == tuple(sorted(session.built.sot.task_names))
+    assert {"taskTwofeet", "taskCom", "taskLeftFoot"} <= set(caught.value.known)
     session.execute("sot.clear", context)
     assert session.execute("sot.list", context) == ""
 
@@ -428,7 +455,7 @@ def test_pattern_generator_sequencer_and_admittance_act_at_run_time():
         new FeaturePoint6d featureRH
         plug dyn.rhand featureRH.position
         plug dyn.Jrhand featureRH.Jq
-        plug admRH.pose_des featureRH.position_des
+        plug admRH.position_des featureRH.position_des
         plug admRH.velocity_des featureRH.velocity_des
         new Task taskForce
         taskForce.add featureRH
@@ -456,8 +483,8 @@ def test_pattern_generator_sequencer_and_admittance_act_at_run_time():
     assert session.execute("sot.list") == "taskCom taskForce"
     assert session.execute("get admRH.fault") == "[1](0.0)"
     hand = session.built.frame_pose(session.simulator.get_context(), "right_hand")
-    pose_des = parse_value(session.execute("get admRH.pose_des")).array
-    assert np.linalg.norm(pose_des[:3, 3] - hand.translation()) < 0.01
+    position_des = parse_value(session.execute("get admRH.position_des")).array
+    assert np.linalg.norm(position_des[:3, 3] - hand.translation()) < 0.01
     with pytest.raises(
         SessionError,
         match=r"pg.parsecmd :stepheight 2: :stepheight: .*step_height = 2.0 m: must be in \[0.01, 0.3\] m",

@@ -22,7 +22,7 @@ from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.artifacts import log_arrays
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
-from drake_sot.diagrams.run import Command, simulate
+from drake_sot.diagrams.run import TimedCommand, simulate
 from drake_sot.remote.protocol import Request
 from drake_sot.sequencing import Push, Rm, State, Timeout, Transition, Up
 from drake_sot.systems.sequencer import TaskSequencer
@@ -94,17 +94,17 @@ def _qdot_changes(transition: float, drive: str = "context") -> tuple[np.ndarray
     if drive == "remote":
         built.remote.attach(inbox)
         commands = [
-            Command(
+            TimedCommand(
                 PUSH - 1e-3,
                 "push taskLH",
                 lambda c: inbox.put(f"sot.push taskLH{seconds}", f"sot.up taskLH{seconds}"),
             ),
-            Command(RM - 1e-3, "rm taskLH", lambda c: inbox.put(f"sot.rm taskLH{seconds}")),
+            TimedCommand(RM - 1e-3, "rm taskLH", lambda c: inbox.put(f"sot.rm taskLH{seconds}")),
         ]
     elif drive == "context":
         commands = [
-            Command(PUSH, "push taskLH", push),
-            Command(RM, "rm taskLH", lambda c: sot.rm(c, "taskLH", transition=transition)),
+            TimedCommand(PUSH, "push taskLH", push),
+            TimedCommand(RM, "rm taskLH", lambda c: sot.rm(c, "taskLH", transition=transition)),
         ]
     else:
         commands = []

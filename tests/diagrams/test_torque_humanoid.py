@@ -16,14 +16,12 @@ import pytest
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from drake_sot.diagrams.artifacts import log_arrays
-from drake_sot.diagrams.run import Command, simulate
+from drake_sot.diagrams.run import TimedCommand, simulate
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import sole_corner_points
+from drake_sot.quasistatic import SolveStatus
 from drake_sot.systems.generalized_controller import (
     SHORTFALL_THRESHOLD,
-    STATUS_INFEASIBLE,
-    STATUS_OPTIMAL,
-    STATUS_SHORT,
 )
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
@@ -149,7 +147,7 @@ def short_run():
     limits = {j: 1.1 * abs(tau) + 0.5 for j, tau in _static_torques(b).items()}
     b, built = _com_and_posture(effort_limits=limits)
     com0 = b.initial_com()
-    shift = Command(
+    shift = TimedCommand(
         SHIFT_AT, "CoM +8 cm", lambda c: built.features["taskCom"].set_desired(c, com0 + [0.08, 0.0, 0.0])
     )
     simulator = built.create_simulator()
@@ -162,10 +160,10 @@ def test_the_status_names_the_short_task_within_50_ms(short_run):
     built, _, context, _ = short_run
     log = built.loggers["status"].FindLog(context)
     t, status = log.sample_times(), log.data()[0]
-    assert np.all(status[t < SHIFT_AT] == STATUS_OPTIMAL)  # standing: the bounds suffice
+    assert np.all(status[t < SHIFT_AT] == SolveStatus.OPTIMAL.code)  # standing: the bounds suffice
     column = built.controller.task_names.index("taskCom")
     shortfall = built.loggers["shortfall"].FindLog(context).data()[column]
-    named = (t >= SHIFT_AT) & (status == STATUS_SHORT) & (shortfall > SHORTFALL_THRESHOLD)
+    named = (t >= SHIFT_AT) & (status == SolveStatus.SHORT.code) & (shortfall > SHORTFALL_THRESHOLD)
     assert named.any()
     assert t[named][0] - SHIFT_AT <= 0.05
     # The same, by name, in the stack history the run's plot marks.
@@ -187,7 +185,7 @@ def test_the_run_logs_carry_the_status_and_the_short_task_by_name(short_run):
     built, _, context, result = short_run
     arrays = log_arrays(built, context, result)
     assert arrays["status"].shape == (arrays["time"].size, 1)
-    assert set(np.unique(arrays["status"])) <= {STATUS_OPTIMAL, STATUS_SHORT, STATUS_INFEASIBLE, 3.0}
+    assert set(np.unique(arrays["status"])) <= {s.code for s in SolveStatus}
     assert arrays["shortfall"].shape == (arrays["time"].size, len(built.controller.task_names))
     # The names of the short tasks, with the time they fell short (within 50 ms of the shift).
     short = [
@@ -219,7 +217,7 @@ def test_the_fallback_in_physics_is_saturated_and_reported():
     )
     bent = b.q0.copy()
     bent[b.control_plant.GetJointByName("chest_pitch").position_start()] += 1.2
-    bend = Command(0.2, "bend", lambda c: built.features["taskPosture"].set_desired(c, bent))
+    bend = TimedCommand(0.2, "bend", lambda c: built.features["taskPosture"].set_desired(c, bent))
     simulator = built.create_simulator()
     assert simulate(simulator, 1.0, [bend]).completed
     context = simulator.get_context()
@@ -227,7 +225,7 @@ def test_the_fallback_in_physics_is_saturated_and_reported():
     status = built.loggers["status"].FindLog(context).data()[0]
     tau = built.loggers["tau"].FindLog(context).data().T
     saturation = built.loggers["saturation"].FindLog(context).data().T
-    fallback = status == STATUS_INFEASIBLE
+    fallback = status == SolveStatus.INFEASIBLE.code
     assert fallback.any()
     bound = np.array([strong.get(j, lim) for j, lim in zip(joints, _limits(built, joints), strict=True)])
     assert np.all(np.abs(tau) <= bound)

@@ -85,7 +85,7 @@ class Bench:
 
     @property
     def pose(self) -> RigidTransform:
-        return RigidTransform(self.out("pose_des"))  # a copy: the port's value changes at the next tick
+        return RigidTransform(self.out("position_des"))  # a copy: the port's value changes at the next tick
 
     @property
     def velocity(self) -> np.ndarray:
@@ -306,11 +306,11 @@ def test_initialization_and_no_direct_feedthrough():
     c.GetInputPort("wrench").FixValue(context, np.zeros(6))
     simulator.Initialize()
     np.testing.assert_allclose(
-        c.GetOutputPort("pose_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12
+        c.GetOutputPort("position_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12
     )
     simulator.AdvanceTo(0.1)
     np.testing.assert_allclose(
-        c.GetOutputPort("pose_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12
+        c.GetOutputPort("position_des").Eval(context).GetAsMatrix4(), X.GetAsMatrix4(), atol=1e-12
     )
 
 

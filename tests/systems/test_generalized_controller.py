@@ -8,12 +8,10 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_sot.hierarchy import generalized_projectors
 from drake_sot.models import half_sitting_configuration, make_control_model, sole_corner_points
+from drake_sot.quasistatic import SolveStatus
 from drake_sot.systems.features import FeaturePoint6d, FeaturePosture
 from drake_sot.systems.generalized_controller import (
     SHORTFALL_THRESHOLD,
-    STATUS_INFEASIBLE,
-    STATUS_OPTIMAL,
-    STATUS_SHORT,
     ContactPoints,
     ForceTask,
     GeneralizedHierarchyController,
@@ -136,14 +134,14 @@ def _gravity_in_actuator_order(plant, info, q):
 def test_at_rest_on_target_the_torques_hold_gravity():
     plant, info, q0, controller, diagram, context = _controller(fixed_base=True)
     out = _tick(controller, diagram, context)
-    assert out["status"][0] == STATUS_OPTIMAL
+    assert out["status"][0] == SolveStatus.OPTIMAL.code
     np.testing.assert_allclose(out["tau"], _gravity_in_actuator_order(plant, info, q0), atol=1e-6)
 
 
 def test_standing_contacts_carry_the_weight():
     plant, info, q0, controller, diagram, context = _controller(fixed_base=False)
     out = _tick(controller, diagram, context)
-    assert out["status"][0] == STATUS_OPTIMAL
+    assert out["status"][0] == SolveStatus.OPTIMAL.code
     forces = out["contact_forces"].reshape(-1, 3)
     mass = plant.CalcTotalMass(plant.CreateDefaultContext())
     # The contacts carry the weight (up to the tiny virtual support the ω_r regularisation trades).
@@ -190,7 +188,7 @@ def test_infeasible_qp_falls_back_saturated_at_the_bounds_and_says_what_it_cut()
     diagram.GetInputPort("q").FixValue(context, q)
     diagram.GetInputPort("state").FixValue(context, np.concatenate((q, v)))
     out = _tick(controller, diagram, context)
-    assert out["status"][0] == STATUS_INFEASIBLE
+    assert out["status"][0] == SolveStatus.INFEASIBLE.code
     context_p = plant.CreateDefaultContext()
     plant.SetPositions(context_p, q)
     g = -plant.CalcGravityGeneralizedForces(context_p)
@@ -205,7 +203,7 @@ def test_infeasible_qp_falls_back_saturated_at_the_bounds_and_says_what_it_cut()
     assert np.all(np.abs(out["tau"]) <= effort)
     np.testing.assert_allclose(out["saturation"], wanted - np.clip(wanted, -effort, effort), atol=1e-6)
     report = out["report"]
-    assert report.status == "infeasible" and report.fallback
+    assert report.status == SolveStatus.INFEASIBLE and report.fallback
     assert dict(report.saturated) == pytest.approx({"l_elbow": wanted[k] + 5.0}, abs=1e-6)
     assert "l_elbow" in report.summary() and "fallback" in report.summary()
     np.testing.assert_array_equal(out["contact_forces"], 0.0)
@@ -241,13 +239,13 @@ def test_bounds_that_cannot_follow_the_hand_make_it_short_by_name():
     )
     order = [plant.GetJointByName(j).velocity_start() for j in info.actuated_joints]
     assert np.any(np.abs(unbounded[order]) > effort)
-    assert out["status"][0] == STATUS_SHORT
+    assert out["status"][0] == SolveStatus.SHORT.code
     assert np.all(np.abs(out["tau"]) <= effort)
     w, wd = out["wrenches"][slices["taskLH"]], out["desired_wrenches"][slices["taskLH"]]
     shortfall = np.linalg.norm(w - wd) / max(np.linalg.norm(wd), 1.0)
     assert shortfall > SHORTFALL_THRESHOLD
     report = out["report"]
-    assert report.status == "short" and report.short[0][0] == "taskLH"
+    assert report.status == SolveStatus.SHORT and report.short[0][0] == "taskLH"
     assert report.short[0][1] == pytest.approx(shortfall, rel=1e-9)
     assert report.tasks["taskLH"].shortfall == pytest.approx(shortfall, rel=1e-9)
     np.testing.assert_array_equal(report.tasks["taskLH"].desired, wd)
@@ -391,7 +389,7 @@ def test_the_force_integral_restarts_after_a_fallback():
         out = _tick(controller, diagram, context)
         statuses.append(out["status"][0])
         desired.append(out["desired_wrenches"][sl][0])
-    assert statuses[2] == STATUS_INFEASIBLE and statuses[3] != STATUS_INFEASIBLE
+    assert statuses[2] == SolveStatus.INFEASIBLE.code and statuses[3] != SolveStatus.INFEASIBLE.code
     step = ki * 10.0 * dt
     assert desired[1] == pytest.approx(-30.0 - kp * 10.0 - 2 * step)  # two ticks integrated
     # restarted from 0 after the fallback (else 3 steps: the deactivated tick adds nothing)

@@ -101,7 +101,10 @@ def test_parsecmd_timing_and_model_verbs():
 
 def test_bad_commands_and_steps_are_refused_by_name():
     pg, sim, context = _pg()
-    with pytest.raises(ValueError, match="unknown command ':walkfast'; known: :stepseq, :singlesupporttime"):
+    with pytest.raises(
+        ValueError,
+        match="unknown command ':walkfast'; known: :comheight, :doublesupporttime, :previewcontroltime, ",
+    ):
         pg.parsecmd(context, ":walkfast 1")
     with pytest.raises(ValueError, match=":stepseq: takes x y yaw triples"):
         pg.parsecmd(context, ":stepseq 0.1 0.2")

@@ -12,11 +12,11 @@ from drake_sot.sequencing import (
     Below,
     Clear,
     Down,
+    Flag,
     Pop,
     Push,
     Rm,
     SetValue,
-    Signal,
     State,
     Timeout,
     Transition,
@@ -151,7 +151,7 @@ def test_initial_entry_actions_apply_at_t0():
 
 def test_first_listed_transition_wins_and_one_transition_per_check():
     states = [
-        State("s0", transitions=(Transition(Signal("p"), "first"), Transition(Signal("q"), "second"))),
+        State("s0", transitions=(Transition(Flag("p"), "first"), Transition(Flag("q"), "second"))),
         State("first", entry=(Push("a"),), transitions=(Transition(Timeout(0.0), "third"),)),
         State("second", entry=(Push("b"),)),
         State("third", entry=(Push("b"),)),
@@ -174,7 +174,7 @@ def test_first_listed_transition_wins_and_one_transition_per_check():
     assert rig.seq.stack(rig.seq_context) == ("a", "b")
     assert rig.seq.state_names == ("s0", "first", "second", "third")
 
-    # Signal threshold is 0.5.
+    # Flag threshold is 0.5.
     rig = _Rig(states, guards={"p": 0.5, "q": 0.51})
     rig.run(0.005)
     assert rig.state == "second"
@@ -225,7 +225,7 @@ def test_below_and_above_use_the_vector_norm():
 
 def test_entry_actions_run_in_order_and_the_sot_follows():
     states = [
-        State("s0", transitions=(Transition(Signal("next"), "s1"),)),
+        State("s0", transitions=(Transition(Flag("next"), "s1"),)),
         State("s1", entry=(Push("c"), Up("c"), Up("c")), transitions=(Transition(Timeout(0.02), "s2"),)),
         State("s2", entry=(Down("c"), Rm("b")), transitions=(Transition(Timeout(0.02), "s3"),)),
         State("s3", entry=(Pop(), Pop(), Push("b")), transitions=(Transition(Timeout(0.02), "s4"),)),
@@ -330,10 +330,10 @@ def test_unknown_task_is_refused_at_construction_with_the_known_names():
             State("s0", transitions=(Transition(Timeout(1.0), "s1"),)),
             State("s1", entry=(Push("a"), action)),
         ]
-        with pytest.raises(ValueError, match=r"state 's1'.*unknown task 'taskXX'; known tasks: a, b, c"):
+        with pytest.raises(ValueError, match=r"state 's1'.*unknown task 'taskXX'; known: a, b, c"):
             TaskSequencer(states, "s0", tasks=TASK_NAMES)
     with pytest.raises(
-        ValueError, match=r"initial stack: the stack \('a', 'z'\) has unknown task 'z'; known tasks: a, b, c"
+        ValueError, match=r"initial stack: the stack \('a', 'z'\): unknown task 'z'; known: a, b, c"
     ):
         TaskSequencer([State("s0")], "s0", tasks=TASK_NAMES, stack=("a", "z"))
 
@@ -345,10 +345,10 @@ def test_unknown_task_is_refused_at_construction_with_the_known_names():
             [State("s0", transitions=(Transition(Timeout(1), "nowhere"),))],
             "s0",
             {},
-            "transition to unknown state 'nowhere'; states: s0",
+            "transition: unknown state 'nowhere'; known: s0",
         ),
         ([State("s0"), State("s0")], "s0", {}, "two states are named 's0'"),
-        ([State("s0")], "start", {}, "initial state 'start' does not exist; states: s0"),
+        ([State("s0")], "start", {}, "initial state: unknown state 'start'; known: s0"),
         ([], "s0", {}, "at least one state"),
         (
             [State("s0", entry=(SetValue("ref", 1.0),))],
@@ -428,13 +428,14 @@ def test_definition_errors():
 
 def test_a_command_that_fails_on_some_path_is_refused_with_the_path():
     states = [
-        State("idle", transitions=(Transition(Signal("go"), "grasp"), Transition(Signal("walk"), "walking"))),
+        State("idle", transitions=(Transition(Flag("go"), "grasp"), Transition(Flag("walk"), "walking"))),
         State("walking", entry=(Push("b"),), transitions=(Transition(Timeout(1), "grasp"),)),
         State("grasp", entry=(Rm("b"), Push("c"))),
     ]
     with pytest.raises(
         ValueError,
-        match=r"idle → grasp would fail: entry action Rm\(task='b'\): task 'b' is not in the stack \('a',\)",
+        match=r"idle → grasp would fail \(pass check_paths=False if that path cannot happen\): "
+        r"entry action Rm\(task='b'\): task 'b' is not in the stack \('a',\)",
     ):
         TaskSequencer(states, "idle", tasks=TASK_NAMES, stack=("a",))
     # Without the path check the same error comes at run time, naming state, action and stack.
