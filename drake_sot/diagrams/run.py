@@ -154,8 +154,9 @@ class RunResult:
         fell: the fall, if the robot fell (the earliest, if several monitors saw one).
         after_fall: the exception that ended the run after the fall was detected, if any.
         errors_before_fall: when the robot fell, ``(time, ((task, ‖e‖), ...))``: the task errors
-            of the diagram's stacks of tasks (largest first, in each task's units) at the last
-            step the run reached before the fall — what the controller was failing to achieve
+            of the diagram's stacks of tasks (largest first, in each task's units) recorded last
+            before the fall, at the end of a step of the run and at most 0.05 s apart (within one
+            step of 0.1 s and 0.05 s of the fall) — what the controller was failing to achieve
             (a target out of reach, a stance foot lifted), so that a fall names its cause.
         replay_until: [s] when a long run stopped recording its replay (the replay covers the
             run up to it; see :mod:`drake_sot.diagrams.log_window`), None when it recorded all.
@@ -310,6 +311,10 @@ def fall_causes(result: RunResult, *, tasks: int = 3) -> list[str]:
     return lines
 
 
+#: [s] of simulated time between two records of the task errors before a fall.
+_ERRORS_EVERY = 0.05
+
+
 class _FallWatch:
     """Watches a run for a fall, keeping the stacks' task errors of the last step before it."""
 
@@ -324,8 +329,13 @@ class _FallWatch:
         return min((f for f in falls if f is not None), key=lambda f: f.time, default=None)
 
     def step(self, context: Context) -> None:
-        """After a step of the run: the task errors, kept while no fall is latched."""
-        if not self._stacks or self.fall(context) is not None:
+        """After a step of the run: the task errors, kept while no fall is latched (at most every
+        :data:`_ERRORS_EVERY` of simulated time: a served run steps every control period)."""
+        if not self._stacks:
+            return
+        if self.errors_before is not None and context.get_time() < self.errors_before[0] + _ERRORS_EVERY:
+            return
+        if self.fall(context) is not None:
             return
         errors = [pair for sot in self._stacks for pair in sot.task_errors(sot.GetMyContextFromRoot(context))]
         self.errors_before = (context.get_time(), tuple(sorted(errors, key=lambda pair: -pair[1])))

@@ -38,7 +38,7 @@ def test_lifting_a_stance_foot_s_target_throws_the_robot_down(lifted):
 def test_the_fall_keeps_the_task_errors_of_the_step_before_it(lifted):
     setup, simulator, result = lifted
     when, errors = result.errors_before_fall
-    assert result.fell.time - 0.1 - 1e-9 <= when <= result.fell.time  # one step of the run before
+    assert result.fell.time - 0.1 - 1e-9 <= when <= result.fell.time  # one step of the run before (0.1 s)
     names = [task for task, _ in errors]
     assert sorted(names) == sorted(reach.STACK)  # the stack before the left hand's push at 3 s
     assert [norm for _, norm in errors] == sorted((norm for _, norm in errors), reverse=True)
