@@ -21,7 +21,7 @@ from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.priority_switching_plots import plot_priority_switch
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.robots.reach import arm_reach
 from drake_sot.systems.priority_schedule import PrioritySchedule
@@ -142,5 +142,5 @@ SCENARIO = Scenario(
     "(Liu, Lober, Padois 2016, fig. 10)",
     build=build,
     extra_plots=write_plots,
-    parameters=("robot",),
+    parameters=(ROBOT,),
 )

@@ -24,7 +24,9 @@ from drake_sot.diagrams.artifacts import (
 from drake_sot.diagrams.pushes import ExternalPush, check_push_times
 from drake_sot.diagrams.run import Command, Progress, RunResult, SignalGuard, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
+from drake_sot.parameters import Parameter, UndeclaredParameter, check_parameters
 from drake_sot.plots import plot_task_errors
+from drake_sot.robots import ROBOTS
 from drake_sot.systems.stack_history import stack_changes
 
 
@@ -65,9 +67,18 @@ class Scenario:
     description: str
     build: Callable[..., ScenarioSetup]
     extra_plots: ExtraPlots | None = None
-    parameters: tuple[str, ...] = ()  # keyword arguments ``build`` accepts besides the Meshcat
+    parameters: tuple[Parameter, ...] = ()  # keyword arguments ``build`` accepts besides the Meshcat
     servable: bool = False  # ``build`` takes ``command_server``
 
+
+#: The robot a scenario drives (its builder's ``robot=``), by name.
+ROBOT = Parameter(
+    "robot",
+    "choice",
+    "embedded",
+    "the robot (see 'drake-sot list --robots')",
+    choices=tuple(sorted(ROBOTS)),
+)
 
 Runner = Callable[..., RunResult]
 """Runs a built scenario: ``runner(setup, simulator, duration, progress=, guard=)`` -> RunResult."""
@@ -95,12 +106,16 @@ class NotServable(ValueError):
     """A command server was asked of a scenario whose diagram cannot have one (nothing built)."""
 
 
-def _check_parameters(scenario: Scenario, parameters: dict[str, Any] | None) -> None:
-    unknown = sorted(set(parameters or {}) - set(scenario.parameters))
-    if unknown:
-        raise ValueError(
-            f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}"
-        )
+def _check_parameters(scenario: Scenario, parameters: dict[str, Any] | None) -> dict[str, Any]:
+    """``parameters`` checked against ``scenario.parameters``: undeclared names raise
+    :class:`~drake_sot.parameters.UndeclaredParameter`, a refused value
+    :class:`ScenarioParameterError`."""
+    try:
+        return check_parameters(scenario.name, scenario.parameters, parameters)
+    except UndeclaredParameter:
+        raise
+    except ValueError as exc:
+        raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
 
 
 def build_scenario(
@@ -117,9 +132,10 @@ def build_scenario(
     Raises:
         ValueError: an undeclared parameter (nothing built).
         NotServable: ``command_server`` for a scenario that is not ``servable`` (nothing built).
-        ScenarioParameterError: ``build`` refused a parameter's value.
+        ScenarioParameterError: its declaration (nothing built) or ``build`` refused a
+            parameter's value.
     """
-    _check_parameters(scenario, parameters)
+    parameters = _check_parameters(scenario, parameters)
     if command_server and not scenario.servable:
         raise NotServable(
             f"{scenario.name} cannot be served: its diagram has no place for a RemoteCommandServer "
@@ -129,7 +145,7 @@ def build_scenario(
     if command_server:
         extra["command_server"] = True
     try:
-        return scenario.build(meshcat, **(parameters or {}), **extra)
+        return scenario.build(meshcat, **parameters, **extra)
     except ValueError as exc:
         raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
 
@@ -173,13 +189,14 @@ def run_scenario(
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
-            :class:`ScenarioParameterError` when ``build`` refuses a parameter's value or a
-            push starts after the run's end (before anything is simulated).
+            :class:`ScenarioParameterError` when a parameter's declaration (before anything is
+            built) or ``build`` refuses its value or a push starts after the run's end (before
+            anything is simulated).
         OSError: ``out_dir`` cannot be written (before anything is built).
     """
     if duration is not None:
         duration = check_duration("duration", duration)
-    _check_parameters(scenario, parameters)  # before the output directory is made
+    parameters = _check_parameters(scenario, parameters)  # before the output directory is made
     out = output_directory(out_dir)
     setup = build_scenario(
         scenario,

@@ -34,13 +34,13 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
 from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import HumanoidInfo
+from drake_sot.parameters import Parameter
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
-from drake_sot.validation import nonnegative
 
 STIFFNESS, DAMPING = 2000.0, 89.0  # [N/m], [N·s/m] (the paper's table)
 FORCE = 30.0  # [N] to press on the table
@@ -87,6 +87,15 @@ PHASES = (
     Phase(9.0, "lh-release", "left"),
 )
 DURATION = 10.5
+#: The priority rearrangement period; the paper also uses 0.015 s.
+TRANSITION = Parameter(
+    "transition",
+    "float",
+    0.6,
+    "priority rearrangement period (the paper also uses 0.015)",
+    minimum=0.0,
+    unit="s",
+)
 REST = -TABLE_MASS * 9.81 / STIFFNESS  # [m] the slide's rest position under the table's weight
 
 
@@ -223,7 +232,7 @@ def build(
     on ``robot`` (a name of ``drake_sot.robots.ROBOTS``). The table stands where it stands for
     the embedded robot (surface 0.65 m high, presses 0.40 m ahead): TALOS and the G1 reach it
     too."""
-    transition = nonnegative("transition", transition, unit="s")
+    transition = TRANSITION.check(transition)
     b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table, pushes=pushes, robot=robot)
     _press_with_the_spheres_only(b.plant, b.scene_graph, b.info)
     X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
@@ -335,5 +344,5 @@ SCENARIO = Scenario(
     "smooth priority changes (Liu, Lober, Padois 2016, 4.1)",
     build=build,
     extra_plots=write_plots,
-    parameters=("transition", "robot"),
+    parameters=(TRANSITION, ROBOT),
 )

@@ -41,6 +41,7 @@ from drake_sot.diagrams import telecooperation
 from drake_sot.diagrams.artifacts import output_directory, write_npz
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.telecoop_slave import HANDS, WRITTEN
+from drake_sot.parameters import Parameter
 from drake_sot.remote.peer import Peer
 from drake_sot.systems.remote_link import RemoteLink
 
@@ -65,9 +66,7 @@ def build_master(
     """The master's diagram, its link (unattached: see :meth:`RemoteLink.attach`) and its loggers
     by name; ``delay`` [s] one way, both directions (one control period to 0.3), ``jitter`` [s]
     and ``loss`` as :func:`telecooperation.link_configs` takes them."""
-    if leader not in telecooperation.LEADERS:
-        raise ValueError(f"leader = {leader!r}: one of {', '.join(telecooperation.LEADERS)}")
-    delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
+    leader, delay = telecooperation.LEADER.check(leader), telecooperation.DELAY.check(delay)
     forward0, hands0 = telecooperation.initial_link_values()
     # telecooperation's Channel's configurations and seeds
     forward, backward = telecooperation.link_configs(delay, jitter, loss)
@@ -157,12 +156,12 @@ class PeerScenario:
     name: str
     description: str
     run: Callable[..., MasterOutput]
-    parameters: tuple[str, ...] = ()
+    parameters: tuple[Parameter, ...] = ()
 
 
 SCENARIO = PeerScenario(
     name="telecoop_master",
     description="telecooperation's master site, the client of a served telecoop_slave (--connect HOST:PORT)",
     run=run_master,
-    parameters=("leader", "delay", "jitter", "loss"),
+    parameters=(telecooperation.LEADER, telecooperation.DELAY, telecooperation.JITTER, telecooperation.LOSS),
 )

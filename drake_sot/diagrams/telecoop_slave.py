@@ -52,6 +52,6 @@ SCENARIO = Scenario(
     name="telecoop_slave",
     description="telecooperation's slave side, to serve: the master (telecoop_master) writes its forces",
     build=build,
-    parameters=("leader",),
+    parameters=(telecooperation.LEADER,),
     servable=True,
 )

@@ -100,8 +100,7 @@ from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from drake_sot import validation
-from drake_sot.channel import DEFAULT_DELAY, LinkConfig
+from drake_sot.channel import DEFAULT_DELAY, MAX_DELAY, LinkConfig
 from drake_sot.diagrams.balance import add_zmp_estimator, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
@@ -113,6 +112,7 @@ from drake_sot.hand_steps import HandStepRule, stance_frame
 from drake_sot.master import piecewise_linear_path
 from drake_sot.models import half_sitting_configuration, make_control_model
 from drake_sot.models.humanoid import HumanoidInfo
+from drake_sot.parameters import Parameter
 from drake_sot.sequencing import Above, Below, Push, Rm, State, Transition, Up
 from drake_sot.stabilization import StabilizerGains
 from drake_sot.systems.channel import Channel
@@ -134,6 +134,43 @@ LEADERS = ("operator", "cooperator")
 #: ``HAND_ADMITTANCE``; ``weighted``, eq. 5-7, the translation's virtual mass the hand's apparent
 #: inertia Λ = (J A⁻¹ Jᵀ)⁻¹ at every tick (see the docstring).
 ADMITTANCES = ("plain", "weighted")
+LEADER = Parameter(
+    "leader",
+    "choice",
+    "operator",
+    "who leads the walk, the remote operator or the co-operator",
+    choices=LEADERS,
+)
+DELAY = Parameter(
+    "delay", "float", DEFAULT_DELAY, "one-way delay of the link", minimum=0.0, maximum=MAX_DELAY, unit="s"
+)
+JITTER = Parameter(
+    "jitter",
+    "float",
+    0.0,
+    "half-width of the link's uniform jitter on each packet's delay "
+    f"(delay + jitter at most {MAX_DELAY:g} s)",
+    minimum=0.0,
+    maximum=MAX_DELAY,
+    unit="s",
+)
+LOSS = Parameter(
+    "loss",
+    "float",
+    0.0,
+    "probability that a packet of the link is lost (the newest packet that has arrived is held)",
+    minimum=0.0,
+    maximum=1.0,
+    maximum_excluded=True,
+)
+ADMITTANCE = Parameter(
+    "admittance",
+    "choice",
+    "plain",
+    "the hands' admittance, plain (a fixed virtual mass) or weighted (the virtual mass is the hand's "
+    "apparent inertia, Evrard et al. 2009 eq. 5-7)",
+    choices=ADMITTANCES,
+)
 SIDES = ("right", "left")
 ALTITUDE_TASKS = ("e_zr", "e_zl")
 HAND_TASKS = ("e_fr", "e_fl")
@@ -383,11 +420,7 @@ def build(
     admittance, one of :data:`ADMITTANCES`; ``jitter`` [s], ``loss`` (a probability in [0, 1)):
     the link's, both directions (:func:`link_configs`); ``command_server``: see
     :func:`~drake_sot.diagrams.scenario.build_scenario` (``remote=True`` has one whatever it says)."""
-    if leader not in LEADERS:
-        raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
-    if admittance not in ADMITTANCES:
-        raise ValueError(f"admittance = {admittance!r}: one of {', '.join(ADMITTANCES)}")
-    delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
+    leader, admittance, delay = LEADER.check(leader), ADMITTANCE.check(admittance), DELAY.check(delay)
     forward_link, backward_link = link_configs(delay, jitter, loss)
     hands0 = _initial_hands()
     b = HumanoidSoTBuilder(
@@ -622,6 +655,6 @@ SCENARIO = Scenario(
     description="a remote operator (140 ms away) and a co-operator carry a board with the walking humanoid",
     build=build,
     extra_plots=write_plots,
-    parameters=("leader", "delay", "admittance", "jitter", "loss"),
+    parameters=(LEADER, DELAY, ADMITTANCE, JITTER, LOSS),
     servable=True,
 )

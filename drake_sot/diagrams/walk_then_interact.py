@@ -23,10 +23,11 @@ from pydrake.systems.framework import OutputPort
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
-from drake_sot.diagrams.walking import add_walking, forward_steps
+from drake_sot.diagrams.walking import STABILIZER, add_walking, forward_steps
 from drake_sot.footsteps import Footstep
+from drake_sot.parameters import Parameter
 from drake_sot.sequencing import Above, Below, Push, Rm, SetValue, State, Transition, Up
 from drake_sot.systems.partner import Hold, Partner
 from drake_sot.systems.pattern_generator import PatternGenerator
@@ -62,6 +63,14 @@ SWITCH = (
 )
 SWITCH_LINES = tuple(f"sot.{type(action).__name__.lower()} {action.task}" for action in SWITCH)
 DECISIONS = ("sequencer", "remote")
+DECISION = Parameter(
+    "decision",
+    "choice",
+    "sequencer",
+    "the decision layer: the sequencer in the diagram, or a separate client process driving the stack "
+    "through the command server (paced at real time)",
+    choices=DECISIONS,
+)
 
 
 def build(
@@ -84,8 +93,7 @@ def build(
     the diagram declares writable on its server; what the decision client polls and sends is
     ``extras["decision"]``). ``stabilizer``: the balance stabilizer between the pattern generator
     and the CoM task (see ``walking.add_walking``)."""
-    if decision not in DECISIONS:
-        raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
+    decision = DECISION.check(decision)
     if decision == "remote":
         return _build_remote(meshcat, pushes, stabilizer, robot)
     b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
@@ -249,6 +257,6 @@ SCENARIO = Scenario(
     description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
     build=build,
     extra_plots=write_plots,
-    parameters=("decision", "stabilizer", "robot"),
+    parameters=(DECISION, STABILIZER, ROBOT),
     servable=True,
 )

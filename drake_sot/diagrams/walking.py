@@ -22,6 +22,7 @@ from drake_sot.diagrams.run import Command
 from drake_sot.diagrams.scenario import ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, alternating_steps
+from drake_sot.parameters import Parameter
 from drake_sot.robots import EMBEDDED
 from drake_sot.stabilization import StabilizerGains
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
@@ -31,6 +32,8 @@ from drake_sot.systems.stance_anchor import StanceAnchor
 #: The embedded robot's step timing (each robot's is ``RobotDescription.step_timing``).
 TIMING = EMBEDDED.step_timing
 START = 0.5  # [s] when the steps are given
+#: The balance stabilizer between the pattern generator and the CoM task, on unless switched off.
+STABILIZER = Parameter("stabilizer", "bool", True, "the balance stabilizer")
 STACK = (
     "taskJL",
     "taskLF",
