@@ -141,7 +141,7 @@ def test_the_slave_declares_what_the_master_writes_and_nothing_of_the_master():
         "head": (2, "rad, yaw then pitch"),
         "gripper": (1, "rad, the gripper joints' angle"),
     }
-    assert setup.extras["wait_for_client"] is True and setup.extras["paced_by_client"] is True
-    assert not {"channel", "master", "operator"} & set(setup.extras)
+    assert setup.extras.wait_for_client is True and setup.extras.paced_by_client is True
+    assert (setup.extras.channel, setup.extras.master, setup.extras.operator) == (None, None, None)
     names = {s.get_name() for s in setup.built.diagram.GetSystems()}
     assert "hand_positions" in names and "master" not in names and "channel" not in names

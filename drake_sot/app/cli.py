@@ -635,7 +635,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             view = setup.built.meshcat.web_url()
             print(f"live view (stack and task errors in the controls): {view}", flush=True)
             # --- two-process mode: one half of a run starts with its peer ---
-            if setup.extras.get("wait_for_client"):
+            if setup.extras.wait_for_client:
                 print("waiting for the first client before the run starts", flush=True)
                 network.connected.wait()
             # --- end two-process mode ---

@@ -34,7 +34,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
-from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import HumanoidInfo
@@ -266,7 +266,7 @@ def build(
         built=built,
         commands=_script(built, schedule, X, transition),
         duration=DURATION,
-        extras={"schedule": schedule, "transition": transition},
+        extras=ScenarioHandles(schedule=schedule, transition=transition),
     )
 
 
@@ -312,7 +312,7 @@ def _script(built, schedule, X, transition: float) -> list[Command]:
 
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """Figures 4-7: α, desired and real hand forces, CoM and hand position errors, τᵀτ."""
-    names = setup.extras["schedule"].task_names  # the order of the logged alpha
+    names = setup.extras.schedule.task_names  # the order of the logged alpha
     k = {name: i for i, name in enumerate(names)}
     alpha = arrays["alpha"].reshape(-1, len(names), len(names))
     alphas = {
@@ -332,7 +332,7 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
         arrays["table_force"][:, 0],
         errors,
         np.sum(arrays["tau"] ** 2, axis=1),
-        setup.extras["transition"],
+        setup.extras.transition,
         path,
     )
     return {"figures": path}

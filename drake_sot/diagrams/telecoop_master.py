@@ -61,17 +61,22 @@ class MasterOutput:
 
 
 def build_master(
-    leader: str = "operator", delay: float = DEFAULT_DELAY, jitter: float = 0.0, loss: float = 0.0
+    leader: str = "operator",
+    delay: float = DEFAULT_DELAY,
+    jitter: float = 0.0,
+    loss: float = 0.0,
+    config: telecooperation.TelecooperationConfig = telecooperation.DEFAULT_CONFIG,
 ) -> tuple[Diagram, RemoteLink, dict[str, VectorLogSink]]:
     """The master's diagram, its link (unattached: see :meth:`RemoteLink.attach`) and its loggers
     by name; ``delay`` [s] one way, both directions (one control period to 0.3), ``jitter`` [s]
-    and ``loss`` as :func:`telecooperation.link_configs` takes them."""
+    and ``loss`` as :func:`telecooperation.link_configs` takes them; ``config`` the master
+    site's constants (the slave's must be the same)."""
     leader, delay = telecooperation.LEADER.check(leader), telecooperation.DELAY.check(delay)
-    forward0, hands0 = telecooperation.initial_link_values()
+    forward0, hands0 = telecooperation.initial_link_values(config)
     # telecooperation's Channel's configurations and seeds
     forward, backward = telecooperation.link_configs(delay, jitter, loss)
     builder = DiagramBuilder()
-    side = telecooperation.add_master_site(builder, hands0, leader, True, PERIOD)
+    side = telecooperation.add_master_site(builder, hands0, leader, True, PERIOD, config)
     link = builder.AddSystem(
         RemoteLink(
             None,
@@ -106,7 +111,7 @@ def run_master(
     delay: float = DEFAULT_DELAY,
     jitter: float = 0.0,
     loss: float = 0.0,
-    duration: float = telecooperation.DURATION,
+    duration: float = telecooperation.DEFAULT_CONFIG.duration,
     realtime: float = 1.0,
     token: str | None = None,
     progress: Progress | None = None,

@@ -13,6 +13,7 @@ hands comply.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from pydrake.systems.framework import OutputPort
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
-from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, RemoteDecision, Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
 from drake_sot.diagrams.walking import STABILIZER, add_walking, forward_steps
 from drake_sot.footsteps import Footstep
@@ -91,7 +92,7 @@ def build(
     :data:`SWITCH_LINES` and ``remote.force_active`` = 1 through the command server; the stack is
     then the solver's own, driven by the server's stack commands, and ``force_active`` a signal
     the diagram declares writable on its server; what the decision client polls and sends is
-    ``extras["decision"]``). ``stabilizer``: the balance stabilizer between the pattern generator
+    ``extras.decision``). ``stabilizer``: the balance stabilizer between the pattern generator
     and the CoM task (see ``walking.add_walking``)."""
     decision = DECISION.check(decision)
     if decision == "remote":
@@ -127,7 +128,7 @@ def build(
         right,
         admittances,
         sequencer.GetOutputPort("stack"),
-        {"sequencer": sequencer},
+        ScenarioHandles(sequencer=sequencer),
         command_server=command_server,
     )
 
@@ -151,13 +152,10 @@ def _build_remote(
     active = b.declare_writable("force_active", 1, "1 on, 0 off", np.zeros(1), bound=1.0)
     for admittance in admittances.values():
         b.builder.Connect(active, admittance.GetInputPort("active"))
-    decision = {
-        "signal": "pg.in_process",
-        "period": 1.0,
-        "run": SWITCH_LINES,
-        "write": ("remote.force_active=1",),
-    }
-    return _finish(b, pg, left, right, admittances, None, {"decision": decision})
+    decision = RemoteDecision(
+        signal="pg.in_process", period=1.0, run=SWITCH_LINES, write=("remote.force_active=1",)
+    )
+    return _finish(b, pg, left, right, admittances, None, ScenarioHandles(decision=decision))
 
 
 def _finish(
@@ -167,11 +165,12 @@ def _finish(
     right: Footstep,
     admittances: dict,
     stack_source: OutputPort | None,
-    extras: dict,
+    extras: ScenarioHandles,
     *,
     command_server: bool = False,
 ) -> ScenarioSetup:
-    """The partner, the logs and the build, common to both decision layers."""
+    """The partner, the logs and the build, common to both decision layers; ``extras``: the
+    decision layer's handles, completed here."""
     # The partner holds the bodies below the wrist sensors (the hands).
     hands = [
         b.plant.GetJointByName(b.info.force_sensors[f"{side}_wrist"]).child_body().name()
@@ -205,13 +204,9 @@ def _finish(
         built=built,
         commands=[Command(0.0, f"walk {len(steps)} steps", lambda c: pg.add_steps(c, steps))],
         duration=RELEASE_AT + 1.0,
-        extras={
-            "pattern_generator": pg,
-            "admittances": admittances,
-            "steps": steps,
-            "hands": hands,
-            **extras,
-        },
+        extras=dataclasses.replace(
+            extras, pattern_generator=pg, admittances=admittances, steps=steps, hands=hands
+        ),
     )
 
 

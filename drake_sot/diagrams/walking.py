@@ -19,7 +19,7 @@ from drake_sot.diagrams.balance import add_stabilizer, add_zmp_estimator
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import Command
-from drake_sot.diagrams.scenario import ScenarioSetup
+from drake_sot.diagrams.scenario import ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, alternating_steps
 from drake_sot.parameters import Parameter
@@ -198,7 +198,10 @@ def build_walk(
     commands = [Command(START, f"add {len(steps)} steps", lambda c: pg.add_steps(c, steps))]
     duration = START + len(steps) * b.robot.step_timing.period + 2.0
     return ScenarioSetup(
-        built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}
+        built=built,
+        commands=commands,
+        duration=duration,
+        extras=ScenarioHandles(pattern_generator=pg, steps=steps),
     )
 
 
@@ -263,7 +266,7 @@ def zmp_plot_writer(scenario: str) -> Callable[[ScenarioSetup, dict[str, np.ndar
             arrays["com_ref"],
             analysis.com,
             analysis.polygons,
-            [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras["steps"]],
+            [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras.steps],
             path,
         )
         return {f"{scenario}_zmp": path}

@@ -95,7 +95,7 @@ def walk_run(request, tmp_path_factory):
 
 def test_walk_lands_every_step_within_2cm_of_its_footprint(walk_run):
     name, output, analysis = walk_run
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     assert len(steps) == 13
     for side, off, yaw_error in landing_errors(output.arrays, analysis.soles, steps):
         assert off < 0.02, f"{name}: {side} foot landed {off:.3f} m off"
@@ -112,7 +112,7 @@ def test_walk_keeps_the_zmp_in_the_support_polygon_99_percent(walk_run):
 
 def test_walk_ends_upright_where_planned(walk_run):
     name, output, _ = walk_run
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     last = {s.side: s for s in steps}
     planned_xy = 0.5 * np.array([last["left"].x + last["right"].x, last["left"].y + last["right"].y])
     q_end = output.arrays["q"][-1]
