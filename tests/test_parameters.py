@@ -235,7 +235,7 @@ def _is(value, hint) -> bool:
             {"decision": "remote"},
             {"decision", "pattern_generator", "admittances", "hands", "steps"},
         ),
-        ("table_pounding", {"transition": 0.3}, {"schedule", "transition"}),
+        ("table_pounding", {"transition": 0.3}, {"schedule", "transition", "desired_force"}),
     ],
 )
 def test_a_scenarios_handles_are_of_their_declared_types(name, parameters, present):
@@ -250,3 +250,39 @@ def test_a_scenarios_handles_are_of_their_declared_types(name, parameters, prese
     assert handles.pattern_generator is None or isinstance(handles.pattern_generator, PatternGenerator)
     if name == "table_pounding":
         assert handles.transition == 0.3
+
+
+# --- the configurations ---
+def test_the_telecooperation_timings_follow_from_its_configuration():
+    from drake_sot.diagrams import telecooperation as tc
+
+    config = tc.DEFAULT_CONFIG
+    # lift 5 cm up and down at 5 cm/s from 1 s; the follower 1 s behind walks 2 m then 0.5 m at
+    # 5 cm/s; then 4 s
+    assert config.walk_at == pytest.approx(1.0 + 2.0)
+    assert config.duration == pytest.approx(3.0 + 1.0 + 2.5 / 0.05 + 4.0)
+    slower = dataclasses.replace(config, speed=0.1, path=((1.0, 0.0, 0.0),))
+    assert slower.duration == pytest.approx(1.0 + 1.0 + 1.0 + 10.0 + 4.0)
+    assert config.carry_joints == {
+        "r_shoulder_pitch": 0.0,
+        "r_elbow": -1.3,
+        "l_shoulder_pitch": 0.0,
+        "l_elbow": -1.3,
+    }
+
+
+def test_a_configuration_given_to_the_builders_reaches_their_diagrams():
+    from drake_sot.diagrams import table_pounding as tp
+    from drake_sot.diagrams import telecooperation as tc
+
+    setup = tc.build(None, walk=False, config=dataclasses.replace(tc.DEFAULT_CONFIG, board_mass=3.5))
+    assert setup.built.plant.GetBodyByName("board").default_mass() == pytest.approx(3.5)
+    assert setup.duration == tc.DEFAULT_CONFIG.duration
+
+    config = dataclasses.replace(tp.DEFAULT_CONFIG, force=20.0, duration=5.0, stiffness=1000.0)
+    setup = tp.build(None, config=config)
+    assert setup.duration == 5.0 and setup.extras.desired_force == 20.0
+    plant = setup.built.plant
+    context = plant.CreateDefaultContext()
+    # at rest on its spring: 1 kg x 9.81 m/s² / 1000 N/m below the surface
+    assert plant.GetJointByName("table_slide").get_translation(context) == pytest.approx(-9.81e-3)

@@ -77,6 +77,7 @@ class ScenarioHandles:
         sequencer: the task sequencer (the decision server, or the altitude tasks' switch).
         schedule: the priority schedule (α) of a torque-level scenario.
         transition: [s] the priority rearrangement period.
+        desired_force: [N] the force a hand presses with (``table_pounding``).
         leader: who leads the tele-cooperation, ``"operator"`` or ``"cooperator"``.
         delay: [s] the tele-cooperation link's one-way delay.
         admittance: the tele-cooperation hands' admittance, ``"plain"`` or ``"weighted"``.
@@ -100,6 +101,7 @@ class ScenarioHandles:
     sequencer: TaskSequencer | None = None
     schedule: PrioritySchedule | None = None
     transition: float | None = None
+    desired_force: float | None = None
     leader: str | None = None
     delay: float | None = None
     admittance: str | None = None
