@@ -612,11 +612,12 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     _check_robot(parser, args.robot)
     scenario, duration = _served(args.target, args.out, parser, args.robot)
     args.duration = duration if args.duration is None else args.duration
-    served = _served_parameters()
-    declared = served.get(args.target, served[SCRIPT_FILE])
-    targets = {name: ((), parameters) for name, parameters in served.items()}
+    declared = SCENARIOS[args.target].parameters if args.target in SCENARIOS else (ROBOT,)
+    targets = {name: ((), parameters) for name, parameters in _served_parameters().items()}
     _refuse_untaken(parser, args, f"serve: {args.target}", [p.option for p in declared], targets)
-    parameters = {p.name: getattr(args, p.name) for p in declared if getattr(args, p.name) is not None}
+    # (an option serve has not, of a scenario it cannot serve: never given)
+    parameters = {p.name: getattr(args, p.name, None) for p in declared}
+    parameters = {name: value for name, value in parameters.items() if value is not None}
     if args.target not in SCENARIOS:  # a script: its robot went to script_scenario
         parameters = {}
     if args.out is not None:
