@@ -286,3 +286,18 @@ def test_a_configuration_given_to_the_builders_reaches_their_diagrams():
     context = plant.CreateDefaultContext()
     # at rest on its spring: 1 kg x 9.81 m/s² / 1000 N/m below the surface
     assert plant.GetJointByName("table_slide").get_translation(context) == pytest.approx(-9.81e-3)
+
+
+def test_the_parser_built_from_a_fake_table_has_exactly_its_options():
+    gain = Parameter("gain", "float", 1.0, "a gain", minimum=0.0, unit="1/s")
+    fake = Scenario(name="fake", description="", build=lambda meshcat, gain=1.0, side="left": None)
+    fake = dataclasses.replace(fake, parameters=(gain, SIDE))
+    parser, run, _ = cli._parser(cli.runnables(scenarios={"fake": fake}, studies={}, peers={}), served={})
+    args = parser.parse_args(["run", "fake", "--gain", "3", "--side", "right"])
+    assert (args.scenario, args.gain, args.side) == ("fake", 3.0, "right")
+    assert parser.parse_args(["run", "fake"]).gain is None  # not given: the builder's default
+    assert "--delay" not in run.format_help() and "fake: a gain; >= 0 1/s (default 1 1/s)" in " ".join(
+        run.format_help().split()
+    )
+    with pytest.raises(SystemExit):
+        parser.parse_args(["run", "reach"])  # not in this table
