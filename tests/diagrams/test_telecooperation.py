@@ -88,7 +88,7 @@ def walking(request, tmp_path_factory):
 
 
 #: [s] the runs across delay: the lift, then 20 s of walking after the follower starts.
-ACROSS_DELAY = tc.DEFAULT_CONFIG.walk_at + tc.LAG + 20.0
+ACROSS_DELAY = tc.DEFAULT_CONFIG.walk_at + tc.DEFAULT_CONFIG.lag + 20.0
 
 
 @pytest.fixture(scope="module", params=[0.0, 0.3], ids=lambda d: f"{1000 * d:.0f}ms")
