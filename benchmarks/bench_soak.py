@@ -48,7 +48,7 @@ def landing_errors(output, duration: float) -> np.ndarray:
     time_log = arrays["time"]
     errors = []
     for touch_down, step in walk_random.planned_landings(
-        output.setup.extras["pattern_generator"], rule, duration
+        output.setup.extras.pattern_generator, rule, duration
     ):
         at = touch_down + SETTLE
         if not (time_log[0] <= at <= time_log[-1]):

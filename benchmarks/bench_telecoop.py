@@ -60,7 +60,7 @@ def coupled_run(admittance: str, delay: float, duration: float) -> tuple[float, 
         name="telecooperation",
         description="standing",
         build=functools.partial(tc.build, walk=False),
-        parameters=("delay", "admittance"),
+        parameters=(tc.DELAY, tc.ADMITTANCE),
     )
     with tempfile.TemporaryDirectory() as out:
         run = run_scenario(

@@ -4,6 +4,7 @@ the value; and importing the scenarios leaves a notebook's matplotlib backend al
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import subprocess
@@ -42,7 +43,7 @@ def nothing_runs(monkeypatch):
 
     monkeypatch.setattr(cli, "run_scenario", forbidden)
     for name in cli.STUDIES:
-        monkeypatch.setitem(cli.STUDIES, name, cli.STUDIES[name].__class__(name, "", forbidden))
+        monkeypatch.setitem(cli.STUDIES, name, dataclasses.replace(cli.STUDIES[name], run=forbidden))
 
 
 @pytest.mark.parametrize(

@@ -7,7 +7,8 @@ from drake_sot.diagrams import SCENARIOS
 
 
 def test_leader_delay_admittance_jitter_and_loss_are_telecooperation_options():
-    assert SCENARIOS["telecooperation"].parameters == ("leader", "delay", "admittance", "jitter", "loss")
+    declared = SCENARIOS["telecooperation"].parameters
+    assert tuple(p.name for p in declared) == ("leader", "delay", "admittance", "jitter", "loss")
 
 
 @pytest.mark.parametrize(
@@ -41,16 +42,33 @@ def test_a_delay_beyond_300_ms_is_refused_by_the_scenario():
 
 
 def test_a_link_value_the_channel_refuses_is_a_usage_error_naming_it(tmp_path, capsys):
-    # Each checked by LinkConfig when the scenario is built: exit 2, nothing simulated.
+    # Each one's bounds are refused at parse time (exit 2 naming the option and the bounds);
+    # delay + jitter beyond 0.3 s is refused by LinkConfig when the scenario is built: exit 2,
+    # nothing simulated.
     for argv, named in (
-        (["--loss", "1"], "LinkConfig.loss = 1.0: must be in [0, 1)"),
-        (["--delay", "0.2", "--jitter", "0.15"], "LinkConfig.jitter = 0.15 s: must be in [0, 0.1"),
-        (["--delay", "0.31"], "delay = 0.31 s"),
+        (["--loss", "1"], "argument --loss: loss = 1: must be in [0, 1)"),
+        (["--delay", "0.31"], "argument --delay: delay = 0.31 s: must be in [0, 0.3] s"),
     ):
-        code = cli.main(["run", "telecooperation", *argv, "--no-record", "--out", str(tmp_path)])
-        assert code == 2, argv
+        with pytest.raises(SystemExit) as exit_:
+            cli.main(["run", "telecooperation", *argv, "--no-record", "--out", str(tmp_path)])
+        assert exit_.value.code == 2, argv
         assert named in capsys.readouterr().err, argv
-        assert not (tmp_path / "telecooperation.npz").exists()
+    code = cli.main(
+        [
+            "run",
+            "telecooperation",
+            "--delay",
+            "0.2",
+            "--jitter",
+            "0.15",
+            "--no-record",
+            "--out",
+            str(tmp_path),
+        ]
+    )
+    assert code == 2
+    assert "LinkConfig.jitter = 0.15 s: must be in [0, 0.1" in capsys.readouterr().err
+    assert not (tmp_path / "telecooperation.npz").exists()
 
 
 def test_jitter_and_loss_reach_both_directions_of_the_channel():
@@ -124,7 +142,7 @@ def test_the_slave_declares_what_the_master_writes_and_nothing_of_the_master():
         "remote.head": (2, "rad, yaw then pitch"),
         "remote.gripper": (1, "rad, the gripper joints' angle"),
     }
-    assert setup.extras["wait_for_client"] is True and setup.extras["paced_by_client"] is True
-    assert not {"channel", "master", "operator"} & set(setup.extras)
+    assert setup.extras.wait_for_client is True and setup.extras.paced_by_client is True
+    assert (setup.extras.channel, setup.extras.master, setup.extras.operator) == (None, None, None)
     names = {s.get_name() for s in setup.built.diagram.GetSystems()}
     assert "hand_positions" in names and "master" not in names and "channel" not in names

@@ -25,14 +25,14 @@ import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from types import FrameType
-from typing import NoReturn, TextIO
+from typing import Any, NoReturn, TextIO
 
 from pydrake.systems.analysis import Simulator
 
 from drake_sot.app.serving import decision_runner, serve_run
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
-from drake_sot.diagrams.alpha_sweep import check_workers
+from drake_sot.diagrams.alpha_sweep import Study
 from drake_sot.diagrams.artifacts import output_directory
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
 from drake_sot.diagrams.run import (
@@ -44,6 +44,7 @@ from drake_sot.diagrams.run import (
     fall_causes,
 )
 from drake_sot.diagrams.scenario import (
+    ROBOT,
     NotServable,
     Scenario,
     ScenarioParameterError,
@@ -52,8 +53,10 @@ from drake_sot.diagrams.scenario import (
     run_scenario,
 )
 from drake_sot.diagrams.script_session import ScriptProgram, SessionError, load_script, script_scenario
+from drake_sot.diagrams.telecoop_master import PeerScenario
 from drake_sot.diagrams.world import loopback_meshcat
 from drake_sot.errors import UnknownNameError
+from drake_sot.parameters import Parameter
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.peer import PeerError
 from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
@@ -196,24 +199,16 @@ def _host_port(text: str) -> tuple[str, int]:
     return host, int(port)
 
 
-def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser) -> int:
-    """``drake-sot run PEER --connect HOST:PORT``: a scenario run as the client of a served one."""
+def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser, parameters: dict[str, Any]) -> int:
+    """``drake-sot run PEER --connect HOST:PORT``: a scenario run as the client of a served one,
+    with its ``parameters`` (checked)."""
     peer = PEERS[args.scenario]
-    takes = ("--connect", "--token", "--duration", "--out", *(f"--{name}" for name in peer.parameters))
-    given = {"--connect": args.connect is not None, "--token": args.token is not None}
-    for option in _RUN_FLAGS:
-        value = getattr(args, option[2:].replace("-", "_"))
-        given[option] = value is not None and value is not False and value != []
-    refused = [option for option, present in given.items() if present and option not in takes]
-    if refused:
-        run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
     if args.connect is None:
         run.error(f"{args.scenario} needs --connect HOST:PORT (the address of the served scenario)")
     try:
         output_directory(args.out)
     except OSError as exc:
         run.error(f"--out: {exc}")
-    parameters = {name: getattr(args, name) for name in peer.parameters if getattr(args, name) is not None}
     parameters |= {"duration": args.duration} if args.duration is not None else {}
     token = args.token if args.token is not None else os.environ.get(TOKEN_ENV) or None
     progress = ProgressBar()
@@ -239,18 +234,6 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser) -> int:
     return _interruptible(run_it, progress, args.out)
 
 
-#: The options of ``run`` a peer scenario may refuse (their ``args`` attribute is None, False or
-#: empty when not given).
-_RUN_FLAGS = (
-    "--admittance",
-    "--workers",
-    "--transition",
-    "--decision",
-    "--no-record",
-    "--push",
-    "--no-stabilizer",
-    "--robot",
-)
 # --- end two-process mode ---
 
 
@@ -262,8 +245,81 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argparse.ArgumentParser]:
-    """The command's parser and its ``run`` and ``script`` subparsers."""
+#: The options each kind of ``run`` target takes besides its parameters' (two-process mode: a peer).
+_SCENARIO_OPTIONS = ("--duration", "--out", "--no-record", "--push")
+_STUDY_OPTIONS = ("--duration", "--out")
+_PEER_OPTIONS = ("--connect", "--token", "--duration", "--out")
+
+#: What a runnable is to ``run``: the options it takes besides its parameters, and its parameters.
+Takes = tuple[tuple[str, ...], tuple[Parameter, ...]]
+
+
+def runnables(
+    scenarios: Mapping[str, Scenario] | None = None,
+    studies: Mapping[str, Study] | None = None,
+    peers: Mapping[str, PeerScenario] | None = None,
+) -> dict[str, Takes]:
+    """Each target of ``run`` by name (by default :data:`~drake_sot.diagrams.SCENARIOS`,
+    ``STUDIES`` and ``PEERS``) with what it takes; the key order is the listing's."""
+    tables = (
+        (SCENARIOS if scenarios is None else scenarios, _SCENARIO_OPTIONS),
+        (STUDIES if studies is None else studies, _STUDY_OPTIONS),
+        (PEERS if peers is None else peers, _PEER_OPTIONS),
+    )
+    return {
+        name: (options, tuple(table[name].parameters)) for table, options in tables for name in sorted(table)
+    }
+
+
+def distinct_parameters(owners: Mapping[str, Sequence[Parameter]]) -> dict[str, tuple[Parameter, list[str]]]:
+    """Each parameter ``owners`` (name → its parameters) declare, by name, with the owners that
+    declare it (in their order).
+
+    Raises:
+        ValueError: two owners declare a name differently (one option cannot serve both).
+    """
+    found: dict[str, tuple[Parameter, list[str]]] = {}
+    for owner, parameters in owners.items():
+        for parameter in parameters:
+            first, takers = found.setdefault(parameter.name, (parameter, []))
+            if parameter != first:
+                raise ValueError(
+                    f"parameter {parameter.name!r}: {owner} declares {parameter}, {takers[0]} {first}: "
+                    "one option cannot serve both"
+                )
+            takers.append(owner)
+    return found
+
+
+def _parameter_options(parser: argparse.ArgumentParser, owners: Mapping[str, Sequence[Parameter]]) -> None:
+    """One option per distinct parameter of ``owners`` (:func:`distinct_parameters`), its value
+    ``None`` when not given; its help names the owners, what it accepts and its default. A
+    value the declaration refuses is argparse's one-line error naming the option (exit 2)."""
+    for name, (parameter, takers) in distinct_parameters(owners).items():
+        described = f"{', '.join(takers)}: {parameter.describe()}"
+        if parameter.kind == "bool":
+            parser.add_argument(
+                parameter.option, dest=name, action="store_const", const=not parameter.default, help=described
+            )
+        elif parameter.kind == "choice":
+            parser.add_argument(parameter.option, dest=name, choices=parameter.choices, help=described)
+        else:
+            parser.add_argument(
+                parameter.option,
+                dest=name,
+                type=_checked(lambda _, number, p=parameter: p.check(number), name),
+                metavar=name.upper(),
+                help=described,
+            )
+
+
+def _parser(
+    targets: Mapping[str, Takes] | None = None, served: Mapping[str, Sequence[Parameter]] | None = None
+) -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argparse.ArgumentParser]:
+    """The command's parser and its ``run`` and ``script`` subparsers; ``run`` takes ``targets``
+    (default :func:`runnables`), ``serve`` the parameters of ``served`` (default
+    :func:`_served_parameters`)."""
+    targets = runnables() if targets is None else targets
     parser = _Parser(prog="drake-sot", description="The Stack of Tasks on Drake.")
     sub = parser.add_subparsers(dest="command", required=True)
     listing = sub.add_parser("list", help="list the scenarios (or, with --robots, the robots)")
@@ -274,77 +330,20 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         epilog="exit status: 0 completed, 1 failed, 2 bad arguments or robot files, 3 the robot fell, "
         "4 an artefact not written (a full disk), 130 interrupted (Ctrl-C), 143 SIGTERM",
     )
-    names = sorted(SCENARIOS) + sorted(STUDIES) + sorted(PEERS)
+    names = list(targets)
     run.add_argument("scenario", choices=names, metavar="SCENARIO", help=f"one of: {', '.join(names)}")
     _simulation_options(
         run, f"simulated seconds (of each run of a study), finite, > 0 and at most {MAX_DURATION:g}"
     )
-    run.add_argument(
-        "--workers",
-        type=_checked(check_workers, "workers"),
-        default=None,
-        metavar="N",
-        help=f"worker processes of a study ({', '.join(sorted(STUDIES))}; default 2, at most 4 per core)",
-    )
-    run.add_argument(
-        "--transition",
-        type=_checked(nonnegative, "transition", unit="s"),
-        default=None,
-        metavar="S",
-        help="priority rearrangement period of table_pounding [s] (default 0.6; the paper also uses 0.015)",
-    )
-    run.add_argument(
-        "--decision",
-        choices=("sequencer", "remote"),
-        default=None,
-        help="walk_then_interact's decision layer: the sequencer in the diagram (default), or a separate "
-        "client process driving the stack through the command server (paced at real time)",
-    )
-    # --- telecooperation (Evrard et al. 2009) ---
-    run.add_argument(
-        "--leader",
-        choices=("operator", "cooperator"),
-        default=None,
-        help="telecooperation: who leads the walk, the remote operator (default) or the co-operator",
-    )
-    run.add_argument(
-        "--delay",
-        type=_checked(nonnegative, "delay", unit="s"),
-        default=None,
-        metavar="S",
-        help="telecooperation: one-way delay of the link [s], 0-0.3 (default 0.14)",
-    )
-    run.add_argument(
-        "--jitter",
-        type=_checked(nonnegative, "jitter", unit="s"),
-        default=None,
-        metavar="S",
-        help="telecooperation, telecoop_master: half-width of the link's uniform jitter [s] on each "
-        "packet's delay (default 0; delay + jitter at most 0.3)",
-    )
-    run.add_argument(
-        "--loss",
-        type=_checked(nonnegative, "loss"),
-        default=None,
-        metavar="P",
-        help="telecooperation, telecoop_master: probability in [0, 1) that a packet of the link is lost "
-        "(default 0; the newest packet that has arrived is held)",
-    )
-    run.add_argument(
-        "--admittance",
-        choices=("plain", "weighted"),
-        default=None,
-        help="telecooperation: the hands' admittance, plain (a fixed virtual mass, default) or weighted "
-        "(the virtual mass is the hand's apparent inertia, Evrard et al. 2009 eq. 5-7)",
-    )
-    # --- end telecooperation ---
+    _parameter_options(run, {name: parameters for name, (_, parameters) in targets.items()})
+    peers = [name for name, (options, _) in targets.items() if "--connect" in options]
     # --- two-process mode: a scenario run as the client of a served one ---
     run.add_argument(
         "--connect",
         type=_host_port,
         default=None,
         metavar="HOST:PORT",
-        help=f"{', '.join(sorted(PEERS))}: the address of the served scenario to connect to (required)",
+        help=f"{', '.join(peers)}: the address of the served scenario to connect to (required)",
     )
     run.add_argument(
         "--token",
@@ -354,12 +353,6 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         "default): a --token value shows in `ps` to every user of the machine",
     )
     # --- end two-process mode ---
-    run.add_argument(
-        "--no-stabilizer",
-        action="store_true",
-        help="walk, walk_then_interact: without the balance stabilizer (to compare)",
-    )
-    _robot_option(run)
     run.add_argument(
         "--push",
         type=_push,
@@ -376,16 +369,31 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser, argpars
         epilog="exit status: 0 completed, 1 failed, 2 bad arguments or script, 130 interrupted, 143 SIGTERM",
     )
     script.add_argument("file", metavar="FILE", help="the script (e.g. examples/paper_III_B.sot)")
-    _robot_option(script)
+    _parameter_options(script, {"script": (ROBOT,)})
     _simulation_options(
         script, "simulated seconds (default: what the script's 'run SECONDS' lines add up to)"
     )
-    _remote_parsers(sub, names=sorted(SCENARIOS))
+    _remote_parsers(sub, _served_parameters() if served is None else served)
     return parser, run, script
 
 
-def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
-    """``serve SCENARIO`` and ``shell``: the command server and its interactive client."""
+#: What ``serve`` calls a script file among the scenarios it serves.
+SCRIPT_FILE = "a script FILE"
+
+
+def _served_parameters() -> dict[str, tuple[Parameter, ...]]:
+    """The parameters of what ``serve`` serves, by name: each servable scenario's, and a script
+    file's (its robot)."""
+    servable = {
+        name: scenario.parameters for name, scenario in sorted(SCENARIOS.items()) if scenario.servable
+    }
+    return servable | {SCRIPT_FILE: (ROBOT,)}
+
+
+def _remote_parsers(sub: argparse._SubParsersAction, served: Mapping[str, Sequence[Parameter]]) -> None:
+    """``serve SCENARIO`` (taking the parameters of ``served``, by name) and ``shell``: the command
+    server and its interactive client."""
+    names = [name for name in served if name != SCRIPT_FILE]
     serve = sub.add_parser(
         "serve",
         help="run a scenario paced at R x real time while serving the remote command protocol",
@@ -418,28 +426,10 @@ def _remote_parsers(sub: argparse._SubParsersAction, names: list[str]) -> None:
         help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg); a served "
         "script's pool.writegraph writes there too, else into a fresh temporary directory (on stderr)",
     )
-    _robot_option(serve)
-    # --- two-process mode ---
-    serve.add_argument(
-        "--leader",
-        choices=("operator", "cooperator"),
-        default=None,
-        help="telecoop_slave: who leads the walk (default operator)",
-    )
-    # --- end two-process mode ---
+    _parameter_options(serve, served)
     _address_options(serve, "address to bind (default 127.0.0.1; any other needs a token)")
     shell = sub.add_parser("shell", help="the interactive coshell of a 'drake-sot serve' server")
     _address_options(shell, "server address (default 127.0.0.1)")
-
-
-def _robot_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--robot",
-        choices=sorted(ROBOTS),
-        default=None,
-        metavar="NAME",
-        help=f"the robot, one of: {', '.join(sorted(ROBOTS))} (default embedded; see 'list --robots')",
-    )
 
 
 def _check_robot(parser: argparse.ArgumentParser, name: str | None) -> None:
@@ -560,39 +550,12 @@ def _main(argv: Sequence[str] | None) -> int:
         for name in sorted(PEERS):  # two-process mode
             print(f"{name:20s} {PEERS[name].description}")
         return 0
-    # --- two-process mode ---
-    if args.scenario in PEERS:
-        return _run_peer(args, run)
-    if args.connect is not None or args.token is not None:
-        run.error(
-            f"{args.scenario} takes no {'--connect' if args.connect is not None else '--token'} "
-            f"(only {', '.join(sorted(PEERS))} takes it)"
-        )
-    # --- end two-process mode ---
-    study = args.scenario in STUDIES
-    takes = ("--duration", "--out")
-    takes += ("--workers",) if study else ("--no-record", "--push")
-    flags = {"stabilizer": "--no-stabilizer"}  # a parameter whose option is named otherwise
-    takes += (
-        () if study else tuple(flags.get(name, f"--{name}") for name in SCENARIOS[args.scenario].parameters)
-    )
-    given = {
-        "--workers": args.workers is not None,
-        "--transition": args.transition is not None,
-        "--decision": args.decision is not None,
-        "--leader": args.leader is not None,
-        "--delay": args.delay is not None,
-        "--admittance": args.admittance is not None,
-        "--jitter": args.jitter is not None,
-        "--loss": args.loss is not None,
-        "--no-record": args.no_record,
-        "--push": bool(args.push),
-        "--no-stabilizer": args.no_stabilizer,
-        "--robot": args.robot is not None,
-    }
-    refused = [option for option, present in given.items() if present and option not in takes]
-    if refused:
-        run.error(f"{args.scenario} takes no {refused[0]} (it takes {', '.join(takes)})")
+    targets = runnables()
+    options, declared = targets[args.scenario]
+    _refuse_untaken(run, args, args.scenario, (*options, *(p.option for p in declared)), targets)
+    parameters = {p.name: getattr(args, p.name) for p in declared if getattr(args, p.name) is not None}
+    if args.scenario in PEERS:  # two-process mode
+        return _run_peer(args, run, parameters)
     _check_robot(run, args.robot)
     try:
         check_pushes(args.push, LOGICAL_FRAMES)
@@ -602,19 +565,31 @@ def _main(argv: Sequence[str] | None) -> int:
         output_directory(args.out)
     except OSError as exc:
         run.error(f"--out: {exc}")
-    if study:
+    if args.scenario in STUDIES:
         progress = ProgressBar(unit="runs")
-        return _interruptible(lambda: _run_study(args, progress), progress, args.out, study=True)
-    parameters = {"transition": args.transition} if args.transition is not None else {}
-    parameters |= {"decision": args.decision} if args.decision is not None else {}
-    parameters |= {"stabilizer": False} if args.no_stabilizer else {}
-    parameters |= {
-        name: getattr(args, name)
-        for name in ("leader", "delay", "admittance", "jitter", "loss")
-        if getattr(args, name) is not None
-    }
-    parameters |= {"robot": args.robot} if args.robot is not None else {}
+        return _interruptible(lambda: _run_study(args, parameters, progress), progress, args.out, study=True)
     return _run_scenario(SCENARIOS[args.scenario], args, parameters)
+
+
+def _refuse_untaken(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    target: str,
+    takes: Sequence[str],
+    targets: Mapping[str, Takes],
+) -> None:
+    """Exit 2 (one line: "``target`` takes no --X (it takes ...)") when ``args`` gives an
+    option of ``run`` that ``target`` does not take (``takes``); an option of ``targets`` is
+    given when its value is not None, False or empty."""
+    fixed = {option for options, _ in targets.values() for option in options}
+    given = [option for option in sorted(fixed) if getattr(args, option[2:].replace("-", "_"), None)]
+    declared = distinct_parameters({name: parameters for name, (_, parameters) in targets.items()})
+    given += [
+        parameter.option for name, (parameter, _) in declared.items() if getattr(args, name) is not None
+    ]
+    refused = [option for option in given if option not in takes]
+    if refused:
+        parser.error(f"{target} takes no {refused[0]} (it takes {', '.join(takes)})")
 
 
 def _script(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -646,16 +621,14 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     _check_robot(parser, args.robot)
     served, duration = _served(args.target, parser)
     args.duration = duration if args.duration is None else args.duration
-    accepted = served.parameters if isinstance(served, Scenario) else ()  # a script takes none
-    parameters = {"robot": args.robot} if args.robot is not None and args.target in SCENARIOS else {}
-    if parameters and "robot" not in accepted:
-        parser.error(f"serve: {args.target} takes no --robot")
-    # --- two-process mode ---
-    if args.leader is not None:
-        if "leader" not in accepted:
-            parser.error(f"serve: {args.target} takes no --leader")
-        parameters["leader"] = args.leader
-    # --- end two-process mode ---
+    declared = SCENARIOS[args.target].parameters if args.target in SCENARIOS else (ROBOT,)
+    targets = {name: ((), parameters) for name, parameters in _served_parameters().items()}
+    _refuse_untaken(parser, args, f"serve: {args.target}", [p.option for p in declared], targets)
+    # (an option serve has not, of a scenario it cannot serve: never given)
+    parameters = {p.name: getattr(args, p.name, None) for p in declared}
+    parameters = {name: value for name, value in parameters.items() if value is not None}
+    if args.target not in SCENARIOS:  # a script: its robot went to script_scenario
+        parameters = {}
     if args.out is not None:
         try:
             output_directory(args.out)
@@ -674,7 +647,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             view = setup.built.meshcat.web_url()
             print(f"live view (stack and task errors in the controls): {view}", flush=True)
             # --- two-process mode: one half of a run starts with its peer ---
-            if setup.extras.get("wait_for_client"):
+            if setup.extras.wait_for_client:
                 print("waiting for the first client before the run starts", flush=True)
                 network.connected.wait()
             # --- end two-process mode ---
@@ -793,9 +766,9 @@ def _raise_interrupted(signum: int, frame: FrameType | None) -> NoReturn:
     raise Interrupted(signum)
 
 
-def _run_study(args: argparse.Namespace, progress: ProgressBar) -> int:
+def _run_study(args: argparse.Namespace, parameters: dict[str, Any], progress: ProgressBar) -> int:
     kwargs = {"duration": args.duration} if args.duration is not None else {}
-    artefacts = STUDIES[args.scenario].run(args.out, workers=args.workers or 2, progress=progress, **kwargs)
+    artefacts = STUDIES[args.scenario].run(args.out, progress=progress, **parameters, **kwargs)
     for path in artefacts.files.values():
         print(f"wrote {path}")
     _report_unwritten(artefacts.unwritten)

@@ -405,7 +405,7 @@ def serve_run(
     closed at the end); ``on_ready(address)`` is called once it listens. When the scenario was
     built with a Meshcat, its controls show the stack and the task errors. The requests that
     changed the context are in the result's ``events`` with the timed commands. A scenario whose
-    ``extras["paced_by_client"]`` is true is paced by its client (module docstring): the run
+    ``extras.paced_by_client`` is true is paced by its client (module docstring): the run
     starts when the client's first horizon is beyond its first tick."""
     limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     built = setup.built
@@ -421,8 +421,8 @@ def serve_run(
         network,
         realtime=realtime,
         on_tick=status.update if status is not None else None,
-        session=setup.extras.get("session"),
-        paced=bool(setup.extras.get("paced_by_client")),
+        session=setup.extras.session,
+        paced=setup.extras.paced_by_client,
     )
     start = simulator.get_context().get_time()
     first = (  # the run starts when the client's first horizon is beyond its first tick
@@ -431,7 +431,7 @@ def serve_run(
                 start, "paced by its client: its first write came", lambda _: serving.await_client(start)
             )
         ]
-        if setup.extras.get("paced_by_client")
+        if setup.extras.paced_by_client
         else []
     )
 
@@ -457,7 +457,7 @@ def serve_run(
 def decision_runner(*, realtime: float = 1.0, connect_timeout: float = 60.0) -> Runner:
     """A :data:`~drake_sot.diagrams.scenario.Runner` for a scenario built with a remote decision
     layer: serves on a free loopback port, starts ``python -m drake_sot.remote.decision`` with
-    the scenario's ``extras["decision"]`` (``signal``, ``period``, ``run`` lines, ``write`` items),
+    the scenario's ``extras.decision`` (``signal``, ``period``, ``run`` lines, ``write`` items),
     waits until it connects, then simulates at ``realtime`` × real time while serving."""
 
     def run(
@@ -468,15 +468,15 @@ def decision_runner(*, realtime: float = 1.0, connect_timeout: float = 60.0) -> 
         progress: Progress | None = None,
         guard: SignalGuard | None = None,
     ) -> RunResult:
-        decision = setup.extras["decision"]
+        decision = setup.extras.decision
         network = NetworkThread("127.0.0.1", 0)
         processes: list[subprocess.Popen] = []
 
         def start_client(address: tuple[str, int]) -> None:
             command = [sys.executable, "-m", "drake_sot.remote.decision", "--port", str(address[1])]
-            command += ["--signal", decision["signal"], "--period", str(decision["period"])]
-            command += [f"--run={line}" for line in decision["run"]]
-            command += [f"--write={item}" for item in decision["write"]]
+            command += ["--signal", decision.signal, "--period", str(decision.period)]
+            command += [f"--run={line}" for line in decision.run]
+            command += [f"--write={item}" for item in decision.write]
             processes.append(subprocess.Popen(command))
             if not network.connected.wait(connect_timeout):
                 raise RuntimeError(f"the decision client did not connect within {connect_timeout:g} s")

@@ -22,9 +22,10 @@ from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams.alpha_sweep_plots import plot_alpha_sweep
 from drake_sot.diagrams.artifacts import Artefacts, output_directory, write_npz
 from drake_sot.diagrams.run import Interrupted, SignalGuard, simulate
+from drake_sot.parameters import Parameter
 from drake_sot.robots import get_robot
 from drake_sot.transitions import AlphaSchedule
-from drake_sot.validation import positive, positive_int
+from drake_sot.validation import positive
 
 GRID = tuple(np.round(np.linspace(0.0, 1.0, 6), 3))  # {0, 0.2, ..., 1}
 SETTLE = 4.0  # [s] simulated per point; errors averaged over the last second
@@ -35,18 +36,15 @@ SETTLE = 4.0  # [s] simulated per point; errors averaged over the last second
 MAX_WORKERS = 4 * (os.cpu_count() or 1)
 
 
-def check_workers(name: str, value: int) -> int:
-    """``value`` as a number of worker processes: an integer in [1, :data:`MAX_WORKERS`].
-
-    Raises:
-        ValueError: naming ``name``, the value and the bound it breaks.
-    """
-    workers = positive_int(name, value)
-    if workers > MAX_WORKERS:
-        raise ValueError(
-            f"{name} = {value!r}: at most {MAX_WORKERS} (four per core of this machine's {MAX_WORKERS // 4})"
-        )
-    return workers
+#: The worker processes of a study, at most :data:`MAX_WORKERS`.
+WORKERS = Parameter(
+    "workers",
+    "int",
+    2,
+    f"worker processes (at most four per core of this machine's {MAX_WORKERS // 4})",
+    minimum=1,
+    maximum=MAX_WORKERS,
+)
 
 
 def steady_errors(
@@ -84,6 +82,7 @@ class Study:
     name: str
     description: str
     run: Callable[..., Artefacts]
+    parameters: tuple[Parameter, ...] = ()  # keyword arguments ``run`` takes (the CLI's options)
 
 
 def run(
@@ -106,7 +105,7 @@ def run(
     :class:`~drake_sot.diagrams.run.Interrupted` for the caller (the command exits 130/143).
     """
     duration = positive("duration", duration, unit="s")
-    workers = check_workers("workers", workers)
+    workers = WORKERS.check(workers)
     get_robot(robot)
     out = output_directory(out_dir)
     points = [(a, b, duration, robot) for a in grid for b in grid]
@@ -160,4 +159,5 @@ STUDY = Study(
     description="steady head and left-hand errors over a 6x6 grid of priorities, in parallel "
     "(Liu, Lober, Padois 2016, fig. 11)",
     run=run,
+    parameters=(WORKERS,),
 )

@@ -32,7 +32,7 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.look_and_reach_plots import plot_look_and_reach
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.world import BuiltHumanoid
 from drake_sot.gains import AdaptiveGain
 from drake_sot.systems.marker import MeshcatMarker
@@ -120,7 +120,7 @@ def build(
         built=built,
         commands=[TimedCommand(REACH_AT, f"push taskRH, up taskRH ({TRANSITION} s)", reach)],
         duration=8.0,
-        extras={"object": target},
+        extras=ScenarioHandles(object=target),
     )
 
 

@@ -21,7 +21,7 @@ from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.priority_switching_plots import plot_priority_switch
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.robots.reach import arm_reach
 from drake_sot.systems.priority_schedule import PrioritySchedule
@@ -103,7 +103,7 @@ def build_with(
         commands=[],
         duration=duration,
         targets={"head": X_head, "left_hand": target},
-        extras={"schedule": schedule},
+        extras=ScenarioHandles(schedule=schedule),
     )
 
 
@@ -123,7 +123,7 @@ def task_errors(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """Figure 10: the two α and the two task errors over time."""
-    names = setup.extras["schedule"].task_names  # the order of the logged alpha
+    names = setup.extras.schedule.task_names  # the order of the logged alpha
     alpha = arrays["alpha"].reshape(-1, len(names), len(names))
     head, lh = names.index("taskHead"), names.index("taskLH")
     path = Path(out_dir) / "priority_switching_errors.png"
@@ -142,5 +142,5 @@ SCENARIO = Scenario(
     "(Liu, Lober, Padois 2016, fig. 10)",
     build=build,
     extra_plots=write_plots,
-    parameters=("robot",),
+    parameters=(ROBOT,),
 )

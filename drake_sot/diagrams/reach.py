@@ -25,7 +25,7 @@ from pydrake.math import RigidTransform
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
 
 RIGHT_HAND_OFFSET = np.array([0.25, 0.0, 0.20])  # [m] from the initial hand position, world frame
 LEFT_HAND_OFFSET = np.array([0.20, 0.0, 0.15])
@@ -77,6 +77,6 @@ SCENARIO = Scenario(
     name="reach",
     description="stand, reach with the right hand (t=1 s), push then rm a left-hand task (t=3 s, t=5 s)",
     build=build,
-    parameters=("robot",),
+    parameters=(ROBOT,),
     servable=True,
 )

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pydrake.geometry import Meshcat
@@ -26,8 +26,94 @@ from drake_sot.diagrams.pushes import ExternalPush, check_push_times
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, check_duration, simulate
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.errors import DrakeSotError
+from drake_sot.footsteps import Footstep
+from drake_sot.hand_steps import HandStepRule
+from drake_sot.parameters import Parameter, UndeclaredParameter, check_parameters
 from drake_sot.plots import plot_task_errors
+from drake_sot.robots import ROBOTS
+from drake_sot.systems.admittance import AdmittanceController
+from drake_sot.systems.channel import Channel
+from drake_sot.systems.hand_steps import StepDecider
+from drake_sot.systems.master import MasterSite, Operator
+from drake_sot.systems.moving_point import MovingPoint
+from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.systems.priority_schedule import PrioritySchedule
+from drake_sot.systems.sequencer import TaskSequencer
 from drake_sot.systems.stack_history import stack_changes
+
+if TYPE_CHECKING:  # script_session builds on this module
+    from drake_sot.diagrams.script_session import ScriptSession
+
+
+@dataclass(frozen=True)
+class RemoteDecision:
+    """What a remote decision client (``python -m drake_sot.remote.decision``) is started with.
+
+    Attributes:
+        signal: the signal it polls (``entity.signal``).
+        period: [s] simulated time between two polls.
+        run: the script lines it sends when the signal falls.
+        write: the ``server.signal=value`` items it writes then.
+    """
+
+    signal: str
+    period: float
+    run: tuple[str, ...]
+    write: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ScenarioHandles:
+    """The parts a scenario exposes besides its diagram, for its runner, its plots and its tests;
+    a field a scenario does not have is None (False for the flags).
+
+    Attributes:
+        session: a script's session (``drake-sot script``/``serve FILE``).
+        wait_for_client: a served run starts when its first client connects (two-process mode).
+        paced_by_client: a served run is paced by its client, not by the wall clock.
+        decision: the remote decision client to start (``walk_then_interact --decision remote``).
+        pattern_generator: the walking pattern generator.
+        steps: the footsteps the script gives the pattern generator.
+        admittances: the hands' admittance controllers, by task name.
+        hands: the bodies the partner holds (the hands), by name.
+        sequencer: the task sequencer (the decision server, or the altitude tasks' switch).
+        schedule: the priority schedule (α) of a torque-level scenario.
+        transition: [s] the priority rearrangement period.
+        desired_force: [N] the force a hand presses with (``table_pounding``).
+        leader: who leads the tele-cooperation, ``"operator"`` or ``"cooperator"``.
+        delay: [s] the tele-cooperation link's one-way delay.
+        admittance: the tele-cooperation hands' admittance, ``"plain"`` or ``"weighted"``.
+        object: the moving object looked at and reached.
+        operator: the tele-cooperation's operator (one-process mode).
+        master: the tele-cooperation's master site (one-process mode).
+        channel: the tele-cooperation's link (one-process mode).
+        decider: the step decider of the walk driven by the hands.
+        rule: the step rule of ``decider``.
+        grippers: the gripper joints the master's aperture drives.
+    """
+
+    session: ScriptSession | None = None
+    wait_for_client: bool = False
+    paced_by_client: bool = False
+    decision: RemoteDecision | None = None
+    pattern_generator: PatternGenerator | None = None
+    steps: list[Footstep] | None = None
+    admittances: dict[str, AdmittanceController] | None = None
+    hands: list[str] | None = None
+    sequencer: TaskSequencer | None = None
+    schedule: PrioritySchedule | None = None
+    transition: float | None = None
+    desired_force: float | None = None
+    leader: str | None = None
+    delay: float | None = None
+    admittance: str | None = None
+    object: MovingPoint | None = None
+    operator: Operator | None = None
+    master: MasterSite | None = None
+    channel: Channel | None = None
+    decider: StepDecider | None = None
+    rule: HandStepRule | None = None
+    grippers: tuple[str, ...] | None = None
 
 
 @dataclass
@@ -39,14 +125,14 @@ class ScenarioSetup:
         commands: the timed commands of the scenario's script.
         duration: default simulated duration [s].
         targets: named target poses, for checks and plots.
-        extras: other handles a scenario exposes (e.g. its pattern generator, its footsteps).
+        extras: the other parts a scenario exposes (e.g. its pattern generator, its footsteps).
     """
 
     built: BuiltHumanoid
     commands: list[TimedCommand]
     duration: float
     targets: dict[str, RigidTransform] = field(default_factory=dict)
-    extras: dict[str, Any] = field(default_factory=dict)
+    extras: ScenarioHandles = field(default_factory=ScenarioHandles)
 
 
 ExtraPlots = Callable[[ScenarioSetup, dict[str, np.ndarray], Path], dict[str, Path]]
@@ -67,9 +153,18 @@ class Scenario:
     description: str
     build: Callable[..., ScenarioSetup]
     extra_plots: ExtraPlots | None = None
-    parameters: tuple[str, ...] = ()  # keyword arguments ``build`` accepts besides the Meshcat
+    parameters: tuple[Parameter, ...] = ()  # keyword arguments ``build`` accepts besides the Meshcat
     servable: bool = False  # ``build`` takes ``command_server``
 
+
+#: The robot a scenario drives (its builder's ``robot=``), by name.
+ROBOT = Parameter(
+    "robot",
+    "choice",
+    "embedded",
+    "the robot (see 'drake-sot list --robots')",
+    choices=tuple(sorted(ROBOTS)),
+)
 
 Runner = Callable[..., RunResult]
 """Runs a built scenario: ``runner(setup, simulator, duration, progress=, guard=)`` -> RunResult."""
@@ -97,12 +192,16 @@ class NotServable(DrakeSotError, ValueError):
     """A command server was asked of a scenario whose diagram cannot have one (nothing built)."""
 
 
-def _check_parameters(scenario: Scenario, parameters: dict[str, Any] | None) -> None:
-    unknown = sorted(set(parameters or {}) - set(scenario.parameters))
-    if unknown:
-        raise ValueError(
-            f"scenario {scenario.name!r} takes no parameter {unknown}; it takes {list(scenario.parameters)}"
-        )
+def _check_parameters(scenario: Scenario, parameters: dict[str, Any] | None) -> dict[str, Any]:
+    """``parameters`` checked against ``scenario.parameters``: undeclared names raise
+    :class:`~drake_sot.parameters.UndeclaredParameter`, a refused value
+    :class:`ScenarioParameterError`."""
+    try:
+        return check_parameters(scenario.name, scenario.parameters, parameters)
+    except UndeclaredParameter:
+        raise
+    except ValueError as exc:
+        raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
 
 
 def build_scenario(
@@ -119,9 +218,10 @@ def build_scenario(
     Raises:
         ValueError: an undeclared parameter (nothing built).
         NotServable: ``command_server`` for a scenario that is not ``servable`` (nothing built).
-        ScenarioParameterError: ``build`` refused a parameter's value.
+        ScenarioParameterError: its declaration (nothing built) or ``build`` refused a
+            parameter's value.
     """
-    _check_parameters(scenario, parameters)
+    parameters = _check_parameters(scenario, parameters)
     if command_server and not scenario.servable:
         raise NotServable(
             f"{scenario.name} cannot be served: its diagram has no place for a RemoteCommandServer "
@@ -131,7 +231,7 @@ def build_scenario(
     if command_server:
         extra["command_server"] = True
     try:
-        return scenario.build(meshcat, **(parameters or {}), **extra)
+        return scenario.build(meshcat, **parameters, **extra)
     except ValueError as exc:
         raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
 
@@ -179,13 +279,14 @@ def run_scenario(
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
-            :class:`ScenarioParameterError` when ``build`` refuses a parameter's value or a
-            push starts after the run's end (before anything is simulated).
+            :class:`ScenarioParameterError` when a parameter's declaration (before anything is
+            built) or ``build`` refuses its value or a push starts after the run's end (before
+            anything is simulated).
         OSError: ``out_dir`` cannot be written (before anything is built).
     """
     if duration is not None:
         duration = check_duration("duration", duration)
-    _check_parameters(scenario, parameters)  # before the output directory is made
+    parameters = _check_parameters(scenario, parameters)  # before the output directory is made
     out = output_directory(out_dir)
     setup = build_scenario(
         scenario,

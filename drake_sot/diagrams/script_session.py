@@ -107,7 +107,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 from drake_sot import validation
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.script_entities import (
     AT_MOST_ONE,
     CLASSES,
@@ -925,7 +925,7 @@ def script_scenario(
     robot: str = "embedded",
 ) -> Scenario:
     """The script as a scenario of :func:`~drake_sot.diagrams.scenario.run_scenario`: its name is
-    the file's stem, its duration the scripted one; ``extras["session"]`` is the session.
+    the file's stem, its duration the scripted one; ``extras.session`` is the session.
     ``pool.writegraph`` writes into ``output_dir`` (None: a fresh temporary directory, see
     :class:`ScriptSession`); the script drives ``robot``."""
 
@@ -940,7 +940,7 @@ def script_scenario(
         commands, duration = schedule(session, program, echo)
         session.build()
         return ScenarioSetup(
-            built=session.built, commands=commands, duration=duration, extras={"session": session}
+            built=session.built, commands=commands, duration=duration, extras=ScenarioHandles(session=session)
         )
 
     return Scenario(

@@ -34,37 +34,17 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import HumanoidInfo
+from drake_sot.parameters import Parameter
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
-from drake_sot.validation import nonnegative
 
-STIFFNESS, DAMPING = 2000.0, 89.0  # [N/m], [N·s/m] (the paper's table)
-FORCE = 30.0  # [N] to press on the table
-SURFACE = 0.65  # [m] table surface height at rest
-TABLE_X = (0.25, 0.55)  # [m] front and back edges
-TABLE_MASS = 1.0  # [kg]
-THICKNESS = 0.04  # [m]
-HAND_RADIUS = 0.03  # [m] collision sphere at each hand tool point
-HAND_X, HAND_Y = 0.40, 0.30  # [m] where each hand presses (y mirrored)
 MOTION = ("taskCom", "taskRH", "taskLH", "taskRHo", "taskLHo", "taskHead", "taskBack", "taskPosture")
 FORCES = ("taskRHF", "taskLHF")
 TASKS = MOTION + FORCES
-#: (kp [1/s²], kd [1/s]) per motion task, per unit of task-space inertia.
-GAINS = {
-    "taskCom": (100.0, 20.0),
-    "taskRH": (100.0, 20.0),
-    "taskLH": (100.0, 20.0),
-    "taskRHo": (50.0, 14.0),
-    "taskLHo": (50.0, 14.0),
-    "taskHead": (50.0, 14.0),
-    "taskBack": (25.0, 10.0),
-    "taskPosture": (16.0, 8.0),
-}
-FORCE_PI = (0.5, 4.0)  # (kp, ki) of eq. 3
 
 
 @dataclass(frozen=True)
@@ -76,40 +56,100 @@ class PoundingPhase:
     hand: str | None
 
 
-#: The state machine's script: reaching 1.5 s (over the table, then down), contact 2 s, release 1 s.
-PHASES = (
-    PoundingPhase(0.0, "idle", None),
-    PoundingPhase(1.0, "rh-reaching", "right"),
-    PoundingPhase(2.5, "rh-contact", "right"),
-    PoundingPhase(4.5, "rh-release", "right"),
-    PoundingPhase(5.5, "lh-reaching", "left"),
-    PoundingPhase(7.0, "lh-contact", "left"),
-    PoundingPhase(9.0, "lh-release", "left"),
+@dataclass(frozen=True)
+class TablePoundingConfig:
+    """The constants of ``table_pounding``; :data:`DEFAULT_CONFIG` is the scenario's.
+
+    Attributes:
+        stiffness: [N/m] the table's spring (the paper's table).
+        damping: [N s/m] the table's damper (the paper's table).
+        force: [N] the force each hand presses the table with.
+        surface: [m] the table surface's height at rest.
+        table_x: [m] the table's front and back edges.
+        table_mass: [kg] the table top's mass.
+        thickness: [m] the table top's thickness.
+        hand_radius: [m] the collision sphere at each hand tool point.
+        hand_x: [m] how far ahead each hand presses.
+        hand_y: [m] how far aside each hand presses (mirrored: -y right, +y left).
+        gains: (task, kp [1/s²], kd [1/s]) per motion task, per unit of task-space inertia.
+        force_pi: (kp, ki) of the force tasks (Liu, Lober, Padois 2016 eq. 3).
+        phases: the state machine's script: reaching 1.5 s (over the table, then down),
+            contact 2 s, release 1 s.
+        duration: [s] the scenario's duration.
+    """
+
+    stiffness: float = 2000.0
+    damping: float = 89.0
+    force: float = 30.0
+    surface: float = 0.65
+    table_x: tuple[float, float] = (0.25, 0.55)
+    table_mass: float = 1.0
+    thickness: float = 0.04
+    hand_radius: float = 0.03
+    hand_x: float = 0.40
+    hand_y: float = 0.30
+    gains: tuple[tuple[str, float, float], ...] = (
+        ("taskCom", 100.0, 20.0),
+        ("taskRH", 100.0, 20.0),
+        ("taskLH", 100.0, 20.0),
+        ("taskRHo", 50.0, 14.0),
+        ("taskLHo", 50.0, 14.0),
+        ("taskHead", 50.0, 14.0),
+        ("taskBack", 25.0, 10.0),
+        ("taskPosture", 16.0, 8.0),
+    )
+    force_pi: tuple[float, float] = (0.5, 4.0)
+    phases: tuple[PoundingPhase, ...] = (
+        PoundingPhase(0.0, "idle", None),
+        PoundingPhase(1.0, "rh-reaching", "right"),
+        PoundingPhase(2.5, "rh-contact", "right"),
+        PoundingPhase(4.5, "rh-release", "right"),
+        PoundingPhase(5.5, "lh-reaching", "left"),
+        PoundingPhase(7.0, "lh-contact", "left"),
+        PoundingPhase(9.0, "lh-release", "left"),
+    )
+    duration: float = 10.5
+
+    @property
+    def rest(self) -> float:
+        """[m] the slide's rest position under the table top's weight."""
+        return -self.table_mass * 9.81 / self.stiffness
+
+
+#: The scenario's configuration.
+DEFAULT_CONFIG = TablePoundingConfig()
+#: The priority rearrangement period; the paper also uses 0.015 s.
+TRANSITION = Parameter(
+    "transition",
+    "float",
+    0.6,
+    "priority rearrangement period (the paper also uses 0.015)",
+    minimum=0.0,
+    unit="s",
 )
-DURATION = 10.5
-REST = -TABLE_MASS * 9.81 / STIFFNESS  # [m] the slide's rest position under the table's weight
 
 
-def _add_table(plant: MultibodyPlant, info: HumanoidInfo) -> None:
+def _add_table(plant: MultibodyPlant, info: HumanoidInfo, config: TablePoundingConfig) -> None:
     """The spring-mounted table top (its own model instance) and spheres on the hand tool points."""
     table = plant.AddModelInstance("table")
-    depth, width = TABLE_X[1] - TABLE_X[0], 0.9
+    (front, back), thickness = config.table_x, config.thickness
+    depth, width = back - front, 0.9
     top = plant.AddRigidBody(
-        "table_top", table, SpatialInertia.SolidBoxWithMass(TABLE_MASS, depth, width, THICKNESS)
+        "table_top", table, SpatialInertia.SolidBoxWithMass(config.table_mass, depth, width, thickness)
     )
     base = plant.AddFrame(
         FixedOffsetFrame(
             "table_base",
             plant.world_frame(),
-            RigidTransform([0.5 * sum(TABLE_X), 0.0, SURFACE - THICKNESS / 2]),
+            RigidTransform([0.5 * (front + back), 0.0, config.surface - thickness / 2]),
         )
     )
     slide = plant.AddJoint(
-        PrismaticJoint("table_slide", base, top.body_frame(), [0.0, 0.0, 1.0], damping=DAMPING)
+        PrismaticJoint("table_slide", base, top.body_frame(), [0.0, 0.0, 1.0], damping=config.damping)
     )
-    slide.set_default_translation(REST)  # every context starts with the table at rest on its spring
-    plant.AddForceElement(PrismaticSpring(slide, 0.0, STIFFNESS))
-    box = Box(depth, width, THICKNESS)
+    slide.set_default_translation(config.rest)  # every context starts with the table at rest on its spring
+    plant.AddForceElement(PrismaticSpring(slide, 0.0, config.stiffness))
+    box = Box(depth, width, thickness)
     plant.RegisterVisualGeometry(top, RigidTransform(), box, "table_visual", [0.55, 0.42, 0.30, 1.0])
     plant.RegisterCollisionGeometry(top, RigidTransform(), box, "table_collision", CoulombFriction(0.8, 0.6))
     for side in ("right", "left"):
@@ -117,7 +157,7 @@ def _add_table(plant: MultibodyPlant, info: HumanoidInfo) -> None:
         plant.RegisterCollisionGeometry(
             frame.body(),
             frame.GetFixedPoseInBodyFrame(),
-            Sphere(HAND_RADIUS),
+            Sphere(config.hand_radius),
             f"{side}_hand_collision",
             CoulombFriction(0.8, 0.6),
         )
@@ -173,7 +213,8 @@ def back_joints(plant: MultibodyPlant, info: HumanoidInfo) -> list[str]:
 
 
 class TableForce(LeafSystem):
-    """The force on the table from its spring's displacement, as in the paper.
+    """The force on the table from its spring's displacement, as in the paper: the spring's
+    ``stiffness`` [N/m] and its ``rest`` position [m] under the table top's weight.
 
     Input ports:
         table_state: ``[q; v]`` (2,) of the table's slide [m, m/s].
@@ -183,11 +224,11 @@ class TableForce(LeafSystem):
             for a force task's ``<name>_measured`` input.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, stiffness: float, rest: float) -> None:
         super().__init__()
         state = self.DeclareVectorInputPort("table_state", 2)
         ticket = {self.input_port_ticket(state.get_index())}
-        force = lambda c: STIFFNESS * (REST - state.Eval(c)[0])  # noqa: E731
+        force = lambda c: stiffness * (rest - state.Eval(c)[0])  # noqa: E731
         self.DeclareVectorOutputPort(
             "force", 1, lambda c, out: out.SetFromVector([force(c)]), prerequisites_of_calc=ticket
         )
@@ -216,15 +257,24 @@ def initial_alpha() -> np.ndarray:
 
 
 def build(
-    meshcat=None, transition: float = 0.6, pushes: Sequence[ExternalPush] = (), robot: str = "embedded"
+    meshcat=None,
+    transition: float = 0.6,
+    pushes: Sequence[ExternalPush] = (),
+    robot: str = "embedded",
+    config: TablePoundingConfig = DEFAULT_CONFIG,
 ) -> ScenarioSetup:
-    """Build ``table_pounding`` with a priority-rearrangement period of ``transition`` [s]
-    (finite, >= 0; ValueError naming it otherwise, before anything is built) and ``pushes``
-    on ``robot`` (a name of ``drake_sot.robots.ROBOTS``). The table stands where it stands for
-    the embedded robot (surface 0.65 m high, presses 0.40 m ahead): TALOS and the G1 reach it
-    too."""
-    transition = nonnegative("transition", transition, unit="s")
-    b = TorqueHumanoidBuilder(meshcat=meshcat, before_finalize=_add_table, pushes=pushes, robot=robot)
+    """Build ``table_pounding`` (its constants ``config``) with a priority-rearrangement period
+    of ``transition`` [s] (finite, >= 0; ValueError naming it otherwise, before anything is
+    built) and ``pushes`` on ``robot`` (a name of ``drake_sot.robots.ROBOTS``). The table
+    stands where it stands for the embedded robot (surface 0.65 m high, presses 0.40 m ahead):
+    TALOS and the G1 reach it too."""
+    transition = TRANSITION.check(transition)
+    b = TorqueHumanoidBuilder(
+        meshcat=meshcat,
+        before_finalize=lambda plant, info: _add_table(plant, info, config),
+        pushes=pushes,
+        robot=robot,
+    )
     _press_with_the_spheres_only(b.plant, b.scene_graph, b.info)
     X = {side: b.initial_pose(f"{side}_hand") for side in ("right", "left")}
     b.add_com_task("taskCom", selection="110")
@@ -241,32 +291,34 @@ def build(
     b.add_op_point_task("taskLHF", "left_hand", selection="001000", feature_of="taskLH")
     schedule = b.builder.AddSystem(PrioritySchedule(AlphaSchedule(list(TASKS), initial_alpha())))
     table = b.plant.GetModelInstanceByName("table")
-    force = b.builder.AddSystem(TableForce())
+    force = b.builder.AddSystem(TableForce(config.stiffness, config.rest))
     force.set_name("table_force")
     b.builder.Connect(b.plant.get_state_output_port(table), force.GetInputPort("table_state"))
-    desired = b.builder.AddSystem(ConstantVectorSource([-FORCE]))  # the hand pushes down
+    desired = b.builder.AddSystem(ConstantVectorSource([-config.force]))  # the hand pushes down
     b.log("alpha", schedule.GetOutputPort("alpha"))
     b.log("table_force", force.GetOutputPort("force"))
+    gains = {name: (kp, kd) for name, kp, kd in config.gains}
     built = b.build(
-        motion=[(name, *GAINS[name]) for name in MOTION],
-        force=[(name, *FORCE_PI) for name in FORCES],
+        motion=[(name, *gains[name]) for name in MOTION],
+        force=[(name, *config.force_pi) for name in FORCES],
         force_inputs={name: (desired.get_output_port(), force.GetOutputPort("applied")) for name in FORCES},
         priorities=schedule.GetOutputPort("priorities"),
     )
     return ScenarioSetup(
         built=built,
-        commands=_script(built, schedule, X, transition),
-        duration=DURATION,
-        extras={"schedule": schedule, "transition": transition},
+        commands=_script(built, schedule, X, transition, config),
+        duration=config.duration,
+        extras=ScenarioHandles(schedule=schedule, transition=transition, desired_force=config.force),
     )
 
 
-def _script(built, schedule, X, transition: float) -> list[TimedCommand]:
+def _script(built, schedule, X, transition: float, config: TablePoundingConfig) -> list[TimedCommand]:
     """The state machine as timed commands: hand targets and priority rearrangements (by task name)."""
 
     def target(side: str, height: float) -> RigidTransform:
-        y = -HAND_Y if side == "right" else HAND_Y
-        return RigidTransform(X[side].rotation(), [HAND_X, y, SURFACE + HAND_RADIUS + height])
+        y = -config.hand_y if side == "right" else config.hand_y
+        z = config.surface + config.hand_radius + height
+        return RigidTransform(X[side].rotation(), [config.hand_x, y, z])
 
     def move(side: str, height: float):
         task = "taskRH" if side == "right" else "taskLH"
@@ -284,7 +336,7 @@ def _script(built, schedule, X, transition: float) -> list[TimedCommand]:
         return apply
 
     commands = []
-    for phase in PHASES:
+    for phase in config.phases:
         side = phase.hand
         if phase.name.endswith("reaching"):
             commands += [
@@ -303,7 +355,7 @@ def _script(built, schedule, X, transition: float) -> list[TimedCommand]:
 
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """Figures 4-7: α, desired and real hand forces, CoM and hand position errors, τᵀτ."""
-    names = setup.extras["schedule"].task_names  # the order of the logged alpha
+    names = setup.extras.schedule.task_names  # the order of the logged alpha
     k = {name: i for i, name in enumerate(names)}
     alpha = arrays["alpha"].reshape(-1, len(names), len(names))
     alphas = {
@@ -319,11 +371,11 @@ def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Pa
     plot_table_pounding(
         arrays["time"],
         alphas,
-        FORCE,
+        setup.extras.desired_force,
         arrays["table_force"][:, 0],
         errors,
         np.sum(arrays["tau"] ** 2, axis=1),
-        setup.extras["transition"],
+        setup.extras.transition,
         path,
     )
     return {"figures": path}
@@ -335,5 +387,5 @@ SCENARIO = Scenario(
     "smooth priority changes (Liu, Lober, Padois 2016, 4.1)",
     build=build,
     extra_plots=write_plots,
-    parameters=("transition", "robot"),
+    parameters=(TRANSITION, ROBOT),
 )

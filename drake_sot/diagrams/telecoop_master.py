@@ -41,6 +41,7 @@ from drake_sot.diagrams import telecooperation
 from drake_sot.diagrams.artifacts import Artefacts, output_directory, write_npz
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, simulate
 from drake_sot.diagrams.telecoop_slave import HANDS, WRITTEN
+from drake_sot.parameters import Parameter
 from drake_sot.remote.peer import Peer
 from drake_sot.systems.remote_link import RemoteLink
 
@@ -62,19 +63,22 @@ class MasterOutput:
 
 
 def build_master(
-    leader: str = "operator", delay: float = DEFAULT_DELAY, jitter: float = 0.0, loss: float = 0.0
+    leader: str = "operator",
+    delay: float = DEFAULT_DELAY,
+    jitter: float = 0.0,
+    loss: float = 0.0,
+    config: telecooperation.TelecooperationConfig = telecooperation.DEFAULT_CONFIG,
 ) -> tuple[Diagram, RemoteLink, dict[str, VectorLogSink]]:
     """The master's diagram, its link (unattached: see :meth:`RemoteLink.attach`) and its loggers
     by name; ``delay`` [s] one way, both directions (one control period to 0.3), ``jitter`` [s]
-    and ``loss`` as :func:`telecooperation.link_configs` takes them."""
-    if leader not in telecooperation.LEADERS:
-        raise ValueError(f"leader = {leader!r}: one of {', '.join(telecooperation.LEADERS)}")
-    delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
-    forward0, hands0 = telecooperation.initial_link_values()
+    and ``loss`` as :func:`telecooperation.link_configs` takes them; ``config`` the master
+    site's constants (the slave's must be the same)."""
+    leader, delay = telecooperation.LEADER.check(leader), telecooperation.DELAY.check(delay)
+    forward0, hands0 = telecooperation.initial_link_values(config)
     # telecooperation's Channel's configurations and seeds
     forward, backward = telecooperation.link_configs(delay, jitter, loss)
     builder = DiagramBuilder()
-    side = telecooperation.add_master_site(builder, hands0, leader, True, PERIOD)
+    side = telecooperation.add_master_site(builder, hands0, leader, True, PERIOD, config)
     link = builder.AddSystem(
         RemoteLink(
             None,
@@ -109,7 +113,7 @@ def run_master(
     delay: float = DEFAULT_DELAY,
     jitter: float = 0.0,
     loss: float = 0.0,
-    duration: float = telecooperation.DURATION,
+    duration: float = telecooperation.DEFAULT_CONFIG.duration,
     realtime: float = 1.0,
     token: str | None = None,
     progress: Progress | None = None,
@@ -159,12 +163,12 @@ class PeerScenario:
     name: str
     description: str
     run: Callable[..., MasterOutput]
-    parameters: tuple[str, ...] = ()
+    parameters: tuple[Parameter, ...] = ()
 
 
 SCENARIO = PeerScenario(
     name="telecoop_master",
     description="telecooperation's master site, the client of a served telecoop_slave (--connect HOST:PORT)",
     run=run_master,
-    parameters=("leader", "delay", "jitter", "loss"),
+    parameters=(telecooperation.LEADER, telecooperation.DELAY, telecooperation.JITTER, telecooperation.LOSS),
 )

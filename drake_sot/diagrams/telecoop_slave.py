@@ -12,7 +12,7 @@ subscribable by name: ``hand_positions.right`` and ``hand_positions.left`` (3,) 
 
 The delay, jitter and loss of the link are drawn on the master's side (both directions), so
 this side takes no ``delay``: each write is timed (applied at the tick the master's emulated
-link makes it arrive at) and the run is paced by its master (``extras["paced_by_client"]``):
+link makes it arrive at) and the run is paced by its master (``extras.paced_by_client``):
 it starts with the master's first write and never simulates a tick before it holds every
 write due at it (:mod:`drake_sot.app.serving`). The two processes then compute what one
 ``telecooperation`` diagram computes, whatever their pace.
@@ -52,6 +52,6 @@ SCENARIO = Scenario(
     name="telecoop_slave",
     description="telecooperation's slave side, to serve: the master (telecoop_master) writes its forces",
     build=build,
-    parameters=("leader",),
+    parameters=(telecooperation.LEADER,),
     servable=True,
 )

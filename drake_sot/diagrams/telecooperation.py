@@ -35,11 +35,11 @@ whole walk holds with either leader. When the co-operator leads (pulling the boa
 the stabilizer takes the hands' measured wrenches (the LIPM with external forces,
 :mod:`drake_sot.stabilization` eq. 4-6); with the operator leading it does not
 (``benchmarks/README.md`` has the measurements).
-The replay shows the robot, the board and, as translucent blue spheres (``GHOSTS``), the
+The replay shows the robot, the board and, as translucent blue spheres (``ghost_paths``), the
 operator's hands: the handles' positions ``MasterSite.hands`` = x_S + x_Δ (eq. 9; the operator's
 hands hold the handles), in the master's world, identified with the slave's; they lead the
 robot's hands by the delay. The co-operator is drawn as a translucent orange sphere
-(``COOPERATOR_GHOST``) where their hand means the board's far end to be (their impedance's
+(``cooperator_ghost_path``) where their hand means the board's far end to be (their impedance's
 target, ``Partner.targets``, logged as ``cooperator_target``). The two-process mode's slave has
 no master, hence no operator ghosts.
 
@@ -47,10 +47,13 @@ Why the walk fell before, and what fixed it (the arms carried in front with posi
 hand tasks, the hands' wrenches in the stabilizer's model, a spring in z in the hands'
 admittance): ``benchmarks/README.md``.
 
+The constants below (gains, masses, timings, distances) are the fields of
+:class:`TelecooperationConfig`; ``build(config=)`` takes another than ``DEFAULT_CONFIG``.
+
 Choices where the paper is silent:
 
 - The robot carries the board in front: it starts in half-sitting with the upper arms down and
-  the elbows bent by 1.3 rad (``CARRY_JOINTS``; hands 0.34 m in front of the ankles, 0.84 m
+  the elbows bent by 1.3 rad (``carry_joints``; hands 0.34 m in front of the ankles, 0.84 m
   high), away from the straight-arm singularity of the half-sitting arms.
 - e_fr and e_fl control the hands' positions only (the eq.-4 admittance's translation): with a
   6D hand task on each 6-joint arm nothing was left for the posture, and the robot fell 8 s
@@ -76,7 +79,7 @@ Choices where the paper is silent:
   hand's translation is, at every tick, the hand point's apparent inertia Λ = (J_v A⁻¹ J_vᵀ)⁻¹,
   with A the whole (floating-base) robot model's inertia matrix at the reference configuration
   and J_v the hand point's translation Jacobian, as the paper writes it (the feet's contact is not
-  in A); the damping stays ``HAND_ADMITTANCE``'s. The other half of eq. 5-7, the A-weighted
+  in A); the damping stays ``hand_damping``. The other half of eq. 5-7, the A-weighted
   pseudo-inverse, is not used: in this strict hierarchy the posture task at the bottom takes up
   every degree of freedom the tasks above leave (its Jacobian, the joints, is injective on the
   feet tasks' null space), and then the hierarchy's solution does not depend on the weight of
@@ -86,6 +89,7 @@ Choices where the paper is silent:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -100,12 +104,11 @@ from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from drake_sot import validation
-from drake_sot.channel import DEFAULT_DELAY, LinkConfig
+from drake_sot.channel import DEFAULT_DELAY, MAX_DELAY, LinkConfig
 from drake_sot.diagrams.balance import add_zmp_estimator, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.telecooperation_plots import plot_telecooperation
 from drake_sot.diagrams.walking import add_walking
 from drake_sot.footsteps import StepLimits
@@ -113,6 +116,7 @@ from drake_sot.hand_steps import HandStepRule, stance_frame
 from drake_sot.master import piecewise_linear_path
 from drake_sot.models import half_sitting_configuration, make_control_model
 from drake_sot.models.humanoid import HumanoidInfo
+from drake_sot.parameters import Parameter
 from drake_sot.sequencing import Above, Below, Push, Rm, State, Transition, Up
 from drake_sot.stabilization import StabilizerGains
 from drake_sot.systems.channel import Channel
@@ -131,9 +135,46 @@ from drake_sot.systems.telecoop import (
 
 LEADERS = ("operator", "cooperator")
 #: The hands' admittance (III-B): ``plain``, eq. 4 with the fixed virtual mass of
-#: ``HAND_ADMITTANCE``; ``weighted``, eq. 5-7, the translation's virtual mass the hand's apparent
+#: ``hand_mass``; ``weighted``, eq. 5-7, the translation's virtual mass the hand's apparent
 #: inertia Λ = (J A⁻¹ Jᵀ)⁻¹ at every tick (see the docstring).
 ADMITTANCES = ("plain", "weighted")
+LEADER = Parameter(
+    "leader",
+    "choice",
+    "operator",
+    "who leads the walk, the remote operator or the co-operator",
+    choices=LEADERS,
+)
+DELAY = Parameter(
+    "delay", "float", DEFAULT_DELAY, "one-way delay of the link", minimum=0.0, maximum=MAX_DELAY, unit="s"
+)
+JITTER = Parameter(
+    "jitter",
+    "float",
+    0.0,
+    "half-width of the link's uniform jitter on each packet's delay "
+    f"(delay + jitter at most {MAX_DELAY:g} s)",
+    minimum=0.0,
+    maximum=MAX_DELAY,
+    unit="s",
+)
+LOSS = Parameter(
+    "loss",
+    "float",
+    0.0,
+    "probability that a packet of the link is lost (the newest packet that has arrived is held)",
+    minimum=0.0,
+    maximum=1.0,
+    maximum_excluded=True,
+)
+ADMITTANCE = Parameter(
+    "admittance",
+    "choice",
+    "plain",
+    "the hands' admittance, plain (a fixed virtual mass) or weighted (the virtual mass is the hand's "
+    "apparent inertia, Evrard et al. 2009 eq. 5-7)",
+    choices=ADMITTANCES,
+)
 #: The hands, right first: the order of ALTITUDE_TASKS, HAND_TASKS and of the hands' stacked
 #: positions the master and the slave exchange (not footsteps' left-first SIDES).
 HANDS = ("right", "left")
@@ -153,72 +194,144 @@ STACK = (
 )
 GRIPPERS = ("r_gripper", "l_gripper")
 
-INTERACT_AT = 1.0  # [s] the leader lifts the board by LIFT, then sets it back, standing
-LIFT = 0.05  # [m]
-SPEED = 0.05  # [m/s] the leader's walking speed
-PATH = ((2.0, 0.0, 0.0), (2.0, -0.5, 0.0))  # the leader's displacement waypoints [m]
-LAG = 1.0  # [s] the follower's lag behind the leader
-LEADER_IMPEDANCE = (200.0, 40.0)  # stiffness [N/m], damping [N s/m]
-FOLLOWER_IMPEDANCE = (80.0, 30.0)
-BOARD_LENGTH, BOARD_MASS, BOARD_THICKNESS = 1.5, 2.0, 0.03
-GRASP = {"force": (800.0, 60.0), "torque": (5.0, 0.2)}  # stiffness, damping of the bushings
-HAND_ADMITTANCE = {
-    "mass": (4.0, 4.0, 4.0, 0.2, 0.2, 0.2),
-    "damping": (150.0, 150.0, 150.0, 4.0, 4.0, 4.0),
-    "stiffness": (0.0, 0.0, 300.0, 0.0, 0.0, 0.0),  # z only: see the docstring
-}
-#: The balance stabilizer's CoM offset bounded at 3 cm (see the docstring).
-STABILIZER = StabilizerGains(max_offset=0.03)
-#: The carrying posture: upper arms down, elbows bent so that the forearms point forward
-#: (the hands in front of the waist, far from the straight-arm singularity; see the docstring).
-CARRY_JOINTS = {
-    f"{side}_{joint}": value for side in "rl" for joint, value in (("shoulder_pitch", 0.0), ("elbow", -1.3))
-}
-MASTER_ADMITTANCE = {"mass": 2.0, "damping": 60.0, "stiffness": 400.0}
-#: The operator's hands in the replay: Meshcat paths [right, left], radius [m], colour.
-GHOSTS = {"paths": ("/drake_sot/operator/right_hand", "/drake_sot/operator/left_hand"), "radius": 0.04}
-GHOST_COLOUR = Rgba(0.2, 0.45, 0.95, 0.35)
-#: The co-operator drawn in the replay: their hand where they mean the board's far end to be.
-COOPERATOR_GHOST = {"path": "/drake_sot/cooperator/hand", "radius": 0.05}
-COOPERATOR_COLOUR = Rgba(0.95, 0.55, 0.15, 0.45)
-STEP_LIMITS = StepLimits(max_stride=0.2)
-STEP_THRESHOLD = 0.05
-WALK_AT = INTERACT_AT + 2 * LIFT / SPEED  # [s] the leader starts walking
-DURATION = WALK_AT + LAG + (2.0 + 0.5) / SPEED + 4.0
+
+@dataclass(frozen=True)
+class TelecooperationConfig:
+    """The constants of the tele-cooperation's three sites (see the module docstring for the
+    choices); :data:`DEFAULT_CONFIG` is the scenario's.
+
+    Attributes:
+        interact_at: [s] when the leader lifts the board by ``lift``, then sets it back, standing.
+        lift: [m] how high the leader lifts the board.
+        speed: [m/s] the leader's speed, lifting and walking.
+        path: [m] the leader's displacement waypoints, walking (from where it stands).
+        lag: [s] the follower's lag behind the leader.
+        leader_impedance: (stiffness [N/m], damping [N s/m]) of the leader's pull on what it holds.
+        follower_impedance: (stiffness [N/m], damping [N s/m]) of the follower's, softer.
+        board_length: [m] the board's length (its width is the hands' distance).
+        board_mass: [kg] the board's mass.
+        board_thickness: [m] the board's thickness.
+        grasp_force: (stiffness [N/m], damping [N s/m]) of the grasp's bushings in translation.
+        grasp_torque: (stiffness [N m/rad], damping [N m s/rad]) of the grasp's bushings in rotation.
+        hand_mass: (6,) the hands' admittance virtual mass [kg, kg m²] (``plain``; translation first).
+        hand_damping: (6,) the hands' admittance damping [N s/m, N m s/rad].
+        hand_stiffness: (6,) the hands' admittance stiffness [N/m, N m/rad]: z only (see the docstring).
+        stabilizer: the balance stabilizer's gains, its CoM offset bounded at 3 cm.
+        carry_shoulder_pitch: [rad] the carrying posture's shoulder pitch (the upper arms down).
+        carry_elbow: [rad] the carrying posture's elbows, bent so that the forearms point forward
+            (the hands in front of the waist, far from the straight-arm singularity).
+        master_mass: [kg] the master arms' admittance mass (eq. 8-9).
+        master_damping: [N s/m] the master arms' admittance damping.
+        master_stiffness: [N/m] the master arms' admittance stiffness.
+        ghost_paths: the Meshcat paths of the operator's hands in the replay, [right, left].
+        ghost_radius: [m] their spheres' radius.
+        ghost_colour: their colour (r, g, b, alpha in [0, 1]).
+        cooperator_ghost_path: the Meshcat path of the co-operator's hand in the replay.
+        cooperator_ghost_radius: [m] its sphere's radius.
+        cooperator_colour: its colour (r, g, b, alpha in [0, 1]).
+        step_limits: the strides the step decider may ask for.
+        step_threshold: [m] the hands' error below which no step is decided.
+        settle: [s] simulated after the follower's end of the walk.
+    """
+
+    interact_at: float = 1.0
+    lift: float = 0.05
+    speed: float = 0.05
+    path: tuple[tuple[float, float, float], ...] = ((2.0, 0.0, 0.0), (2.0, -0.5, 0.0))
+    lag: float = 1.0
+    leader_impedance: tuple[float, float] = (200.0, 40.0)
+    follower_impedance: tuple[float, float] = (80.0, 30.0)
+    board_length: float = 1.5
+    board_mass: float = 2.0
+    board_thickness: float = 0.03
+    grasp_force: tuple[float, float] = (800.0, 60.0)
+    grasp_torque: tuple[float, float] = (5.0, 0.2)
+    hand_mass: tuple[float, ...] = (4.0, 4.0, 4.0, 0.2, 0.2, 0.2)
+    hand_damping: tuple[float, ...] = (150.0, 150.0, 150.0, 4.0, 4.0, 4.0)
+    hand_stiffness: tuple[float, ...] = (0.0, 0.0, 300.0, 0.0, 0.0, 0.0)
+    stabilizer: StabilizerGains = StabilizerGains(max_offset=0.03)
+    carry_shoulder_pitch: float = 0.0
+    carry_elbow: float = -1.3
+    master_mass: float = 2.0
+    master_damping: float = 60.0
+    master_stiffness: float = 400.0
+    ghost_paths: tuple[str, str] = ("/drake_sot/operator/right_hand", "/drake_sot/operator/left_hand")
+    ghost_radius: float = 0.04
+    ghost_colour: tuple[float, float, float, float] = (0.2, 0.45, 0.95, 0.35)
+    cooperator_ghost_path: str = "/drake_sot/cooperator/hand"
+    cooperator_ghost_radius: float = 0.05
+    cooperator_colour: tuple[float, float, float, float] = (0.95, 0.55, 0.15, 0.45)
+    step_limits: StepLimits = StepLimits(max_stride=0.2)
+    step_threshold: float = 0.05
+    settle: float = 4.0
+
+    @property
+    def walk_at(self) -> float:
+        """[s] when the leader starts walking (the lift done)."""
+        return self.interact_at + 2 * self.lift / self.speed
+
+    @property
+    def duration(self) -> float:
+        """[s] the scenario's duration: the follower's walk along ``path``, then ``settle``."""
+        points = np.array(((0.0, 0.0, 0.0), *self.path))
+        length = float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+        return self.walk_at + self.lag + length / self.speed + self.settle
+
+    @property
+    def carry_joints(self) -> dict[str, float]:
+        """The carrying posture's joints by name: both shoulders' pitch and both elbows [rad]."""
+        values = (("shoulder_pitch", self.carry_shoulder_pitch), ("elbow", self.carry_elbow))
+        return {f"{side}_{joint}": value for side in "rl" for joint, value in values}
+
+    @property
+    def hand_admittance(self) -> dict[str, tuple[float, ...]]:
+        """The hands' admittance as ``add_admittance_task`` takes it (mass, damping, stiffness)."""
+        return {"mass": self.hand_mass, "damping": self.hand_damping, "stiffness": self.hand_stiffness}
 
 
-def carrying_configuration() -> np.ndarray:
-    """(nq,) the robot's half-sitting configuration with the forearms forward (``CARRY_JOINTS``)."""
+#: The scenario's configuration.
+DEFAULT_CONFIG = TelecooperationConfig()
+
+
+def carrying_configuration(config: TelecooperationConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """(nq,) the robot's half-sitting configuration with the forearms forward
+    (``config.carry_joints``)."""
     plant, info = make_control_model()
     q = half_sitting_configuration(plant, info)
-    for joint, value in CARRY_JOINTS.items():
+    for joint, value in config.carry_joints.items():
         q[plant.GetJointByName(joint, info.model_instance).position_start()] = value
     return q
 
 
-def _initial_hands() -> dict[str, RigidTransform]:
+def _initial_hands(config: TelecooperationConfig) -> dict[str, RigidTransform]:
     plant, info = make_control_model()
     context = plant.CreateDefaultContext()
-    plant.SetPositions(context, carrying_configuration())
+    plant.SetPositions(context, carrying_configuration(config))
     return {
         side: plant.GetFrameByName(info.frames[f"{side}_hand"]).CalcPoseInWorld(context) for side in HANDS
     }
 
 
-def _add_board(plant: MultibodyPlant, info: HumanoidInfo, hands: dict[str, RigidTransform]) -> None:
+def _add_board(
+    plant: MultibodyPlant, info: HumanoidInfo, hands: dict[str, RigidTransform], config: TelecooperationConfig
+) -> None:
     """The board, a free body in its own model instance, gripped by both hands (bushings)."""
     instance = plant.AddModelInstance("board")
     p_r, p_l = hands["right"].translation(), hands["left"].translation()
     width = float(np.linalg.norm(p_l - p_r))
     board = plant.AddRigidBody(
-        "board", instance, SpatialInertia.SolidBoxWithMass(BOARD_MASS, BOARD_LENGTH, width, BOARD_THICKNESS)
+        "board",
+        instance,
+        SpatialInertia.SolidBoxWithMass(
+            config.board_mass, config.board_length, width, config.board_thickness
+        ),
     )
-    X_WB = RigidTransform(0.5 * (p_r + p_l) + [0.5 * BOARD_LENGTH, 0.0, 0.0])
+    X_WB = RigidTransform(0.5 * (p_r + p_l) + [0.5 * config.board_length, 0.0, 0.0])
     plant.SetDefaultFloatingBaseBodyPose(board, X_WB)
     plant.RegisterVisualGeometry(
         board,
         RigidTransform(),
-        Box(BOARD_LENGTH, width, BOARD_THICKNESS),
+        Box(config.board_length, width, config.board_thickness),
         "board",
         np.array([0.6, 0.45, 0.3, 1.0]),
     )
@@ -227,13 +340,13 @@ def _add_board(plant: MultibodyPlant, info: HumanoidInfo, hands: dict[str, Rigid
         grip = plant.AddFrame(
             FixedOffsetFrame(f"board_{side}_grip", board.body_frame(), X_WB.InvertAndCompose(hands[side]))
         )
-        (kf, df), (kt, dt) = GRASP["force"], GRASP["torque"]
+        (kf, df), (kt, dt) = config.grasp_force, config.grasp_torque
         plant.AddForceElement(LinearBushingRollPitchYaw(hand, grip, [kt] * 3, [dt] * 3, [kf] * 3, [df] * 3))
 
 
-def _waypoints(walk: bool) -> tuple[tuple[float, float, float], ...]:
+def _waypoints(walk: bool, config: TelecooperationConfig) -> tuple[tuple[float, float, float], ...]:
     """The leader's displacement waypoints: lift, set back, then (``walk``) the walk."""
-    return ((0.0, 0.0, LIFT), (0.0, 0.0, 0.0), *(PATH if walk else ()))
+    return ((0.0, 0.0, config.lift), (0.0, 0.0, 0.0), *(config.path if walk else ()))
 
 
 def _references() -> TrajectorySource:
@@ -284,25 +397,32 @@ def link_configs(delay: float, jitter: float = 0.0, loss: float = 0.0) -> tuple[
     )
 
 
-def initial_link_values() -> tuple[np.ndarray, np.ndarray]:
+def initial_link_values(config: TelecooperationConfig = DEFAULT_CONFIG) -> tuple[np.ndarray, np.ndarray]:
     """What each side holds before the first packet: the master's signals as one vector (in the
     order of ``MASTER_SIGNALS``, :func:`initial_master_values`) and the slave's hands
     ``[right; left]`` [m] at their initial position."""
-    hands = _initial_hands()
+    hands = _initial_hands(config)
     forward = np.concatenate(list(initial_master_values().values()))
     return forward, np.concatenate([hands[side].translation() for side in HANDS])
 
 
 def add_master_site(
-    builder: DiagramBuilder, x_s0: np.ndarray, leader: str, walk: bool, period: float
+    builder: DiagramBuilder,
+    x_s0: np.ndarray,
+    leader: str,
+    walk: bool,
+    period: float,
+    config: TelecooperationConfig = DEFAULT_CONFIG,
 ) -> MasterSide:
     """The master site (IV): the arms and base, the operator (leading or following the
     co-operator), the head and gripper references, wired together; ``x_s0`` the slave's hands."""
-    operator_lag = 0.0 if leader == "operator" else LAG
-    waypoints = _waypoints(walk)
-    path = piecewise_linear_path([0.0, 0.0, 0.0], waypoints, SPEED, t0=INTERACT_AT + operator_lag)
+    operator_lag = 0.0 if leader == "operator" else config.lag
+    waypoints = _waypoints(walk, config)
+    path = piecewise_linear_path(
+        [0.0, 0.0, 0.0], waypoints, config.speed, t0=config.interact_at + operator_lag
+    )
     body0 = np.array([0.0, 0.0, 0.9])
-    k_op, b_op = LEADER_IMPEDANCE if leader == "operator" else FOLLOWER_IMPEDANCE
+    k_op, b_op = config.leader_impedance if leader == "operator" else config.follower_impedance
 
     def intention(t: float) -> tuple[np.ndarray, np.ndarray]:
         p, v = path(t)
@@ -312,7 +432,15 @@ def add_master_site(
         p, v = path(t)
         return body0 + p, v
 
-    master = builder.AddSystem(MasterSite(x_s0, period=period, **MASTER_ADMITTANCE))
+    master = builder.AddSystem(
+        MasterSite(
+            x_s0,
+            period=period,
+            mass=config.master_mass,
+            damping=config.master_damping,
+            stiffness=config.master_stiffness,
+        )
+    )
     operator = builder.AddSystem(Operator(intention, body, stiffness=k_op, damping=b_op, period=period))
     builder.Connect(operator.GetOutputPort("forces"), master.GetInputPort("handle_forces"))
     builder.Connect(master.GetOutputPort("hands"), operator.GetInputPort("hands"))
@@ -339,23 +467,38 @@ def master_logs(side: MasterSide) -> tuple[tuple[str, OutputPort], ...]:
     )
 
 
-def add_ghosts(builder: DiagramBuilder, meshcat: Meshcat, hands: OutputPort) -> None:
+def add_ghosts(
+    builder: DiagramBuilder,
+    meshcat: Meshcat,
+    hands: OutputPort,
+    config: TelecooperationConfig = DEFAULT_CONFIG,
+) -> None:
     """The operator's hands ``hands`` (6,) [m] ``[right; left]`` drawn as translucent spheres
-    (``GHOSTS``) in ``meshcat`` and its recording."""
+    (``config.ghost_paths``) in ``meshcat`` and its recording."""
     split = builder.AddSystem(Demultiplexer([3, 3]))
     split.set_name("operator_hands_split")
     builder.Connect(hands, split.get_input_port())
-    for k, path in enumerate(GHOSTS["paths"]):
-        ghost = builder.AddSystem(MeshcatMarker(meshcat, path, radius=GHOSTS["radius"], rgba=GHOST_COLOUR))
+    for k, path in enumerate(config.ghost_paths):
+        ghost = builder.AddSystem(
+            MeshcatMarker(meshcat, path, radius=config.ghost_radius, rgba=Rgba(*config.ghost_colour))
+        )
         builder.Connect(split.get_output_port(k), ghost.GetInputPort("position"))
 
 
-def add_cooperator_ghost(builder: DiagramBuilder, meshcat: Meshcat, target: OutputPort) -> None:
-    """The co-operator's hand drawn as a translucent orange sphere (``COOPERATOR_GHOST``) at
+def add_cooperator_ghost(
+    builder: DiagramBuilder,
+    meshcat: Meshcat,
+    target: OutputPort,
+    config: TelecooperationConfig = DEFAULT_CONFIG,
+) -> None:
+    """The co-operator's hand drawn as a translucent orange sphere (``config.cooperator_ghost_path``) at
     ``target`` (3,) [m], where their impedance pulls the board's far end (``Partner.targets``)."""
     ghost = builder.AddSystem(
         MeshcatMarker(
-            meshcat, COOPERATOR_GHOST["path"], radius=COOPERATOR_GHOST["radius"], rgba=COOPERATOR_COLOUR
+            meshcat,
+            config.cooperator_ghost_path,
+            radius=config.cooperator_ghost_radius,
+            rgba=Rgba(*config.cooperator_colour),
         )
     )
     builder.Connect(target, ghost.GetInputPort("position"))
@@ -375,9 +518,11 @@ def build(
     jitter: float = 0.0,
     loss: float = 0.0,
     command_server: bool = False,
+    config: TelecooperationConfig = DEFAULT_CONFIG,
 ) -> ScenarioSetup:
-    """Build the ``telecooperation`` diagram; ``leader`` is ``"operator"`` or ``"cooperator"``,
-    ``delay`` the one-way delay [s] of both directions (0-0.3), ``pushes`` on the robot;
+    """Build the ``telecooperation`` diagram (its constants ``config``); ``leader`` is
+    ``"operator"`` or ``"cooperator"``, ``delay`` the one-way delay [s] of both directions
+    (0-0.3), ``pushes`` on the robot;
     ``walk=False``: the leader only lifts and sets back the board (standing interaction);
     ``remote=True``: the slave side only, what the master sends written to the command server's
     signals ``remote.<name>`` of ``MASTER_SIGNALS`` (see ``telecoop_slave``; ``delay`` is then
@@ -385,21 +530,17 @@ def build(
     admittance, one of :data:`ADMITTANCES`; ``jitter`` [s], ``loss`` (a probability in [0, 1)):
     the link's, both directions (:func:`link_configs`); ``command_server``: see
     :func:`~drake_sot.diagrams.scenario.build_scenario` (``remote=True`` has one whatever it says)."""
-    if leader not in LEADERS:
-        raise ValueError(f"leader = {leader!r}: one of {', '.join(LEADERS)}")
-    if admittance not in ADMITTANCES:
-        raise ValueError(f"admittance = {admittance!r}: one of {', '.join(ADMITTANCES)}")
-    delay = validation.bounded("delay", delay, 0.0, 0.3, unit="s")
+    leader, admittance, delay = LEADER.check(leader), ADMITTANCE.check(admittance), DELAY.check(delay)
     forward_link, backward_link = link_configs(delay, jitter, loss)
-    hands0 = _initial_hands()
+    hands0 = _initial_hands(config)
     b = HumanoidSoTBuilder(
         meshcat=meshcat,
         pushes=pushes,
-        before_finalize=lambda plant, info: _add_board(plant, info, hands0),
-        q0=carrying_configuration(),
+        before_finalize=lambda plant, info: _add_board(plant, info, hands0, config),
+        q0=carrying_configuration(config),
     )
     builder = b.builder
-    pg, left, right = add_walking(b, limits=STEP_LIMITS, stabilizer_gains=STABILIZER)
+    pg, left, right = add_walking(b, limits=config.step_limits, stabilizer_gains=config.stabilizer)
     x_s0 = np.concatenate([hands0[side].translation() for side in HANDS])
 
     # --- slave side: the seven tasks ------------------------------------------------------
@@ -411,7 +552,7 @@ def build(
         b.add_op_point_task(task_name, f"{side}_hand", selection="001000", gain=5.0)
     admittances = {
         task_name: b.add_admittance_task(
-            task_name, side, selection="111000", weighted=admittance == "weighted", **HAND_ADMITTANCE
+            task_name, side, selection="111000", weighted=admittance == "weighted", **config.hand_admittance
         )
         for task_name, side in zip(HAND_TASKS, HANDS, strict=True)
     }
@@ -475,14 +616,16 @@ def build(
     # Walking as a planner: the next footprint from the hands' error in the waist frame.
     centre, _ = stance_frame(left, right)
     reference = 0.5 * (x_s0[:2] + x_s0[3:5]) - centre
-    rule = HandStepRule(reference=tuple(reference), threshold=STEP_THRESHOLD, limits=STEP_LIMITS)
+    rule = HandStepRule(
+        reference=tuple(reference), threshold=config.step_threshold, limits=config.step_limits
+    )
     decider = builder.AddSystem(StepDecider(rule))
     builder.Connect(hand_positions.GetOutputPort("positions"), decider.GetInputPort("hands"))
     builder.Connect(pg.GetOutputPort("planned_feet"), decider.GetInputPort("planned_feet"))
     builder.Connect(decider.GetOutputPort("next_footprint"), pg.GetInputPort("next_footprint"))
 
     # --- the link: a Channel and the master site here, or (remote) the server's writable -----
-    initial, _ = initial_link_values()
+    initial, _ = initial_link_values(config)
     link_logs: tuple[tuple[str, OutputPort], ...]
     received: dict[str, OutputPort] = {}
     if remote:  # the master site is another process (telecoop_master): it writes, and delays
@@ -490,7 +633,7 @@ def build(
             size, units = MASTER_SIGNALS[name]
             received[name] = b.declare_writable(name, size, units, value, bound=MASTER_BOUNDS[name])
         link_logs = ()
-        extras: dict = {"wait_for_client": True, "paced_by_client": True}
+        extras = ScenarioHandles(wait_for_client=True, paced_by_client=True)
     else:
         channel = builder.AddSystem(
             Channel(
@@ -507,39 +650,39 @@ def build(
         builder.Connect(channel.GetOutputPort("forward_out"), split.get_input_port())
         received = {name: split.get_output_port(i) for i, name in enumerate(MASTER_SIGNALS)}
         builder.Connect(hand_positions.GetOutputPort("positions"), channel.GetInputPort("backward_in"))
-        side = add_master_site(builder, x_s0, leader, walk, b.control_period)
+        side = add_master_site(builder, x_s0, leader, walk, b.control_period, config)
         builder.Connect(channel.GetOutputPort("backward_out"), side.master.GetInputPort("slave_hands"))
         builder.Connect(side.sent.get_output_port(), channel.GetInputPort("forward_in"))
         if meshcat is not None:  # the operator's hands as ghosts in the replay
-            add_ghosts(builder, meshcat, side.master.GetOutputPort("hands"))
+            add_ghosts(builder, meshcat, side.master.GetOutputPort("hands"), config)
         link_logs = (
             *master_logs(side),
             ("received_by_master", channel.GetOutputPort("backward_out")),
             ("delay_forward", channel.GetOutputPort("forward_age")),
             ("delay_backward", channel.GetOutputPort("backward_age")),
         )
-        extras = {"channel": channel, "master": side.master, "operator": side.operator}
+        extras = ScenarioHandles(channel=channel, master=side.master, operator=side.operator)
     for name, port in received.items():
         builder.Connect(port, references.GetInputPort(name))
     link_logs = (*link_logs, *((f"received_by_slave/{name}", port) for name, port in received.items()))
     # --- end of the link ---
 
     # --- remote site: the co-operator holds the board's far end ----------------------------
-    cooperator_lag = LAG if leader == "operator" else 0.0
-    k_co, b_co = FOLLOWER_IMPEDANCE if leader == "operator" else LEADER_IMPEDANCE
-    t = INTERACT_AT + cooperator_lag
-    waypoints = _waypoints(walk)
+    cooperator_lag = config.lag if leader == "operator" else 0.0
+    k_co, b_co = config.follower_impedance if leader == "operator" else config.leader_impedance
+    t = config.interact_at + cooperator_lag
+    waypoints = _waypoints(walk, config)
     keyframes = [(0.0, (0.0, 0.0, 0.0)), (t, (0.0, 0.0, 0.0))]
     previous = np.zeros(3)
     for point in waypoints:
-        t += float(np.linalg.norm(np.array(point) - previous)) / SPEED
+        t += float(np.linalg.norm(np.array(point) - previous)) / config.speed
         keyframes.append((t, point))
         previous = np.array(point)
     cooperator = builder.AddSystem(
         Partner(
             b.plant,
             {"board": [Hold(0.0, 1e6, tuple(keyframes), stiffness=k_co, damping=b_co)]},
-            points={"board": (0.5 * BOARD_LENGTH, 0.0, 0.0)},
+            points={"board": (0.5 * config.board_length, 0.0, 0.0)},
             period=b.control_period,
         )
     )
@@ -550,7 +693,7 @@ def build(
     )
     b.apply_spatial_forces(cooperator.GetOutputPort("spatial_forces"))
     if meshcat is not None:
-        add_cooperator_ghost(builder, meshcat, cooperator.GetOutputPort("targets"))
+        add_cooperator_ghost(builder, meshcat, cooperator.GetOutputPort("targets"), config)
 
     # --- logs ----------------------------------------------------------------------------------
     board_instance = b.plant.GetModelInstanceByName("board")
@@ -584,28 +727,28 @@ def build(
     return ScenarioSetup(
         built=built,
         commands=[],
-        duration=DURATION,
-        extras={
-            "pattern_generator": pg,
-            **extras,  # the link's
-            "decider": decider,
-            "rule": rule,
-            "sequencer": sequencer,
-            "admittances": admittances,
-            "leader": leader,
-            "delay": delay,
-            "admittance": admittance,
-            "grippers": GRIPPERS,
-        },
+        duration=config.duration,
+        extras=dataclasses.replace(
+            extras,  # the link's
+            pattern_generator=pg,
+            decider=decider,
+            rule=rule,
+            sequencer=sequencer,
+            admittances=admittances,
+            leader=leader,
+            delay=delay,
+            admittance=admittance,
+            grippers=GRIPPERS,
+        ),
     )
 
 
 def arm_speeds(setup: ScenarioSetup, v: np.ndarray) -> np.ndarray:
-    """(T, 4) [rad/s] the speeds of the ``CARRY_JOINTS`` (the shoulders' pitch, the elbows) from the
+    """(T, 4) [rad/s] the speeds of the carrying joints (the shoulders' pitch, the elbows) from the
     robot's logged velocities ``v`` (T, the robot's nv), e.g. ``arrays["v"]``."""
     plant, instance = setup.built.plant, setup.built.info.model_instance
     columns = []
-    for joint in CARRY_JOINTS:
+    for joint in DEFAULT_CONFIG.carry_joints:  # their names; any configuration has the same
         unit = np.zeros(plant.num_velocities())
         unit[plant.GetJointByName(joint, instance).velocity_start()] = 1.0
         columns.append(int(np.argmax(plant.GetVelocitiesFromArray(instance, unit))))
@@ -615,7 +758,7 @@ def arm_speeds(setup: ScenarioSetup, v: np.ndarray) -> np.ndarray:
 def write_plots(setup: ScenarioSetup, arrays: dict[str, np.ndarray], out_dir: Path) -> dict[str, Path]:
     """The Fig.-7-like plot, the force transparency and the steps (see ``telecooperation_plots``)."""
     path = Path(out_dir) / "telecooperation_fig7.png"
-    plot_telecooperation(arrays, setup.extras["leader"], setup.extras["delay"], path)
+    plot_telecooperation(arrays, setup.extras.leader, setup.extras.delay, path)
     return {"fig7": path}
 
 
@@ -624,6 +767,6 @@ SCENARIO = Scenario(
     description="a remote operator (140 ms away) and a co-operator carry a board with the walking humanoid",
     build=build,
     extra_plots=write_plots,
-    parameters=("leader", "delay", "admittance", "jitter", "loss"),
+    parameters=(LEADER, DELAY, ADMITTANCE, JITTER, LOSS),
     servable=True,
 )

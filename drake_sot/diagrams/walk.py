@@ -17,8 +17,8 @@ from collections.abc import Sequence
 from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
-from drake_sot.diagrams.walking import build_walk, forward_steps, zmp_plot_writer
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
+from drake_sot.diagrams.walking import STABILIZER, build_walk, forward_steps, zmp_plot_writer
 from drake_sot.footsteps import Footstep, alternating_steps
 
 
@@ -60,6 +60,6 @@ SCENARIO = Scenario(
     description="8 steps of 0.2 m forward, 4 steps turning 90°, stop in double support (ZMP preview control)",
     build=build,
     extra_plots=write_plots,
-    parameters=("stabilizer", "robot"),
+    parameters=(STABILIZER, ROBOT),
     servable=True,
 )

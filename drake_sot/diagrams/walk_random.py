@@ -16,15 +16,18 @@ from collections.abc import Sequence
 from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
 from drake_sot.diagrams.walking import build_walk, zmp_plot_writer
 from drake_sot.footsteps import Footstep, StepLimits, stance_width
+from drake_sot.parameters import Parameter
 from drake_sot.random_steps import RandomStepRule
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.random_steps import RandomSteps
 from drake_sot.walk_planner import FOOTPRINTS_AHEAD
 
 DURATION = 120.0  # [s] the default length of the walk
+#: The walk's seed: the same seed walks the same steps.
+SEED = Parameter("seed", "int", 0, "walk_random's seed (the same seed walks the same steps)", minimum=0)
 
 
 def planned_landings(
@@ -84,6 +87,6 @@ SCENARIO = Scenario(
     description="random reachable steps (forward, backward, sideways, turning, stops), as long as asked",
     build=build,
     extra_plots=zmp_plot_writer("walk_random"),
-    parameters=("seed", "robot"),
+    parameters=(SEED, ROBOT),
     servable=True,
 )

@@ -13,6 +13,7 @@ hands comply.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -23,10 +24,11 @@ from pydrake.systems.framework import OutputPort
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, RemoteDecision, Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
-from drake_sot.diagrams.walking import add_walking, forward_steps
+from drake_sot.diagrams.walking import STABILIZER, add_walking, forward_steps
 from drake_sot.footsteps import Footstep
+from drake_sot.parameters import Parameter
 from drake_sot.sequencing import Above, Below, Push, Rm, SetValue, State, Transition, Up
 from drake_sot.systems.partner import Hold, Partner
 from drake_sot.systems.pattern_generator import PatternGenerator
@@ -62,6 +64,14 @@ SWITCH = (
 )
 SWITCH_LINES = tuple(f"sot.{action}" for action in SWITCH)  # each command as its script line
 DECISIONS = ("sequencer", "remote")
+DECISION = Parameter(
+    "decision",
+    "choice",
+    "sequencer",
+    "the decision layer: the sequencer in the diagram, or a separate client process driving the stack "
+    "through the command server (paced at real time)",
+    choices=DECISIONS,
+)
 
 
 def build(
@@ -82,10 +92,9 @@ def build(
     :data:`SWITCH_LINES` and ``remote.force_active`` = 1 through the command server; the stack is
     then the solver's own, driven by the server's stack commands, and ``force_active`` a signal
     the diagram declares writable on its server; what the decision client polls and sends is
-    ``extras["decision"]``). ``stabilizer``: the balance stabilizer between the pattern generator
+    ``extras.decision``). ``stabilizer``: the balance stabilizer between the pattern generator
     and the CoM task (see ``walking.add_walking``)."""
-    if decision not in DECISIONS:
-        raise ValueError(f"decision = {decision!r}: one of {', '.join(DECISIONS)}")
+    decision = DECISION.check(decision)
     if decision == "remote":
         return _build_remote(meshcat, pushes, stabilizer, robot)
     b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
@@ -119,7 +128,7 @@ def build(
         right,
         admittances,
         sequencer.GetOutputPort("stack"),
-        {"sequencer": sequencer},
+        ScenarioHandles(sequencer=sequencer),
         command_server=command_server,
     )
 
@@ -143,13 +152,10 @@ def _build_remote(
     active = b.declare_writable("force_active", 1, "1 on, 0 off", np.zeros(1), bound=1.0)
     for admittance in admittances.values():
         b.builder.Connect(active, admittance.GetInputPort("active"))
-    decision = {
-        "signal": "pg.in_process",
-        "period": 1.0,
-        "run": SWITCH_LINES,
-        "write": ("remote.force_active=1",),
-    }
-    return _finish(b, pg, left, right, admittances, None, {"decision": decision})
+    decision = RemoteDecision(
+        signal="pg.in_process", period=1.0, run=SWITCH_LINES, write=("remote.force_active=1",)
+    )
+    return _finish(b, pg, left, right, admittances, None, ScenarioHandles(decision=decision))
 
 
 def _finish(
@@ -159,11 +165,12 @@ def _finish(
     right: Footstep,
     admittances: dict,
     stack_source: OutputPort | None,
-    extras: dict,
+    extras: ScenarioHandles,
     *,
     command_server: bool = False,
 ) -> ScenarioSetup:
-    """The partner, the logs and the build, common to both decision layers."""
+    """The partner, the logs and the build, common to both decision layers; ``extras``: the
+    decision layer's handles, completed here."""
     # The partner holds the bodies below the wrist sensors (the hands).
     hands = [
         b.plant.GetJointByName(b.info.force_sensors[f"{side}_wrist"]).child_body().name()
@@ -197,13 +204,9 @@ def _finish(
         built=built,
         commands=[TimedCommand(0.0, f"walk {len(steps)} steps", lambda c: pg.add_steps(c, steps))],
         duration=RELEASE_AT + 1.0,
-        extras={
-            "pattern_generator": pg,
-            "admittances": admittances,
-            "steps": steps,
-            "hands": hands,
-            **extras,
-        },
+        extras=dataclasses.replace(
+            extras, pattern_generator=pg, admittances=admittances, steps=steps, hands=hands
+        ),
     )
 
 
@@ -249,6 +252,6 @@ SCENARIO = Scenario(
     description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
     build=build,
     extra_plots=write_plots,
-    parameters=("decision", "stabilizer", "robot"),
+    parameters=(DECISION, STABILIZER, ROBOT),
     servable=True,
 )

@@ -20,9 +20,10 @@ from drake_sot.diagrams.balance import add_stabilizer, add_zmp_estimator
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import ScenarioSetup
+from drake_sot.diagrams.scenario import ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.walk_plots import plot_walk
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, alternating_steps
+from drake_sot.parameters import Parameter
 from drake_sot.robots import EMBEDDED
 from drake_sot.stabilization import StabilizerGains
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
@@ -32,6 +33,8 @@ from drake_sot.systems.stance_anchor import StanceAnchor
 #: The embedded robot's step timing (each robot's is ``RobotDescription.step_timing``).
 TIMING = EMBEDDED.step_timing
 START = 0.5  # [s] when the steps are given
+#: The balance stabilizer between the pattern generator and the CoM task, on unless switched off.
+STABILIZER = Parameter("stabilizer", "bool", True, "the balance stabilizer")
 STACK = (
     "taskJL",
     "taskLF",
@@ -206,7 +209,10 @@ def build_walk(
     )
     duration = START + len(steps) * b.robot.step_timing.period + 2.0
     return ScenarioSetup(
-        built=built, commands=commands, duration=duration, extras={"pattern_generator": pg, "steps": steps}
+        built=built,
+        commands=commands,
+        duration=duration,
+        extras=ScenarioHandles(pattern_generator=pg, steps=steps),
     )
 
 
@@ -271,7 +277,7 @@ def zmp_plot_writer(scenario: str) -> Callable[[ScenarioSetup, dict[str, np.ndar
             arrays["com_ref"],
             analysis.com,
             analysis.polygons,
-            [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras["steps"]],
+            [sole_corners(s.x, s.y, s.yaw, setup.built.info.sole_size) for s in setup.extras.steps],
             path,
         )
         return {f"{scenario}_zmp": path}

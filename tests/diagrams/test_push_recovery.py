@@ -25,8 +25,8 @@ def _first_landing() -> float:
     setup = walk.build()
     context = setup.built.create_simulator().get_mutable_context()
     context.SetTime(walking.START)
-    pg = setup.extras["pattern_generator"]
-    pg.add_steps(context, setup.extras["steps"])
+    pg = setup.extras.pattern_generator
+    pg.add_steps(context, setup.extras.steps)
     return pg.planned_landings(context)[0][0]
 
 
@@ -72,9 +72,9 @@ def test_the_walk_survives_a_200_N_lateral_push_and_completes_its_steps(phase, f
     # last footprints (within 5 cm: a push can make the stance foot slip).
     phases = arrays["phase"][:, 0]
     landings = np.count_nonzero((phases[:-1] != 0) & (phases[1:] == 0))
-    assert landings == len(setup.extras["steps"]) == 13
+    assert landings == len(setup.extras.steps) == 13
     analysis = walking.analyse(setup.built, arrays)
-    last = {step.side: step for step in setup.extras["steps"]}
+    last = {step.side: step for step in setup.extras.steps}
     for side, step in last.items():
         x, y, yaw = analysis.soles[side][-1]
         assert math.hypot(x - step.x, y - step.y) < 0.05, (side, x - step.x, y - step.y)

@@ -23,7 +23,11 @@ def runs(tmp_path_factory):
 
 
 def _contact_phases():
-    return [(p, nxt) for p, nxt in zip(tp.PHASES, tp.PHASES[1:], strict=False) if p.name.endswith("contact")]
+    return [
+        (p, nxt)
+        for p, nxt in zip(tp.DEFAULT_CONFIG.phases, tp.DEFAULT_CONFIG.phases[1:], strict=False)
+        if p.name.endswith("contact")
+    ]
 
 
 @pytest.mark.parametrize("transition", [0.6, 0.015])
@@ -53,8 +57,10 @@ def test_each_press_reaches_30_newtons(runs):
     t, force = output.arrays["time"], output.arrays["table_force"][:, 0]
     for phase, after in _contact_phases():  # the last second of each contact phase: settled
         window = (t >= after.start - 1.0) & (t < after.start)
-        assert np.all(np.abs(force[window] - tp.FORCE) < 3.0), f"{phase.hand} hand force outside 30 ± 3 N"
-    idle = t < tp.PHASES[1].start
+        assert np.all(np.abs(force[window] - tp.DEFAULT_CONFIG.force) < 3.0), (
+            f"{phase.hand} hand force outside 30 ± 3 N"
+        )
+    idle = t < tp.DEFAULT_CONFIG.phases[1].start
     assert np.all(np.abs(force[idle]) < 0.5)  # nothing presses the table before reaching
 
 
@@ -63,8 +69,8 @@ def _peak_error_once_reached(output):
     peaks = []
     for phase, after in _contact_phases():
         f = force[(t >= phase.start) & (t < after.start)]
-        reached = int(np.argmax(f >= tp.FORCE))
-        peaks.append(np.max(np.abs(f[reached:] - tp.FORCE)))
+        reached = int(np.argmax(f >= tp.DEFAULT_CONFIG.force))
+        peaks.append(np.max(np.abs(f[reached:] - tp.DEFAULT_CONFIG.force)))
     return np.array(peaks)
 
 

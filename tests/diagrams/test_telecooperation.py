@@ -37,7 +37,7 @@ def _standing(
         description="standing only",
         build=functools.partial(tc.build, walk=False),
         extra_plots=tc.write_plots,
-        parameters=("leader", "delay", "admittance"),
+        parameters=(tc.LEADER, tc.DELAY, tc.ADMITTANCE),
     )
     return run_scenario(
         scenario,
@@ -88,7 +88,7 @@ def walking(request, tmp_path_factory):
 
 
 #: [s] the runs across delay: the lift, then 20 s of walking after the follower starts.
-ACROSS_DELAY = tc.WALK_AT + tc.LAG + 20.0
+ACROSS_DELAY = tc.DEFAULT_CONFIG.walk_at + tc.DEFAULT_CONFIG.lag + 20.0
 
 
 @pytest.fixture(scope="module", params=[0.0, 0.3], ids=lambda d: f"{1000 * d:.0f}ms")
@@ -146,16 +146,18 @@ def _check_standing(run) -> None:
     assert a["board_state"][:, 6].min() > 0.4
     t = a["time"]
     error = _hand_error(run)
-    assert error[t > tc.WALK_AT + 1.5].max() <= 0.02  # steady, after the lift
+    assert error[t > tc.DEFAULT_CONFIG.walk_at + 1.5].max() <= 0.02  # steady, after the lift
     assert error[t > 1.0].max() <= 0.04  # while the leader lifts and sets back the board
-    if run.setup.extras["leader"] == "operator":
+    if run.setup.extras.leader == "operator":
         # The operator's lift reached the robot's hands, up from where the board's weight had
         # them, attenuated: the hands' damping (150 N s/m) against the operator's 200 N/m pull,
         # 1 s up and 1 s down (1.3, 1.7 and 2.5 cm at 0, 140 and 300 ms).
         z = a["robot_hands"][:, 2]
-        lifting = (t > tc.INTERACT_AT) & (t < tc.INTERACT_AT + 2 * tc.LIFT / tc.SPEED)
-        rise = z[lifting].max() - z[t <= tc.INTERACT_AT][-1]
-        assert 0.01 < rise < tc.LIFT
+        lifting = (t > tc.DEFAULT_CONFIG.interact_at) & (
+            t < tc.DEFAULT_CONFIG.interact_at + 2 * tc.DEFAULT_CONFIG.lift / tc.DEFAULT_CONFIG.speed
+        )
+        rise = z[lifting].max() - z[t <= tc.DEFAULT_CONFIG.interact_at][-1]
+        assert 0.01 < rise < tc.DEFAULT_CONFIG.lift
     # Standing: the altitude tasks are never in the stack.
     for task in tc.ALTITUDE_TASKS:
         assert np.all(np.isnan(a[f"error/{task}"]))
@@ -181,7 +183,7 @@ def test_the_coupling_stays_bounded_and_does_not_oscillate_across_delay(standing
 
 def test_gripper_and_head_follow_their_references(standing):
     a = standing.arrays
-    delay = standing.setup.extras["delay"]
+    delay = standing.setup.extras.delay
     t = a["time"]
     plant, instance = standing.setup.built.plant, standing.setup.built.info.model_instance
     received = np.column_stack([np.interp(t - delay, t, a["head_grip_ref"][:, j]) for j in range(3)])
@@ -206,7 +208,7 @@ def test_walking_steps_are_decided_above_the_threshold_and_each_reduces_the_erro
     stance, error = a["planned_stance"], np.linalg.norm(a["step_error"], axis=1)
     changed = np.flatnonzero(np.any(np.abs(np.diff(stance, axis=0)) > 1e-9, axis=1))
     assert len(changed) >= 4, "the walk needs steps"
-    assert np.all(error[changed] >= tc.STEP_THRESHOLD)  # the sample before the footprint
+    assert np.all(error[changed] >= tc.DEFAULT_CONFIG.step_threshold)  # the sample before the footprint
     assert np.all(error[changed + 1] < error[changed])
 
 
@@ -228,7 +230,7 @@ def test_walking_the_hands_follow_the_operators_until_the_first_landing(walking)
     t = a["time"]
     phase = a["phase"][:, 0]
     first_landing = t[np.flatnonzero((phase[:-1] != 0) & (phase[1:] == 0))[0] + 1]
-    assert first_landing > tc.WALK_AT
+    assert first_landing > tc.DEFAULT_CONFIG.walk_at
     assert _hand_error(walking)[(t > 1.0) & (t < first_landing)].max() <= 0.02
 
 
@@ -306,7 +308,7 @@ def test_walking_the_stabilizer_with_the_hands_wrenches_keeps_its_offset_off_its
     and the CoM offset is far less often at its bound than without them (76 % of the co-operator-led
     walk, measured before the change; 37 % with it, the rest a drift late in the walk)."""
     run = walking
-    if run.setup.extras["leader"] != "cooperator":
+    if run.setup.extras.leader != "cooperator":
         pytest.skip("the hands' wrenches reach the stabilizer only with the co-operator leading")
     assert run.result.fell is None
     a = run.arrays
@@ -314,10 +316,10 @@ def test_walking_the_stabilizer_with_the_hands_wrenches_keeps_its_offset_off_its
     inside = _zmp_inside(run)
     defined = np.isfinite(inside)
     share = float(np.mean(inside[defined]))
-    at_bound = np.abs(a["stabilizer_offset"]) >= tc.STABILIZER.max_offset - 1e-9
+    at_bound = np.abs(a["stabilizer_offset"]) >= tc.DEFAULT_CONFIG.stabilizer.max_offset - 1e-9
     bound_share = float(at_bound.any(axis=1).mean())
     print(
-        f"{run.setup.extras['leader']}: ZMP inside the support polygon in {100 * share:.2f} % of "
+        f"{run.setup.extras.leader}: ZMP inside the support polygon in {100 * share:.2f} % of "
         f"{defined.sum()} samples; the offset at its bound {100 * bound_share:.1f} % of the time, "
         f"max |offset| {np.abs(a['stabilizer_offset']).max(axis=0)} m"
     )
@@ -363,11 +365,11 @@ def test_weighted_admittance_the_hand_reference_answers_a_force_step_with_the_ha
     (the measured force jumps by ~10 N) the velocity's jump (second difference of the logged
     reference velocity) is compared with both models."""
     a = weighting.arrays
-    weighted = weighting.setup.extras["admittance"] == "weighted"
+    weighted = weighting.setup.extras.admittance == "weighted"
     t, v, f = a["time"], a["reference_velocity/e_fr"][:, :3], _right_hand_force(weighting)
     dt = float(np.median(np.diff(t)))
-    b = tc.HAND_ADMITTANCE["damping"][0]
-    plain_mass = tc.HAND_ADMITTANCE["mass"][0] * np.eye(3)
+    b = tc.DEFAULT_CONFIG.hand_damping[0]
+    plain_mass = tc.DEFAULT_CONFIG.hand_mass[0] * np.eye(3)
     edges = np.flatnonzero(np.linalg.norm(np.diff(f, axis=0), axis=1) > 5.0) + 1
     assert len(edges) == 2 and abs(t[edges[0]] - STEP_PUSH.time) < 0.02
     for k in edges:
@@ -378,7 +380,7 @@ def test_weighted_admittance_the_hand_reference_answers_a_force_step_with_the_ha
         own, other = (Lam, plain_mass) if weighted else (plain_mass, Lam)
         expected = _step_response(own, b, df, dt)
         print(
-            f"{weighting.setup.extras['admittance']}: t = {t[k]:.3f} s, Δf = {np.round(df, 2)} N, "
+            f"{weighting.setup.extras.admittance}: t = {t[k]:.3f} s, Δf = {np.round(df, 2)} N, "
             f"Δv = {np.round(jump * 1000, 2)} mm/s, {np.round(expected * 1000, 2)} with its own mass, "
             f"{np.round(_step_response(other, b, df, dt) * 1000, 2)} with the other's"
         )
@@ -402,7 +404,7 @@ def test_weighted_admittance_standing_meets_the_same_bounds_as_the_plain_one(wei
     force_rms = np.sqrt(np.mean(np.sum((f_op - f_robot) ** 2, axis=1)))
     speeds = tc.arm_speeds(weighting.setup, a["v"][after])
     print(
-        f"{weighting.setup.extras['admittance']}: hand error max "
+        f"{weighting.setup.extras.admittance}: hand error max "
         f"{100 * _hand_error(weighting)[after].max():.2f} cm, force RMS {force_rms:.2f} N, "
         f"shoulder/elbow speed RMS {np.sqrt(np.mean(speeds**2)):.4f} rad/s"
     )
@@ -423,17 +425,17 @@ def _drawn_sphere(messages: list[dict], path: str) -> tuple[dict, dict, np.ndarr
 
 
 def test_the_replay_draws_the_operators_hands_as_translucent_ghosts_that_move_as_logged(recorded):
-    """The recorded page holds a translucent sphere per operator hand (``tc.GHOSTS``) and an
-    animation track for each whose keyframes are the logged ``operator_hands`` (the handles), the
-    lift included."""
+    """The recorded page holds a translucent sphere per operator hand
+    (``tc.DEFAULT_CONFIG.ghost_paths``) and an animation track for each whose keyframes are the
+    logged ``operator_hands`` (the handles), the lift included."""
     from replay_html import replay_messages
 
     messages = replay_messages(recorded.files["html"])
     a = recorded.arrays
-    for k, path in enumerate(tc.GHOSTS["paths"]):
+    for k, path in enumerate(tc.DEFAULT_CONFIG.ghost_paths):
         material, geometry, times, drawn_at, _ = _drawn_sphere(messages, path)
         assert material["transparent"] and 0.0 < material["opacity"] < 1.0
-        assert geometry["type"] == "SphereGeometry" and geometry["radius"] == tc.GHOSTS["radius"]
+        assert geometry["type"] == "SphereGeometry" and geometry["radius"] == tc.DEFAULT_CONFIG.ghost_radius
         assert times[-1] > 2.0  # the whole run
         logged = np.column_stack(
             [np.interp(times, a["time"], a["operator_hands"][:, 3 * k + j]) for j in range(3)]
@@ -443,15 +445,15 @@ def test_the_replay_draws_the_operators_hands_as_translucent_ghosts_that_move_as
 
 
 def test_the_replay_draws_the_cooperator_where_they_pull_the_boards_far_end(recorded):
-    """The co-operator's translucent sphere (``tc.COOPERATOR_GHOST``) moves as the logged target of
-    their impedance, the point their spring pulls the board's far end to."""
+    """The co-operator's translucent sphere (``tc.DEFAULT_CONFIG.cooperator_ghost_path``) moves as
+    the logged target of their impedance, the point their spring pulls the board's far end to."""
     from pydrake.common.eigen_geometry import Quaternion
     from pydrake.math import RigidTransform, RotationMatrix
     from replay_html import replay_messages
 
     a = recorded.arrays
     material, _, times, drawn_at, fps = _drawn_sphere(
-        replay_messages(recorded.files["html"]), tc.COOPERATOR_GHOST["path"]
+        replay_messages(recorded.files["html"]), tc.DEFAULT_CONFIG.cooperator_ghost_path
     )
     assert material["transparent"] and 0.0 < material["opacity"] < 1.0
     logged = np.column_stack([np.interp(times, a["time"], a["cooperator_target"][:, j]) for j in range(3)])
@@ -464,8 +466,8 @@ def test_the_replay_draws_the_cooperator_where_they_pull_the_boards_far_end(reco
     # The target is where the co-operator's impedance pulls the far end to: their logged force is
     # k (target - far end) + b (target's rate - far end's velocity), the far end's pose and velocity
     # computed in the test from the board's logged state ([q; ω; v], world frame).
-    stiffness, damping = tc.FOLLOWER_IMPEDANCE  # the operator leads this run
-    far_end = np.array([0.5 * tc.BOARD_LENGTH, 0.0, 0.0])
+    stiffness, damping = tc.DEFAULT_CONFIG.follower_impedance  # the operator leads this run
+    far_end = np.array([0.5 * tc.DEFAULT_CONFIG.board_length, 0.0, 0.0])
     rate = np.gradient(a["cooperator_target"], a["time"], axis=0)
     worst = 0.0
     for k in range(len(a["time"]) // 5, len(a["time"]), 10):

@@ -42,7 +42,7 @@ def test_measured_zmp_stays_in_the_support_polygon(walk_run):
 
 def test_each_foot_lands_on_its_footprint(walk_run):
     output, analysis, _ = walk_run
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     assert len(steps) == 13
     for side, off, yaw_error in landing_errors(output.arrays, analysis.soles, steps):
         assert off < 0.02, f"{side} foot landed {off:.3f} m off"
@@ -51,7 +51,7 @@ def test_each_foot_lands_on_its_footprint(walk_run):
 
 def test_final_pose_matches_the_plan(walk_run):
     output, _, _ = walk_run
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     last = {s.side: s for s in steps}
     planned_xy = 0.5 * np.array([last["left"].x + last["right"].x, last["left"].y + last["right"].y])
     q_end = output.arrays["q"][-1]

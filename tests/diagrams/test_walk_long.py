@@ -40,7 +40,7 @@ def _landings(output):
     phase = arrays["phase"][:, 0]
     # A landing ends a single-support phase (the generator's phase switches to double support).
     ticks = [k for k in range(1, len(phase)) if phase[k - 1] != 0 and phase[k] == 0]
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     assert len(ticks) == len(steps) == 30
     measured = []
     for k, step in zip(ticks, steps, strict=True):
@@ -64,7 +64,7 @@ def _errors(output):
 def test_the_walk_has_every_kind_of_step(walk_long_run):
     """Forward, backward, sideways, turning left and right: read from the footprints."""
     output, _ = walk_long_run
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     yaws = np.array([s.yaw for s in steps])
     assert yaws.max() == pytest.approx(math.pi / 2) and yaws[-1] == pytest.approx(0.0)
     assert np.any(np.diff(yaws) > 0.3) and np.any(np.diff(yaws) < -0.3)  # both ways

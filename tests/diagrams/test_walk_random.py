@@ -35,7 +35,7 @@ def random_walk(tmp_path_factory):
 def _landings(output) -> list:
     """(touch-down time, footprint) of the steps the generator planned (replayed without the diagram)."""
     rule = output.setup.built.diagram.GetSubsystemByName("random_steps").rule
-    return walk_random.planned_landings(output.setup.extras["pattern_generator"], rule, DURATION)
+    return walk_random.planned_landings(output.setup.extras.pattern_generator, rule, DURATION)
 
 
 def test_the_random_walk_completes_upright(random_walk):

@@ -95,7 +95,7 @@ def walk_run(request, tmp_path_factory):
 
 def test_walk_lands_every_step_within_2cm_of_its_footprint(walk_run):
     name, output, analysis = walk_run
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     assert len(steps) == 13
     for side, off, yaw_error in landing_errors(output.arrays, analysis.soles, steps):
         assert off < 0.02, f"{name}: {side} foot landed {off:.3f} m off"
@@ -112,7 +112,7 @@ def test_walk_keeps_the_zmp_in_the_support_polygon_99_percent(walk_run):
 
 def test_walk_ends_upright_where_planned(walk_run):
     name, output, _ = walk_run
-    steps = output.setup.extras["steps"]
+    steps = output.setup.extras.steps
     last = {s.side: s for s in steps}
     planned_xy = 0.5 * np.array([last["left"].x + last["right"].x, last["left"].y + last["right"].y])
     q_end = output.arrays["q"][-1]
@@ -183,10 +183,10 @@ def test_table_pounding_presses_30_newtons_without_foot_slip(name, tmp_path):
     assert output.result.completed, (output.result.failure, output.result.fell)
     arrays, built = output.arrays, output.setup.built
     t, force = arrays["time"], arrays["table_force"][:, 0]
-    for phase, after in zip(tp.PHASES, tp.PHASES[1:], strict=False):
+    for phase, after in zip(tp.DEFAULT_CONFIG.phases, tp.DEFAULT_CONFIG.phases[1:], strict=False):
         if phase.name.endswith("contact"):  # the last second of each contact phase: settled
             window = (t >= after.start - 1.0) & (t < after.start)
-            assert np.all(np.abs(force[window] - tp.FORCE) < 3.0), (
+            assert np.all(np.abs(force[window] - tp.DEFAULT_CONFIG.force) < 3.0), (
                 f"{name}: {phase.hand} hand force outside 30 ± 3 N"
             )
     context = built.plant.CreateDefaultContext()
@@ -201,7 +201,9 @@ def test_table_pounding_presses_30_newtons_without_foot_slip(name, tmp_path):
     # failed) for at most 20 ms as a phase starts: TALOS at the right hand's release (4.5 s),
     # two ticks, as the force task hands over to the position task.
     status = arrays["status"][:, 0]
-    since_phase = np.min([np.where(t >= p.start, t - p.start, np.inf) for p in tp.PHASES], axis=0)
+    since_phase = np.min(
+        [np.where(t >= p.start, t - p.start, np.inf) for p in tp.DEFAULT_CONFIG.phases], axis=0
+    )
     assert np.all(status[since_phase > 0.02 + 1e-9] == 0), f"{name}: status {np.unique(status)}"
     assert np.all(status <= 1)
 
