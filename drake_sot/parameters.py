@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from drake_sot import validation
+from drake_sot.errors import UnknownNameError
 
 __all__ = ["Kind", "Parameter", "UndeclaredParameter", "check_parameters"]
 
@@ -131,8 +132,8 @@ class Parameter:
         return number
 
 
-class UndeclaredParameter(ValueError):
-    """A value given for a parameter the runnable does not declare."""
+class UndeclaredParameter(UnknownNameError):
+    """A value given for a parameter the runnable does not declare (the first such name)."""
 
 
 def check_parameters(
@@ -147,7 +148,5 @@ def check_parameters(
     by_name = {p.name: p for p in declared}
     unknown = sorted(set(values or {}) - set(by_name))
     if unknown:
-        raise UndeclaredParameter(
-            f"scenario {owner!r} takes no parameter {unknown}; it takes {list(by_name)}"
-        )
+        raise UndeclaredParameter("parameter", unknown[0], by_name, where=f"scenario {owner!r}")
     return {name: by_name[name].check(value) for name, value in (values or {}).items()}

@@ -90,9 +90,7 @@ def test_a_declaration_that_contradicts_itself_is_refused(arguments):
 
 
 def test_check_parameters_refuses_an_undeclared_name_listing_the_declared_ones():
-    with pytest.raises(
-        UndeclaredParameter, match=r"takes no parameter \['speed'\]; it takes \['delay', 'side'\]"
-    ):
+    with pytest.raises(UndeclaredParameter, match=r"unknown parameter 'speed'; known: delay, side"):
         check_parameters("probe", (DELAY, SIDE), {"speed": 1.0})
     assert check_parameters("probe", (DELAY, SIDE), {"delay": 0}) == {"delay": 0.0}
 
@@ -198,7 +196,7 @@ def test_build_scenario_checks_the_values_before_building():
     )
     with pytest.raises(ScenarioParameterError, match=r"^probe: delay = nan s: must be in \[0, 0.3\] s$"):
         build_scenario(probe, None, parameters={"delay": float("nan")})
-    with pytest.raises(ValueError, match=r"takes no parameter \['speed'\]"):
+    with pytest.raises(ValueError, match=r"unknown parameter 'speed'"):
         build_scenario(probe, None, parameters={"speed": 1})
     assert built == []
     build_scenario(probe, None, parameters={"delay": 0, "side": "right"})
