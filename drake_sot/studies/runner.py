@@ -378,7 +378,7 @@ def _connect(
         n_workers=count,
         threads_per_worker=1,
         processes=processes,
-        dashboard_address=None,
+        dashboard_address=":0",  # any free port (8787 may be taken), a dashboard when bokeh is installed
         silence_logs=40,  # logging.ERROR: the workers' chatter stays off the terminal
     )
     return Client(cluster), cluster
