@@ -50,8 +50,11 @@ def _start(tmp_path: Path, runs: int, duration: float, *argv: str) -> subprocess
         text=True,
         env=ENV,
         cwd=tmp_path,
-        # a background shell ignores SIGINT in its jobs: the study must see it as Ctrl-C does
-        preexec_fn=lambda: [signal.signal(s, signal.SIG_DFL) for s in (signal.SIGINT, signal.SIGTERM)],
+        # a background shell ignores SIGINT in its jobs: the study must see it as Ctrl-C does;
+        # a session of its own: a group to send a terminal's Ctrl-C to
+        preexec_fn=lambda: (
+            [signal.signal(s, signal.SIG_DFL) for s in (signal.SIGINT, signal.SIGTERM)] and os.setsid()
+        ),
     )
 
 
@@ -126,8 +129,12 @@ def test_a_local_cluster_and_a_dask_scheduler_give_the_same_table(tmp_path):
     assert not {row["worker"] for row in b.values()} & {row["worker"] for row in a.values()}
 
 
-@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
-def test_a_signal_stops_a_study_within_10_s_keeping_its_finished_runs_and_no_process(tmp_path, signum):
+@pytest.mark.parametrize(
+    ("signum", "group"), [(signal.SIGINT, False), (signal.SIGTERM, False), (signal.SIGINT, True)]
+)
+def test_a_signal_stops_a_study_within_10_s_keeping_its_finished_runs_and_no_process(tmp_path, signum, group):
+    """To the study's process, or (a terminal's Ctrl-C) to its whole group, workers included:
+    they leave the decision to the study, which stops without a traceback."""
     proc = _start(tmp_path, 8, 2.0, "--workers", "2", "--out", str(tmp_path))
     children: set[int] = set()
     seen = []
@@ -137,7 +144,10 @@ def test_a_signal_stops_a_study_within_10_s_keeping_its_finished_runs_and_no_pro
         if line.startswith("1/8 runs done"):
             children |= {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
             sent = time.monotonic()
-            proc.send_signal(signum)
+            if group:
+                os.killpg(proc.pid, signum)
+            else:
+                proc.send_signal(signum)
             break
     else:
         pytest.fail("".join(seen))
@@ -147,6 +157,7 @@ def test_a_signal_stops_a_study_within_10_s_keeping_its_finished_runs_and_no_pro
     assert proc.returncode == 128 + signum, err
     assert took < 10.0, err
     assert f"interrupted by {signal.Signals(signum).name}" in err
+    assert "Traceback" not in err, err
     rows = _table(tmp_path / "tiny_runs.csv")
     assert 1 <= len(rows) < 8 and {r["status"] for r in rows.values()} == {"ok"}
     assert len(children) >= 2  # the two workers were seen

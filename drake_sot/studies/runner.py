@@ -380,5 +380,6 @@ def _connect(
         processes=processes,
         dashboard_address=":0",  # any free port (8787 may be taken), a dashboard when bokeh is installed
         silence_logs=40,  # logging.ERROR: the workers' chatter stays off the terminal
+        **({"preload": ["drake_sot.studies.worker"]} if processes else {}),  # Ctrl-C: this process decides
     )
     return Client(cluster), cluster
