@@ -16,13 +16,14 @@ def test_the_listing_names_every_study_its_target_and_its_runs(capsys):
     out = capsys.readouterr().out
     assert "alpha_sweep" in out and "(36 runs of priority_switching)" in out
     assert "push_recovery" in out and f"({2 * 4 * 4 * 6} runs of walk)" in out
+    assert "gain_sweep" in out and "(6 runs of reach)" in out
 
 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
         (["study"], "give a study's NAME"),
-        (["study", "nope"], "study 'nope': unknown; one of: alpha_sweep, push_recovery"),
+        (["study", "nope"], "study 'nope': unknown; one of: alpha_sweep, gain_sweep, push_recovery"),
         (["study", "alpha_sweep", "--workers", "0"], "workers = 0: must be an integer >= 1"),
         (["study", "alpha_sweep", "--duration", "nan"], "duration = nan"),
         (["study", "alpha_sweep", "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"], "--workers is for"),

@@ -2,6 +2,7 @@
 
 from drake_sot.diagrams import (
     alpha_sweep,
+    gain_sweep_plots,
     look_and_reach,
     priority_switching,
     push_recovery_plots,
@@ -39,6 +40,10 @@ STUDIES: dict[str, alpha_sweep.Study] = {s.name: s for s in (alpha_sweep.STUDY,)
 
 #: What writes the figures of a study of ``drake-sot study`` from its table's rows, by study name:
 #: ``write(study, rows, out_dir)`` -> name -> file.
-STUDY_FIGURES = {"alpha_sweep": alpha_sweep.write_figures, "push_recovery": push_recovery_plots.write_figures}
+STUDY_FIGURES = {
+    "alpha_sweep": alpha_sweep.write_figures,
+    "push_recovery": push_recovery_plots.write_figures,
+    "gain_sweep": gain_sweep_plots.write_figures,
+}
 
 __all__ = ["PEERS", "SCENARIOS", "STUDIES", "STUDY_FIGURES", "Scenario"]

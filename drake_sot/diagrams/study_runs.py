@@ -2,8 +2,9 @@
 function a Dask worker calls with a run's names and numbers (see :mod:`drake_sot.studies.runner`).
 
 A target is a scenario run without a Meshcat: ``walk`` and ``reach`` with a pelvis push given
-as numbers (:data:`PUSH`), and ``priority_switching`` with constant priorities (Liu, Lober,
-Padois 2016, fig. 11). Every run measures:
+as numbers (:data:`PUSH`), ``reach`` also with the gain of its right-hand task
+(:data:`RH_GAIN`), and ``priority_switching`` with constant priorities (Liu, Lober, Padois
+2016, fig. 11). Every run measures:
 
 - ``survived``: the robot did not fall (no :class:`~drake_sot.systems.fall_monitor.FallMonitor`
   saw it) in the run's duration;
@@ -13,8 +14,10 @@ Padois 2016, fig. 11). Every run measures:
   tasks in the stack then;
 - ``final_error/<task>``: that norm per task;
 
-and ``priority_switching`` also ``steady_error_head`` and ``steady_error_lh`` [m], the mean
-error norm of the head and left-hand tasks over the run's last second.
+``priority_switching`` also ``steady_error_head`` and ``steady_error_lh`` [m], the mean
+error norm of the head and left-hand tasks over the run's last second, and ``reach`` also
+``rh_settle_time`` [s], how long after its target moves the right hand's error norm takes to
+stay below :data:`SETTLED` (NaN when it is not by the run's end).
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams import reach, walk
 from drake_sot.diagrams.artifacts import log_arrays
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_push_times
-from drake_sot.diagrams.run import MAX_DURATION, RunResult, simulate
+from drake_sot.diagrams.run import MAX_DURATION, Command, RunResult, simulate
 from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup, build_scenario
 from drake_sot.parameters import Parameter, check_parameters
 from drake_sot.studies.description import Metrics
@@ -70,6 +73,14 @@ ALPHAS = (
         "alpha_head_lh", "float", 1.0, "α_head,lh (1: the left hand above the head)", minimum=0.0, maximum=1.0
     ),
 )
+
+#: λ of ``reach``'s right-hand task [1/s] (its own is the default); λ·dt above 1 is refused by
+#: the task at the run's start (a failed run naming it).
+RH_GAIN = Parameter(
+    "rh_gain", "float", 2.5, "λ of reach's right-hand task taskRH", minimum=0.1, maximum=100.0, unit="1/s"
+)
+#: The right hand's error norm [m] under which ``reach`` counts it settled.
+SETTLED = 0.01
 
 
 @dataclass(frozen=True)
@@ -114,6 +125,29 @@ def _constant_priorities(parameters: dict[str, Any], duration: float) -> Scenari
     return ps.build_with(schedule, duration=duration, robot=parameters.get("robot", "embedded"))
 
 
+def _reach_with_gain(parameters: dict[str, Any], duration: float) -> ScenarioSetup:
+    """``reach`` pushed as :data:`PUSH` says, its right-hand task's λ set to ``rh_gain`` at t = 0
+    when given; ``extras["moved_at"]``: when the right-hand target moves [s]."""
+    setup = _pushed(reach.SCENARIO)(parameters, duration)
+    setup.extras["moved_at"] = setup.commands[0].time  # reach's first command moves the target
+    if "rh_gain" in parameters:
+        task, gain = setup.built.tasks["taskRH"], parameters["rh_gain"]
+        setup.commands.insert(0, Command(0.0, f"taskRH gain {gain:g}", lambda c: task.set_gain(c, gain)))
+    return setup
+
+
+def _settling(setup: ScenarioSetup, arrays: dict[str, np.ndarray], duration: float) -> Metrics:
+    """``rh_settle_time``: from the target's move to the first sample from which the right
+    hand's error norm stays below :data:`SETTLED` [s]; NaN when it is not below at the end."""
+    moved_at = setup.extras["moved_at"]
+    after = arrays["time"] >= moved_at
+    time, error = arrays["time"][after], np.linalg.norm(arrays["error/taskRH"][after], axis=1)
+    if not len(error) or not (error[-1] < SETTLED):
+        return {"rh_settle_time": math.nan}
+    unsettled = np.flatnonzero(~(error < SETTLED))
+    return {"rh_settle_time": float(time[unsettled[-1] + 1] - moved_at) if len(unsettled) else 0.0}
+
+
 def _steady_errors(setup: ScenarioSetup, arrays: dict[str, np.ndarray], duration: float) -> Metrics:
     """The mean head and left-hand error norms [m] over the last second."""
     window = arrays["time"] >= duration - 1.0
@@ -126,7 +160,7 @@ def _steady_errors(setup: ScenarioSetup, arrays: dict[str, np.ndarray], duration
 #: The run targets of the studies, by name.
 TARGETS: dict[str, Target] = {
     "walk": Target((*walk.SCENARIO.parameters, *PUSH), _pushed(walk.SCENARIO)),
-    "reach": Target((*reach.SCENARIO.parameters, *PUSH), _pushed(reach.SCENARIO)),
+    "reach": Target((*reach.SCENARIO.parameters, *PUSH, RH_GAIN), _reach_with_gain, _settling),
     "priority_switching": Target((ROBOT, *ALPHAS), _constant_priorities, _steady_errors),
 }
 

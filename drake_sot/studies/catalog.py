@@ -44,5 +44,16 @@ PUSH_RECOVERY = Study(
     fixed={"robot": "embedded", "push_duration": 0.1},
 )
 
+GAIN_SWEEP = Study(
+    name="gain_sweep",
+    description="reach's right hand over its task's gain: how long it takes to settle within 1 cm "
+    "and the error left at 3 s",
+    scenario="reach",
+    runs=Grid({"rh_gain": (0.5, 1.0, 2.5, 5.0, 10.0, 20.0)}),
+    duration=3.0,  # [s]: the target moves at 1 s
+    metrics=("survived", "rh_settle_time", "final_error/taskRH", "max_final_error"),
+    fixed={"robot": "embedded"},
+)
+
 #: The studies, by name.
-STUDIES: dict[str, Study] = {s.name: s for s in (ALPHA_SWEEP, PUSH_RECOVERY)}
+STUDIES: dict[str, Study] = {s.name: s for s in (ALPHA_SWEEP, PUSH_RECOVERY, GAIN_SWEEP)}
