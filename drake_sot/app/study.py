@@ -36,24 +36,33 @@ EPILOG = (
 )
 
 
-def _number(check, name: str):
-    """An argparse ``type``: the text as a number checked by ``check(name, number)``."""
-
-    def convert(text: str):
-        try:
-            return check(name, float(text) if name == "duration" else int(text))
-        except ValueError as exc:
-            raise argparse.ArgumentTypeError(
-                str(exc) if "=" in str(exc) else f"{name} = {text!r}: {exc}"
-            ) from None
-
-    return convert
-
-
-def _workers(name: str, value: int) -> int:
+def _workers(text: str) -> int:
+    """An argparse ``type``: ``--workers``, an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
     if not (value >= 1):
-        raise ValueError(f"{name} = {value}: must be an integer >= 1")
+        raise argparse.ArgumentTypeError(f"workers = {text}: must be an integer >= 1")
     return value
+
+
+def _duration(text: str) -> float:
+    """An argparse ``type``: ``--duration``, checked by :func:`check_duration`."""
+    try:
+        return check_duration("duration", float(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(
+            str(exc) if _is_number(text) else f"duration = {text!r}: must be a number"
+        ) from None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] = STUDIES) -> None:
@@ -71,7 +80,7 @@ def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] 
     )
     parser.add_argument(
         "--workers",
-        type=_number(_workers, "workers"),
+        type=_workers,
         default=None,
         metavar="N",
         help="local worker processes (default: one per core; at most one per core and per run)",
@@ -79,7 +88,7 @@ def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] 
     parser.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
     parser.add_argument(
         "--duration",
-        type=_number(check_duration, "duration"),
+        type=_duration,
         default=None,
         metavar="S",
         help=f"simulated seconds of each run (default: the study's), at most {MAX_DURATION:g}",

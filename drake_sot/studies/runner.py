@@ -293,8 +293,7 @@ def run_study(
         except StopIteration as stop:
             total -= per_plan - probes[index]
             if stop.value is not None:
-                cell = {k: v for k, v in study.runs.cells.points()[index].items()}  # type: ignore[union-attr]
-                outcome.brackets.append((cell, stop.value))
+                outcome.brackets.append((study.runs.cells.points()[index], stop.value))  # type: ignore[union-attr]
             return
         probes[index] += 1
         pending.append((index, run))
@@ -306,9 +305,11 @@ def run_study(
         table.write_npz(outcome.npz)
         say(f"{study.name}: all {outcome.skipped} runs already in {table.path}")
         return outcome
-    client, cluster = _connect(scheduler, workers, len(pending), processes, say)
-    start = time.perf_counter()
+    client = cluster = None
     try:
+        # in the try: a signal while the cluster starts closes what started
+        client, cluster = _connect(scheduler, workers, len(pending), processes, say)
+        start = time.perf_counter()
         from distributed import as_completed
 
         def submit(index: int, run: Run) -> Any:
@@ -354,7 +355,8 @@ def run_study(
         raise
     finally:
         hold()
-        client.close()
+        if client is not None:
+            client.close()
         if cluster is not None:
             cluster.close()
         table.write_npz(outcome.npz)
@@ -382,4 +384,8 @@ def _connect(
         silence_logs=40,  # logging.ERROR: the workers' chatter stays off the terminal
         **({"preload": ["drake_sot.studies.worker"]} if processes else {}),  # Ctrl-C: this process decides
     )
-    return Client(cluster), cluster
+    try:
+        return Client(cluster), cluster
+    except BaseException:
+        cluster.close()
+        raise
