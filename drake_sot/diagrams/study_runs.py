@@ -125,21 +125,25 @@ def _constant_priorities(parameters: dict[str, Any], duration: float) -> Scenari
     return ps.build_with(schedule, duration=duration, robot=parameters.get("robot", "embedded"))
 
 
+#: The label of the command that sets the right hand's gain in a ``reach`` run.
+GAIN_COMMAND = "taskRH gain"
+
+
 def _reach_with_gain(parameters: dict[str, Any], duration: float) -> ScenarioSetup:
     """``reach`` pushed as :data:`PUSH` says, its right-hand task's λ set to ``rh_gain`` at t = 0
-    when given; ``extras["moved_at"]``: when the right-hand target moves [s]."""
+    (a command labelled :data:`GAIN_COMMAND`) when given."""
     setup = _pushed(reach.SCENARIO)(parameters, duration)
-    setup.extras["moved_at"] = setup.commands[0].time  # reach's first command moves the target
     if "rh_gain" in parameters:
         task, gain = setup.built.tasks["taskRH"], parameters["rh_gain"]
-        setup.commands.insert(0, Command(0.0, f"taskRH gain {gain:g}", lambda c: task.set_gain(c, gain)))
+        setup.commands.insert(0, Command(0.0, f"{GAIN_COMMAND} {gain:g}", lambda c: task.set_gain(c, gain)))
     return setup
 
 
 def _settling(setup: ScenarioSetup, arrays: dict[str, np.ndarray], duration: float) -> Metrics:
     """``rh_settle_time``: from the target's move to the first sample from which the right
     hand's error norm stays below :data:`SETTLED` [s]; NaN when it is not below at the end."""
-    moved_at = setup.extras["moved_at"]
+    own = [c for c in setup.commands if not c.label.startswith(GAIN_COMMAND)]
+    moved_at = own[0].time  # reach's first command moves the right-hand target
     after = arrays["time"] >= moved_at
     time, error = arrays["time"][after], np.linalg.norm(arrays["error/taskRH"][after], axis=1)
     if not len(error) or not (error[-1] < SETTLED):

@@ -334,8 +334,12 @@ def run_study(
             result, error = None, None
             if future.status == "finished":
                 result = future.result()
-            else:
+            elif future.status == "error":  # raised twice, or its worker died (KilledWorker)
                 error = future.exception()
+            else:  # cancelled: the scheduler, or the connection to it, was lost
+                error = RuntimeError(
+                    f"the task ended {future.status} (the scheduler or its connection was lost)"
+                )
             row = _row(run, study, result, error)
             table.append(row)
             outcome.ran += 1
