@@ -42,15 +42,17 @@ def test_a_run_with_every_artefact_written_exits_0(tmp_path, capsys):
     assert "could not write" not in capsys.readouterr().err
 
 
-def test_a_full_disk_costs_the_study_its_table_and_not_its_plot(tmp_path, monkeypatch):
-    """The sweep's logs do not fit: its plot is still written, and the run says which did not."""
+def test_a_full_disk_costs_the_study_its_figures_and_not_its_table(tmp_path, monkeypatch):
+    """The sweep's grid does not fit: the runs' table (written as the runs finished) is kept, and
+    the run says which files it could not write."""
     from drake_sot.diagrams import alpha_sweep
 
     monkeypatch.setattr(alpha_sweep, "write_npz", lambda arrays, path: _disk_full(path))
     artefacts = alpha_sweep.run(tmp_path, grid=(0.0,), duration=0.1, workers=1)
-    assert artefacts.unwritten == {str(tmp_path / "alpha_sweep.npz"): "No space left on device, errno ENOSPC"}
-    assert artefacts.files == {"png": tmp_path / "alpha_sweep.png"}
-    assert {p.name for p in tmp_path.iterdir()} == {"alpha_sweep.png"}
+    assert artefacts.unwritten == {str(tmp_path / "alpha_sweep.*"): "No space left on device, errno ENOSPC"}
+    assert "npz" not in artefacts.files and "png" not in artefacts.files
+    assert artefacts.files["table"].stat().st_size > 0
+    assert "alpha_sweep.npz" not in {p.name for p in tmp_path.iterdir()}
 
 
 def _unwritten_output(**fields):

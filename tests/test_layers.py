@@ -1,6 +1,7 @@
 """The layering rule of the house, read off the package's imports.
 
-pure algorithms (``drake_sot/*.py``) and transport (``drake_sot/remote``) <- systems, robot
+pure algorithms (``drake_sot/*.py``), transport (``drake_sot/remote``) and study descriptions
+and their runner (``drake_sot/studies``) <- systems, robot
 models and descriptions <- builders and scenarios (``drake_sot/diagrams``) <- front-ends
 (``drake_sot/app``): no module imports one of a layer above its own (imports inside functions
 count), the two bottom ones import no Drake, and the packages form no cycle.
@@ -19,6 +20,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "drake_sot"
 LAYERS = {
     "drake_sot": 0,
     "drake_sot.remote": 0,
+    "drake_sot.studies": 0,
     "drake_sot.models": 1,
     "drake_sot.robots": 1,
     "drake_sot.systems": 1,

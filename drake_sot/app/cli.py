@@ -1,7 +1,7 @@
 """The ``drake-sot`` command: ``drake-sot list``, ``drake-sot run SCENARIO``,
 ``drake-sot script FILE`` (a SoT script, see :mod:`drake_sot.diagrams.script_session`),
-``drake-sot serve SCENARIO|FILE`` (the remote command server, :mod:`drake_sot.remote`) and
-``drake-sot shell``.
+``drake-sot serve SCENARIO|FILE`` (the remote command server, :mod:`drake_sot.remote`),
+``drake-sot shell`` and ``drake-sot study NAME`` (:mod:`drake_sot.app.study`, its own exit statuses).
 
 Exit status of ``run``, ``script`` and ``serve``: 0 the run completed, 1 it failed (the exception on
 stderr), 2 bad arguments, a script that cannot be built or a robot file that is missing or
@@ -30,6 +30,9 @@ from typing import Any, NoReturn, TextIO
 from pydrake.systems.analysis import Simulator
 
 from drake_sot.app.serving import decision_runner, serve_run
+from drake_sot.app.study import EPILOG as STUDY_EPILOG
+from drake_sot.app.study import add_arguments as study_arguments
+from drake_sot.app.study import study_command
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import Study
@@ -374,6 +377,7 @@ def _parser(
         script, "simulated seconds (default: what the script's 'run SECONDS' lines add up to)"
     )
     _remote_parsers(sub, _served_parameters() if served is None else served)
+    study_arguments(sub.add_parser("study", help="run a study (many runs) on Dask", epilog=STUDY_EPILOG))
     return parser, run, script
 
 
@@ -535,6 +539,8 @@ def _main(argv: Sequence[str] | None) -> int:
     limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     if args.command == "script":
         return _script(args, script)
+    if args.command == "study":
+        return study_command(args)
     if args.command in ("serve", "shell"):
         args.token = args.token if args.token is not None else os.environ.get(TOKEN_ENV) or None
         return (

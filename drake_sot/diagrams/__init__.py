@@ -2,8 +2,10 @@
 
 from drake_sot.diagrams import (
     alpha_sweep,
+    gain_sweep_plots,
     look_and_reach,
     priority_switching,
+    push_recovery_plots,
     reach,
     table_pounding,
     telecoop_master,
@@ -38,4 +40,12 @@ PEERS: dict[str, telecoop_master.PeerScenario] = {s.name: s for s in (telecoop_m
 #: Batches of simulations (the ``drake-sot run`` command accepts them like scenarios).
 STUDIES: dict[str, alpha_sweep.Study] = {s.name: s for s in (alpha_sweep.STUDY,)}
 
-__all__ = ["PEERS", "SCENARIOS", "STUDIES", "Scenario"]
+#: What writes the figures of a study of ``drake-sot study`` from its table's rows, by study name:
+#: ``write(study, rows, out_dir)`` -> name -> file.
+STUDY_FIGURES = {
+    "alpha_sweep": alpha_sweep.write_figures,
+    "push_recovery": push_recovery_plots.write_figures,
+    "gain_sweep": gain_sweep_plots.write_figures,
+}
+
+__all__ = ["PEERS", "SCENARIOS", "STUDIES", "STUDY_FIGURES", "Scenario"]

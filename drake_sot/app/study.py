@@ -1,0 +1,166 @@
+"""``drake-sot study NAME [--scheduler ADDRESS] [--workers N] [--out DIR] [--duration S]`` and
+``drake-sot study --list``: a study of :data:`drake_sot.studies.catalog.STUDIES` run on Dask
+(:mod:`drake_sot.studies.runner`), its table and figures written into ``--out``.
+
+Without ``--scheduler`` the runs go to a local cluster of worker processes (``--workers``, at
+most one per core and per run: one line says so when capped); with ``--scheduler
+tcp://HOST:PORT``, to the workers of that Dask scheduler (``dask scheduler``, then ``dask worker
+tcp://HOST:PORT`` on each machine). Given the same ``--out`` again, a study runs only what its
+table does not hold yet.
+
+Exit status: 0 every run ok, 1 some runs failed (the table says which and why) or the scheduler
+could not be reached, 2 bad arguments (nothing run), 130 interrupted by SIGINT (Ctrl-C), 143 by
+SIGTERM: the pending runs are cancelled, the finished ones are in the table, the figures cover
+them and no worker process is left.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import signal
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from drake_sot.diagrams import STUDY_FIGURES
+from drake_sot.diagrams.run import MAX_DURATION, Interrupted, SignalGuard, check_duration
+from drake_sot.diagrams.study_runs import TARGETS, measure
+from drake_sot.studies.catalog import STUDIES
+from drake_sot.studies.description import Study
+from drake_sot.studies.runner import read_table, run_study
+
+EPILOG = (
+    "exit status: 0 every run ok, 1 some runs failed (see the table) or no scheduler, 2 bad arguments, "
+    "130 interrupted (Ctrl-C), 143 SIGTERM"
+)
+
+
+def _workers(text: str) -> int:
+    """An argparse ``type``: ``--workers``, an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if not (value >= 1):
+        raise argparse.ArgumentTypeError(f"workers = {text}: must be an integer >= 1")
+    return value
+
+
+def _duration(text: str) -> float:
+    """An argparse ``type``: ``--duration``, checked by :func:`check_duration`."""
+    try:
+        return check_duration("duration", float(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(
+            str(exc) if _is_number(text) else f"duration = {text!r}: must be a number"
+        ) from None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] = STUDIES) -> None:
+    """The arguments of ``study``, on ``parser`` (which :func:`study_command` reports errors with)."""
+    parser.set_defaults(study_parser=parser)
+    names = sorted(studies)
+    parser.add_argument("name", nargs="?", metavar="NAME", help=f"the study, one of: {', '.join(names)}")
+    parser.add_argument("--list", action="store_true", help="list the studies")
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="the Dask scheduler to run on (tcp://HOST:PORT, see 'dask scheduler'); default: a local "
+        "cluster of worker processes",
+    )
+    parser.add_argument(
+        "--workers",
+        type=_workers,
+        default=None,
+        metavar="N",
+        help="local worker processes (default: one per core; at most one per core and per run)",
+    )
+    parser.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
+    parser.add_argument(
+        "--duration",
+        type=_duration,
+        default=None,
+        metavar="S",
+        help=f"simulated seconds of each run (default: the study's), at most {MAX_DURATION:g}",
+    )
+
+
+def _progress(done: int, failed: int, total: int, left: float) -> None:
+    eta = "" if left != left else f", about {left:.0f} s left"
+    print(f"{done}/{total} runs done, {failed} failed{eta}", file=sys.stderr, flush=True)
+
+
+def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDIES) -> int:
+    """Run ``drake-sot study`` with the ``args`` parsed by a parser given :func:`add_arguments`;
+    its exit status (see the module)."""
+    parser: argparse.ArgumentParser = args.study_parser
+    if args.list:
+        for name in sorted(studies):
+            study = studies[name]
+            print(f"{name:20s} {study.description} ({study.total()} runs of {study.scenario})")
+        return 0
+    if args.name is None:
+        parser.error("give a study's NAME (or --list)")
+    if args.name not in studies:
+        parser.error(f"study {args.name!r}: unknown; one of: {', '.join(sorted(studies))}")
+    if args.scheduler is not None and args.workers is not None:
+        parser.error("--workers is for the local cluster: a --scheduler's cluster has its own workers")
+    study = studies[args.name]
+    if args.duration is not None:
+        study = dataclasses.replace(study, duration=args.duration)
+    out = Path(args.out)
+    stopped: Interrupted | None = None
+    with SignalGuard() as guard:
+        try:
+            outcome = run_study(
+                study,
+                out,
+                declared=TARGETS[study.scenario].parameters,
+                measure=measure,
+                scheduler=args.scheduler,
+                workers=args.workers,
+                progress=_progress,
+                hold=guard.hold,
+            )
+            rows, failed = outcome.rows, outcome.failed
+            files = {"table": outcome.table, "runs": outcome.npz}
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (SignalGuard raises Interrupted)
+            stopped = exc if isinstance(exc, Interrupted) else Interrupted(signal.SIGINT)
+            rows, failed = read_table(out / f"{study.name}_runs.csv", study), 0
+            files = {"table": out / f"{study.name}_runs.csv", "runs": out / f"{study.name}_runs.npz"}
+        except ValueError as exc:  # refused before anything ran: the study, the table, the workers
+            parser.error(str(exc))
+        except OSError as exc:  # --out not writable, or no scheduler at --scheduler
+            print(f"drake-sot study: {exc}", file=sys.stderr)
+            return 1
+        if study.name in STUDY_FIGURES:
+            files |= STUDY_FIGURES[study.name](study, rows, out)
+    for path in files.values():
+        print(f"wrote {path}")
+    if stopped is not None:
+        print(
+            f"interrupted by {stopped.signum.name}: the {len(rows)} runs done are in {files['table']}",
+            file=sys.stderr,
+        )
+        return 128 + stopped.signum
+    if failed:
+        print(f"{failed} runs failed: their errors are in {files['table']}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def main(argv: Sequence[str] | None = None, studies: Mapping[str, Study] = STUDIES) -> int:
+    """``drake-sot study`` alone, on ``studies`` (e.g. a study of one's own); its exit status."""
+    parser = argparse.ArgumentParser(prog="drake-sot study", epilog=EPILOG)
+    add_arguments(parser, studies)
+    return study_command(parser.parse_args(argv), studies)

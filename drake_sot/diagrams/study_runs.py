@@ -1,0 +1,215 @@
+"""The measuring side of the studies: each run target, what it declares, and :func:`measure`, the
+function a Dask worker calls with a run's names and numbers (see :mod:`drake_sot.studies.runner`).
+
+A target is a scenario run without a Meshcat: ``walk`` and ``reach`` with a pelvis push given
+as numbers (:data:`PUSH`), ``reach`` also with the gain of its right-hand task
+(:data:`RH_GAIN`), and ``priority_switching`` with constant priorities (Liu, Lober, Padois
+2016, fig. 11). Every run measures:
+
+- ``survived``: the robot did not fall (no :class:`~drake_sot.systems.fall_monitor.FallMonitor`
+  saw it) in the run's duration;
+- ``fall_time`` [s]: when it fell, NaN when it did not;
+- ``min_pelvis_height`` [m]: the lowest height of the floating base (the pelvis), NaN on a fixed base;
+- ``max_final_error`` [m or rad]: the largest norm of a task's error at the run's end, over the
+  tasks in the stack then;
+- ``final_error/<task>``: that norm per task;
+
+``priority_switching`` also ``steady_error_head`` and ``steady_error_lh`` [m], the mean
+error norm of the head and left-hand tasks over the run's last second, and ``reach`` also
+``rh_settle_time`` [s], how long after its target moves the right hand's error norm takes to
+stay below :data:`SETTLED` (NaN when it is not by the run's end).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drake_sot.diagrams import priority_switching as ps
+from drake_sot.diagrams import reach, walk
+from drake_sot.diagrams.artifacts import log_arrays
+from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_push_times
+from drake_sot.diagrams.run import MAX_DURATION, Command, RunResult, simulate
+from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup, build_scenario
+from drake_sot.parameters import Parameter, check_parameters
+from drake_sot.studies.description import Metrics
+from drake_sot.transitions import AlphaSchedule
+
+#: A pelvis push given as numbers: when, which way, how hard, how long (no push at 0 N).
+PUSH = (
+    Parameter(
+        "push_time", "float", 2.0, "when the pelvis push starts", minimum=0.0, maximum=MAX_DURATION, unit="s"
+    ),
+    Parameter(
+        "push_direction",
+        "float",
+        0.0,
+        "the push's horizontal direction, from the x axis (forward) towards y (left)",
+        minimum=-360.0,
+        maximum=360.0,
+        unit="deg",
+    ),
+    Parameter(
+        "push_force",
+        "float",
+        0.0,
+        "the push's force (0: none)",
+        minimum=0.0,
+        maximum=MAX_PUSH_FORCE,
+        unit="N",
+    ),
+    Parameter("push_duration", "float", 0.1, "how long the push lasts", minimum=0.01, maximum=1.0, unit="s"),
+)
+#: The constant priorities of ``priority_switching`` in a study (Liu, Lober, Padois 2016, fig. 11).
+ALPHAS = (
+    Parameter(
+        "alpha_lh_head", "float", 0.0, "α_lh,head (1: the head above the left hand)", minimum=0.0, maximum=1.0
+    ),
+    Parameter(
+        "alpha_head_lh", "float", 1.0, "α_head,lh (1: the left hand above the head)", minimum=0.0, maximum=1.0
+    ),
+)
+
+#: λ of ``reach``'s right-hand task [1/s] (its own is the default); λ·dt above 1 is refused by
+#: the task at the run's start (a failed run naming it).
+RH_GAIN = Parameter(
+    "rh_gain", "float", 2.5, "λ of reach's right-hand task taskRH", minimum=0.1, maximum=100.0, unit="1/s"
+)
+#: The right hand's error norm [m] under which ``reach`` counts it settled.
+SETTLED = 0.01
+
+
+@dataclass(frozen=True)
+class Target:
+    """What a study can run: its parameters, how a run is built from their values and its
+    duration [s], and the metrics it adds to the common ones (from the setup, the logs and the
+    duration)."""
+
+    parameters: tuple[Parameter, ...]
+    build: Callable[[dict[str, Any], float], ScenarioSetup]
+    extra: Callable[[ScenarioSetup, dict[str, np.ndarray], float], Metrics] | None = None
+
+
+def _pushed(scenario: Scenario) -> Callable[[dict[str, Any], float], ScenarioSetup]:
+    """The build of ``scenario`` with its own parameters and a pelvis push from :data:`PUSH`'s
+    (raises ValueError for a push that starts at or after the run's end)."""
+    own = {p.name for p in scenario.parameters}
+
+    def build(parameters: dict[str, Any], duration: float) -> ScenarioSetup:
+        force = parameters.get("push_force", 0.0)
+        pushes = ()
+        if force > 0:
+            angle = math.radians(parameters.get("push_direction", 0.0))
+            pushes = (
+                ExternalPush(
+                    parameters.get("push_time", 2.0),
+                    "pelvis",
+                    (force * math.cos(angle), force * math.sin(angle), 0.0),
+                    parameters.get("push_duration", 0.1),
+                ),
+            )
+            check_push_times(pushes, duration)
+        chosen = {k: v for k, v in parameters.items() if k in own}
+        return build_scenario(scenario, None, parameters=chosen, pushes=pushes)
+
+    return build
+
+
+def _constant_priorities(parameters: dict[str, Any], duration: float) -> ScenarioSetup:
+    alpha = ps.initial_alpha(parameters.get("alpha_lh_head", 0.0), parameters.get("alpha_head_lh", 1.0))
+    schedule = AlphaSchedule(list(ps.TASKS), alpha)
+    return ps.build_with(schedule, duration=duration, robot=parameters.get("robot", "embedded"))
+
+
+#: The label of the command that sets the right hand's gain in a ``reach`` run.
+GAIN_COMMAND = "taskRH gain"
+
+
+def _reach_with_gain(parameters: dict[str, Any], duration: float) -> ScenarioSetup:
+    """``reach`` pushed as :data:`PUSH` says, its right-hand task's λ set to ``rh_gain`` at t = 0
+    (a command labelled :data:`GAIN_COMMAND`) when given."""
+    setup = _pushed(reach.SCENARIO)(parameters, duration)
+    if "rh_gain" in parameters:
+        task, gain = setup.built.tasks["taskRH"], parameters["rh_gain"]
+        setup.commands.insert(0, Command(0.0, f"{GAIN_COMMAND} {gain:g}", lambda c: task.set_gain(c, gain)))
+    return setup
+
+
+def _settling(setup: ScenarioSetup, arrays: dict[str, np.ndarray], duration: float) -> Metrics:
+    """``rh_settle_time``: from the target's move to the first sample from which the right
+    hand's error norm stays below :data:`SETTLED` [s]; NaN when it is not below at the end."""
+    own = [c for c in setup.commands if not c.label.startswith(GAIN_COMMAND)]
+    moved_at = own[0].time  # reach's first command moves the right-hand target
+    after = arrays["time"] >= moved_at
+    time, error = arrays["time"][after], np.linalg.norm(arrays["error/taskRH"][after], axis=1)
+    if not len(error) or not (error[-1] < SETTLED):
+        return {"rh_settle_time": math.nan}
+    unsettled = np.flatnonzero(~(error < SETTLED))
+    return {"rh_settle_time": float(time[unsettled[-1] + 1] - moved_at) if len(unsettled) else 0.0}
+
+
+def _steady_errors(setup: ScenarioSetup, arrays: dict[str, np.ndarray], duration: float) -> Metrics:
+    """The mean head and left-hand error norms [m] over the last second."""
+    window = arrays["time"] >= duration - 1.0
+    return {
+        f"steady_error_{key}": float(np.mean(np.linalg.norm(arrays[f"error/{task}"][window], axis=1)))
+        for key, task in (("head", "taskHead"), ("lh", "taskLH"))
+    }
+
+
+#: The run targets of the studies, by name.
+TARGETS: dict[str, Target] = {
+    "walk": Target((*walk.SCENARIO.parameters, *PUSH), _pushed(walk.SCENARIO)),
+    "reach": Target((*reach.SCENARIO.parameters, *PUSH, RH_GAIN), _reach_with_gain, _settling),
+    "priority_switching": Target((ROBOT, *ALPHAS), _constant_priorities, _steady_errors),
+}
+
+
+def measure(target: str, parameters: dict[str, Any], duration: float, seed: int) -> Metrics:
+    """Build and simulate one run of ``target`` (a key of :data:`TARGETS`) with ``parameters``
+    for ``duration`` [s] in this process; its metrics (see the module's docstring). ``seed`` is
+    the run's seed, for a target that draws random numbers (none does yet: it is recorded).
+
+    Raises:
+        KeyError: an unknown target (naming the known ones).
+        ValueError: a parameter the target does not declare or refuses, a push after the end.
+        RuntimeError: the run failed (an exception in the simulation), naming when and why.
+    """
+    if target not in TARGETS:
+        raise KeyError(f"target {target!r}: unknown; known: {', '.join(sorted(TARGETS))}")
+    chosen = TARGETS[target]
+    parameters = check_parameters(target, chosen.parameters, parameters)
+    setup = chosen.build(parameters, duration)
+    simulator = setup.built.create_simulator()
+    result = simulate(simulator, duration, setup.commands)
+    if result.failure is not None:
+        raise RuntimeError(f"{target} failed at t = {result.end_time:.3f} s: {result.failure}")
+    arrays = log_arrays(setup.built, simulator.get_context(), result)
+    metrics = common_metrics(setup, arrays, result)
+    if chosen.extra is not None:
+        metrics |= chosen.extra(setup, arrays, duration)
+    return metrics
+
+
+def common_metrics(setup: ScenarioSetup, arrays: dict[str, np.ndarray], result: RunResult) -> Metrics:
+    """``survived``, ``fall_time``, ``min_pelvis_height``, ``max_final_error`` and
+    ``final_error/<task>`` of a run (see the module's docstring)."""
+    built = setup.built
+    instance = built.info.model_instance
+    floating = built.plant.num_positions(instance) == built.plant.num_velocities(instance) + 1
+    final = {
+        name.removeprefix("error/"): float(np.linalg.norm(values[-1]))
+        for name, values in arrays.items()
+        if name.startswith("error/") and len(values) and np.isfinite(values[-1]).all()
+    }
+    return {
+        "survived": result.fell is None,
+        "fall_time": math.nan if result.fell is None else result.fell.time,
+        "min_pelvis_height": float(arrays["q"][:, 6].min()) if floating else math.nan,  # qw qx qy qz x y z
+        "max_final_error": max(final.values(), default=math.nan),
+        **{f"final_error/{task}": value for task, value in final.items()},
+    }

@@ -1,0 +1,395 @@
+"""Run a :class:`~drake_sot.studies.description.Study` on Dask (``dask.distributed``), one table.
+
+Without a scheduler address the runs go to a ``LocalCluster`` of worker processes on this machine
+(one thread each: a run is CPU-bound on one core), at most one per core and per run; with one,
+to an existing cluster (``dask scheduler`` and ``dask worker tcp://HOST:PORT`` on any machines
+that have this package). A task carries only names and numbers (the target's name, the run's
+parameters, duration and seed) and the measuring function by its importable name: the worker
+builds its diagram in its own process and returns the run's metrics.
+
+The table, ``<study>_runs.csv`` in the output directory, has one row per run: its id, every
+parameter, every metric, the seed, the duration [s], the worker, the wall time [s], the
+drake_sot and drake versions of the worker, the status (``ok`` or ``failed``) and the error text.
+A row is appended and flushed as each run finishes, so that nothing finished is lost; a study
+given the same directory again skips the runs whose last row is ``ok``. ``<study>_runs.npz``
+holds the same columns (the last row of each run), written when the study ends or stops.
+
+A run that raises, or whose worker dies, is retried once (Dask ``retries=1``; a worker's death
+also makes the scheduler move its task to another worker), then recorded as failed with its error;
+the study goes on. A KeyboardInterrupt (Ctrl-C, or SIGTERM turned into one by the caller) cancels
+what is pending, keeps every finished row, closes the cluster (its processes end) and is raised
+again.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drake_sot.blas import limit_blas_threads
+from drake_sot.parameters import Parameter
+from drake_sot.studies.description import Metrics, Plan, Run, Study, plans
+
+__all__ = [
+    "RUN_COLUMNS",
+    "Measure",
+    "StudyOutcome",
+    "read_table",
+    "run_study",
+    "table_columns",
+    "worker_count",
+]
+
+Measure = Callable[[str, dict[str, Any], float, int], Metrics]
+"""``measure(target, parameters, duration, seed)``: simulates one run in the calling process
+and returns its metrics by name; raises when the run cannot be simulated. Must be importable
+by name (a module-level function) for worker processes to find it."""
+
+#: The columns of the table after the parameters and the metrics.
+RUN_COLUMNS = (
+    "seed",
+    "duration",
+    "worker",
+    "wall_time",
+    "drake_sot_version",
+    "drake_version",
+    "status",
+    "error",
+)
+
+Progress = Callable[[int, int, int, float], None]
+"""Called after each recorded run with (runs done, of which failed, runs in all, estimated
+seconds left — NaN before the first run of this session ends)."""
+
+
+def table_columns(study: Study) -> tuple[str, ...]:
+    """The table's header: ``run_id``, the parameters, the metrics, :data:`RUN_COLUMNS`."""
+    return ("run_id", *study.parameter_names(), *study.metrics, *RUN_COLUMNS)
+
+
+def _value(text: str) -> bool | float | str:
+    """A cell of the table as written: ``True``/``False`` as a bool, a number as a float
+    (``nan`` included), anything else as the text."""
+    if text in ("True", "False"):
+        return text == "True"
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def read_table(path: str | Path, study: Study) -> dict[str, dict[str, Any]]:
+    """The rows of the table at ``path`` (none when there is no file) by run id, the last row of
+    a run id winning, cells as :func:`_value` reads them.
+
+    Raises:
+        ValueError: the file's header is not the study's (another study, or other parameters or
+            metrics), naming the file and both headers.
+    """
+    path = Path(path)
+    if not path.exists():
+        return {}
+    with open(path, newline="") as file:
+        reader = csv.DictReader(file)
+        header = tuple(reader.fieldnames or ())
+        if header != table_columns(study):
+            raise ValueError(
+                f"{path}: its columns {list(header)} are not those of study {study.name!r} "
+                f"{list(table_columns(study))}: give another output directory"
+            )
+        return {row["run_id"]: {k: _value(v) for k, v in row.items()} for row in reader}
+
+
+def worker_count(requested: int | None, runs: int, cores: int | None = None) -> tuple[int, str | None]:
+    """The worker processes of a local cluster: ``requested`` (None: one per core) capped at
+    the cores and at the number of runs (at least 1); and the line saying so when it was capped
+    (None when not)."""
+    cores = cores or os.cpu_count() or 1
+    wanted = cores if requested is None else requested
+    count = max(1, min(wanted, cores, runs))
+    if requested is None or count == requested:
+        return count, None
+    why = "the cores of this machine" if count == cores else "the runs of the study"
+    return count, f"--workers {requested} capped at {count} ({why})"
+
+
+def _versions() -> dict[str, str]:
+    """The drake_sot and drake versions installed in this process's environment."""
+    found = {}
+    for package in ("drake_sot", "drake"):
+        try:
+            found[f"{package}_version"] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            found[f"{package}_version"] = "not installed"
+    return found
+
+
+def _task(measure: Measure, scenario: str, parameters: dict[str, Any], duration: float, seed: int) -> dict:
+    """One run, in a worker: its metrics, the worker's address, the wall time and the versions."""
+    from distributed import get_worker
+
+    limit_blas_threads(1)  # small matrices on one core (drake_sot.blas says why)
+    start = time.perf_counter()
+    metrics = measure(scenario, dict(parameters), duration, seed)
+    return {
+        "metrics": metrics,
+        "worker": get_worker().address,
+        "wall_time": time.perf_counter() - start,
+        **_versions(),
+    }
+
+
+@dataclass
+class StudyOutcome:
+    """What :func:`run_study` did.
+
+    Attributes:
+        table: the CSV table. npz: its columns as arrays.
+        rows: every run of the table by id (this session's and earlier ones).
+        ran: runs finished in this session (ok or failed). failed: of which failed.
+        skipped: runs found done in the table and not run again.
+        brackets: per bisection cell (its parameters), the bracket ``(largest true, smallest
+            false)`` of the bisected parameter; ``(high, inf)`` when ``high`` was true, NaN when
+            a run of the cell failed.
+    """
+
+    table: Path
+    npz: Path
+    rows: dict[str, dict[str, Any]]
+    ran: int = 0
+    failed: int = 0
+    skipped: int = 0
+    brackets: list[tuple[dict[str, Any], tuple[float, float]]] = field(default_factory=list)
+
+
+class _Table:
+    """The CSV table, appended to one flushed row at a time."""
+
+    def __init__(self, path: Path, study: Study) -> None:
+        self.path = path
+        self.columns = table_columns(study)
+        self.rows = read_table(path, study)
+
+    def append(self, row: Mapping[str, Any]) -> None:
+        new = not self.path.exists() or self.path.stat().st_size == 0
+        with open(self.path, "a", newline="") as file:
+            writer = csv.DictWriter(file, self.columns)
+            if new:
+                writer.writeheader()
+            writer.writerow({k: row.get(k, "") for k in self.columns})
+            file.flush()
+            os.fsync(file.fileno())
+        self.rows[row["run_id"]] = {k: row.get(k, "") for k in self.columns}
+
+    def write_npz(self, path: Path) -> None:
+        """The columns as arrays (numbers and bools as floats, NaN where empty; text as str),
+        written atomically."""
+        arrays = {}
+        for column in self.columns:
+            cells = [row[column] for row in self.rows.values()]
+            numeric = all(isinstance(c, bool | int | float) or c == "" for c in cells)
+            arrays[column] = (
+                np.array([math.nan if c == "" else float(c) for c in cells])
+                if numeric and column not in ("run_id", "worker", "error", "status")
+                else np.array([str(c) for c in cells], dtype=str)
+            )
+        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
+        try:
+            with os.fdopen(handle, "wb") as file:
+                np.savez_compressed(file, **arrays)
+            os.replace(temporary, path)
+        except BaseException:
+            os.unlink(temporary)
+            raise
+
+
+def _row(run: Run, study: Study, outcome: dict | None, error: BaseException | None) -> dict[str, Any]:
+    """The table row of ``run``: from its worker's ``outcome``, or failed with ``error``."""
+    row: dict[str, Any] = {"run_id": run.run_id, **run.parameters, "seed": run.seed, "duration": run.duration}
+    if outcome is not None:
+        metrics = outcome["metrics"]
+        row |= {name: metrics.get(name, math.nan) for name in study.metrics}
+        row |= {k: outcome[k] for k in ("worker", "wall_time", "drake_sot_version", "drake_version")}
+        row |= {"status": "ok", "error": ""}
+    else:
+        row |= {"status": "failed", "error": f"{type(error).__name__}: {error}".replace("\n", " ")}
+    return row
+
+
+def run_study(
+    study: Study,
+    out_dir: str | Path,
+    *,
+    declared: Sequence[Parameter],
+    measure: Measure,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: Progress | None = None,
+    say: Callable[[str], None] = lambda line: print(line, file=sys.stderr, flush=True),
+    hold: Callable[[], None] = lambda: None,
+    processes: bool = True,
+) -> StudyOutcome:
+    """Run ``study`` into ``out_dir`` (created if needed), resuming its table there.
+
+    Args:
+        declared: the parameters the target declares (every run's values are checked
+            through them before anything starts).
+        measure: runs one run (see :data:`Measure`).
+        scheduler: the address of an existing Dask scheduler (``tcp://HOST:PORT``); None for a
+            local cluster of ``workers`` processes (None: one per core), capped at the cores and
+            the runs (``say`` is told when capped).
+        progress: see :data:`Progress`.
+        say: told what the study does (one line at a time).
+        hold: called once the study stops submitting (finished, or interrupted), before the
+            cluster is closed and the table's npz is written (e.g. ``SignalGuard.hold``: a later
+            signal then waits for them).
+        processes: the local cluster's workers are processes (False: threads of this process,
+            for measuring functions that are not importable, as in tests).
+
+    Raises:
+        ValueError: a study the target's ``declared`` parameters refuse, a table in ``out_dir``
+            with other columns, ``workers`` with ``scheduler`` or below 1 (before anything starts).
+        OSError: ``out_dir`` cannot be written (before anything starts).
+        KeyboardInterrupt: the study was interrupted: the pending runs were cancelled, every
+            finished run is in the table and the cluster is closed.
+    """
+    study_plans = plans(study, declared)
+    if scheduler is not None and workers is not None:
+        raise ValueError(f"workers = {workers}: the cluster at {scheduler} has its own workers")
+    if workers is not None and not (workers >= 1):
+        raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    table = _Table(out / f"{study.name}_runs.csv", study)
+    outcome = StudyOutcome(table.path, out / f"{study.name}_runs.npz", table.rows)
+    total = study.total()
+    per_plan = total // len(study_plans)
+    submitted: dict[Any, tuple[int, Run]] = {}  # future -> (plan index, run)
+    pending: list[tuple[int, Run]] = []
+    probes = [0] * len(study_plans)
+
+    def advance(index: int, metrics: Metrics | None, first: bool = False) -> None:
+        """Feed the plan its last run's metrics and queue its next run, taking from the table
+        the runs already done; record a finished plan's bracket."""
+        nonlocal total
+        plan: Plan = study_plans[index]
+        try:
+            run = next(plan) if first else plan.send(metrics)
+            while run.run_id in table.rows and table.rows[run.run_id]["status"] == "ok":
+                outcome.skipped += 1
+                probes[index] += 1
+                run = plan.send(table.rows[run.run_id])
+        except StopIteration as stop:
+            total -= per_plan - probes[index]
+            if stop.value is not None:
+                outcome.brackets.append((study.runs.cells.points()[index], stop.value))  # type: ignore[union-attr]
+            return
+        probes[index] += 1
+        pending.append((index, run))
+
+    for index in range(len(study_plans)):
+        advance(index, None, first=True)
+    if not pending:
+        hold()
+        table.write_npz(outcome.npz)
+        say(f"{study.name}: all {outcome.skipped} runs already in {table.path}")
+        return outcome
+    client = cluster = None
+    try:
+        # in the try: a signal while the cluster starts closes what started
+        client, cluster = _connect(scheduler, workers, len(pending), processes, say)
+        start = time.perf_counter()
+        from distributed import as_completed
+
+        def submit(index: int, run: Run) -> Any:
+            future = client.submit(
+                _task,
+                measure,
+                run.scenario,
+                run.parameters,
+                run.duration,
+                run.seed,
+                key=f"{study.name}-{run.run_id}-{time.time_ns()}",
+                retries=1,
+                pure=False,
+            )
+            submitted[future] = (index, run)
+            return future
+
+        futures = as_completed([submit(i, r) for i, r in pending])
+        pending.clear()
+        for future in futures:
+            index, run = submitted.pop(future)
+            result, error = None, None
+            if future.status == "finished":
+                result = future.result()
+            elif future.status == "error":  # raised twice, or its worker died (KilledWorker)
+                error = future.exception()
+            else:  # cancelled: the scheduler, or the connection to it, was lost
+                error = RuntimeError(
+                    f"the task ended {future.status} (the scheduler or its connection was lost)"
+                )
+            row = _row(run, study, result, error)
+            table.append(row)
+            outcome.ran += 1
+            outcome.failed += result is None
+            advance(index, None if result is None else row)
+            for i, r in pending:
+                futures.add(submit(i, r))
+            pending.clear()
+            if progress is not None:
+                done = outcome.ran + outcome.skipped
+                elapsed = time.perf_counter() - start
+                progress(done, outcome.failed, total, elapsed / outcome.ran * (total - done))
+    except BaseException:
+        hold()
+        for future in submitted:
+            future.cancel()
+        raise
+    finally:
+        hold()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+        table.write_npz(outcome.npz)
+    return outcome
+
+
+def _connect(
+    scheduler: str | None, workers: int | None, runs: int, processes: bool, say: Callable[[str], None]
+) -> tuple[Any, Any]:
+    """A Dask client of the scheduler at ``scheduler``, or of a new local cluster (returned too,
+    to be closed), the count of workers capped (:func:`worker_count`)."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        say(f"connecting to the Dask scheduler at {scheduler}")
+        return Client(scheduler, timeout="10s"), None
+    count, capped = worker_count(workers, runs)
+    if capped is not None:
+        say(capped)
+    cluster = LocalCluster(
+        n_workers=count,
+        threads_per_worker=1,
+        processes=processes,
+        dashboard_address=":0",  # any free port (8787 may be taken), a dashboard when bokeh is installed
+        silence_logs=40,  # logging.ERROR: the workers' chatter stays off the terminal
+        **({"preload": ["drake_sot.studies.worker"]} if processes else {}),  # Ctrl-C: this process decides
+    )
+    try:
+        return Client(cluster), cluster
+    except BaseException:
+        cluster.close()
+        raise

@@ -1,0 +1,223 @@
+"""Studies: the description (grids, seeded samples, bisections, run ids) and the Dask runner,
+in-process (a local cluster of threads) with fake measuring functions."""
+
+from __future__ import annotations
+
+import csv
+import math
+import threading
+
+import numpy as np
+import pytest
+
+from drake_sot.parameters import Parameter
+from drake_sot.studies import Bisection, Grid, RandomSample, Study, make_run, plans, run_id
+from drake_sot.studies.runner import read_table, run_study, table_columns, worker_count
+
+DECLARED = (
+    Parameter("force", "float", 0.0, "the push", minimum=0.0, maximum=1000.0, unit="N"),
+    Parameter("phase", "float", 0.0, "the gait phase", minimum=0.0, maximum=1.0),
+    Parameter("stabilizer", "bool", True, "the stabilizer"),
+)
+THRESHOLD = 137.3  # [N] the fake robot survives a push below it, with the stabilizer
+
+
+def fake_measure(scenario: str, parameters: dict, duration: float, seed: int) -> dict:
+    """The fake robot: survives a push below THRESHOLD (half of it without the stabilizer)."""
+    limit = THRESHOLD if parameters.get("stabilizer", True) else THRESHOLD / 2
+    return {"survived": parameters["force"] < limit, "margin": limit - parameters["force"]}
+
+
+def grid_study(**changes) -> Study:
+    fields = dict(
+        name="fake",
+        description="a fake grid",
+        scenario="fake",
+        runs=Grid({"force": (0.0, 100.0, 200.0), "phase": (0.0, 0.5)}),
+        duration=1.0,
+        metrics=("survived", "margin"),
+    )
+    return Study(**(fields | changes))
+
+
+def run_in_threads(study: Study, out, measure=fake_measure, **kwargs):
+    return run_study(study, out, declared=DECLARED, measure=measure, workers=2, processes=False, **kwargs)
+
+
+def test_a_grid_is_every_combination_first_axis_slowest():
+    runs = [next(p) for p in plans(grid_study(), DECLARED)]
+    assert [(r.parameters["force"], r.parameters["phase"]) for r in runs] == [
+        (f, p) for f in (0.0, 100.0, 200.0) for p in (0.0, 0.5)
+    ]
+    assert len({r.run_id for r in runs}) == 6
+    assert len({r.seed for r in runs}) == 6
+
+
+def test_a_run_id_is_a_hash_of_the_parameters_in_any_order_and_changes_with_any_of_them():
+    assert run_id("walk", {"a": 1.0, "b": True}, 2.0) == run_id("walk", {"b": True, "a": 1.0}, 2.0)
+    ids = {
+        run_id("walk", {"a": 1.0, "b": True}, 2.0),
+        run_id("walk", {"a": 1.5, "b": True}, 2.0),
+        run_id("walk", {"a": 1.0, "b": False}, 2.0),
+        run_id("walk", {"a": 1.0, "b": True}, 3.0),
+        run_id("reach", {"a": 1.0, "b": True}, 2.0),
+    }
+    assert len(ids) == 5
+    run = make_run("walk", {"a": 1.0}, 2.0)
+    assert run.seed == make_run("walk", {"a": 1.0}, 2.0).seed and 0 <= run.seed < 2**31
+
+
+def test_a_random_sample_is_reproduced_by_its_seed_and_stays_in_its_ranges():
+    def sample(seed):
+        study = grid_study(
+            runs=RandomSample({"force": (10.0, 20.0), "phase": (0.2, 0.4)}, count=50, seed=seed)
+        )
+        return [next(p).parameters for p in plans(study, DECLARED)]
+
+    first, again, other = sample(7), sample(7), sample(8)
+    assert first == again and first != other
+    forces = np.array([p["force"] for p in first])
+    assert ((forces >= 10.0) & (forces <= 20.0)).all() and forces.std() > 2.0  # spread, not one value
+
+
+@pytest.mark.parametrize(
+    ("study", "message"),
+    [
+        (grid_study(runs=Grid({"force": (0.0, -1.0)})), "force = -1"),
+        (grid_study(runs=Grid({"gain": (1.0,)})), "takes no parameter ['gain']"),
+        (grid_study(fixed={"stabilizer": "yes"}), "stabilizer = 'yes'"),
+        (grid_study(runs=RandomSample({"force": (0.0, 2000.0)}, count=3)), "force = 2000"),
+        (grid_study(runs=Bisection(Grid({"phase": (0.0,)}), "force", 0.0, 5000.0, 3)), "force = 5000"),
+        (grid_study(runs=Bisection(Grid({}), "stabilizer", 0.0, 1.0, 3)), "a bool"),
+        (grid_study(runs=Grid({"force": ()})), "no run"),
+        (grid_study(duration=math.nan), "duration"),
+    ],
+)
+def test_a_study_the_declarations_refuse_is_refused_before_anything_runs(tmp_path, study, message):
+    with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        run_in_threads(study, tmp_path, measure=refuse)
+    assert not (tmp_path / "fake_runs.csv").exists()
+
+
+def test_the_table_has_a_row_per_run_with_parameters_metrics_seed_and_versions(tmp_path):
+    seen = []
+    outcome = run_in_threads(grid_study(), tmp_path, progress=lambda *a: seen.append(a))
+    with open(outcome.table, newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert tuple(rows[0]) == table_columns(grid_study())
+    assert len(rows) == 6 and {r["status"] for r in rows} == {"ok"}
+    for row in rows:
+        force = float(row["force"])
+        assert row["survived"] == str(force < THRESHOLD)
+        assert float(row["margin"]) == pytest.approx(THRESHOLD - force)
+        assert row["run_id"] == run_id("fake", {"force": force, "phase": float(row["phase"])}, 1.0)
+        assert row["drake_sot_version"] and row["worker"] and float(row["wall_time"]) >= 0
+    assert [s[:3] for s in seen] == [(k, 0, 6) for k in range(1, 7)]
+    assert seen[-1][3] == 0.0  # nothing left
+    arrays = np.load(outcome.npz)
+    assert sorted(arrays["force"]) == [0.0, 0.0, 100.0, 100.0, 200.0, 200.0]
+    assert arrays["survived"].sum() == 4
+
+
+#: The forces the measuring functions below were called with (Dask pickles a test's function by
+#: name: a closure holding a lock would not pickle).
+CALLS: list[float] = []
+_LOCK = threading.Lock()
+
+
+def counting(scenario: str, parameters: dict, duration: float, seed: int) -> dict:
+    with _LOCK:
+        CALLS.append(parameters["force"])
+    return fake_measure(scenario, parameters, duration, seed)
+
+
+def flaky(scenario: str, parameters: dict, duration: float, seed: int) -> dict:
+    """Always raises at 100 N; raises at the first attempt at 200 N."""
+    with _LOCK:
+        CALLS.append(parameters["force"])
+        attempts = CALLS.count(parameters["force"])
+    if parameters["force"] == 100.0:
+        raise RuntimeError(f"diverged at {parameters['force']} N")
+    if parameters["force"] == 200.0 and attempts == 1:
+        raise RuntimeError("a first attempt that fails")
+    return fake_measure(scenario, parameters, duration, seed)
+
+
+def refuse(scenario: str, parameters: dict, duration: float, seed: int) -> dict:
+    raise AssertionError("a run was made")
+
+
+@pytest.fixture
+def calls():
+    CALLS.clear()
+    yield CALLS
+    CALLS.clear()
+
+
+def test_a_study_given_its_directory_again_runs_only_what_is_not_done(tmp_path, calls):
+    small = grid_study(runs=Grid({"force": (0.0, 100.0), "phase": (0.0, 0.5)}))
+    run_in_threads(small, tmp_path, measure=counting)
+    assert len(calls) == 4
+    calls.clear()
+    outcome = run_in_threads(grid_study(), tmp_path, measure=counting)  # the grid grew by 200 N
+    assert sorted(calls) == [200.0, 200.0]
+    assert (outcome.skipped, outcome.ran) == (4, 2)
+    assert len(read_table(outcome.table, grid_study())) == 6
+
+
+def test_a_table_of_another_study_is_refused(tmp_path):
+    run_in_threads(grid_study(), tmp_path)
+    with pytest.raises(ValueError, match="give another output directory"):
+        run_in_threads(grid_study(metrics=("survived",)), tmp_path)
+
+
+def test_a_run_that_raises_is_retried_once_then_recorded_as_failed_and_the_study_goes_on(tmp_path, calls):
+    attempts = calls
+    study = grid_study(runs=Grid({"force": (0.0, 100.0, 200.0)}))
+    outcome = run_in_threads(study, tmp_path, measure=flaky)
+    assert sorted(attempts) == [0.0, 100.0, 100.0, 200.0, 200.0]  # each failing run tried twice
+    rows = {row["force"]: row for row in outcome.rows.values()}
+    assert rows[100.0]["status"] == "failed" and "diverged at 100.0 N" in rows[100.0]["error"]
+    assert rows[200.0]["status"] == "ok" and rows[0.0]["status"] == "ok"
+    assert (outcome.ran, outcome.failed) == (3, 1)
+    # resumed, the failed run is run again (and only it)
+    attempts.clear()
+    run_in_threads(study, tmp_path, measure=flaky)
+    assert attempts == [100.0, 100.0]
+
+
+def test_a_bisection_brackets_a_known_threshold_per_cell(tmp_path):
+    study = grid_study(
+        runs=Bisection(Grid({"stabilizer": (True, False)}), "force", 0.0, 1000.0, iterations=8)
+    )
+    outcome = run_in_threads(study, tmp_path)
+    brackets = {cell["stabilizer"]: bracket for cell, bracket in outcome.brackets}
+    for stabilizer, threshold in ((True, THRESHOLD), (False, THRESHOLD / 2)):
+        true, false = brackets[stabilizer]
+        assert true < threshold <= false
+        assert false - true == pytest.approx(1000.0 / 2**8)
+    assert outcome.ran == 2 * 9
+    # resumed: the bisections replay from the table without running anything
+    again = run_in_threads(study, tmp_path, measure=refuse)
+    assert sorted(again.brackets, key=str) == sorted(outcome.brackets, key=str)
+    assert again.skipped == 18 and again.ran == 0
+
+
+def test_a_bisection_whose_top_survives_stops_there():
+    study = grid_study(runs=Bisection(Grid({}), "force", 0.0, 50.0, iterations=5))
+    (plan,) = plans(study, DECLARED)
+    run = next(plan)
+    assert run.parameters["force"] == 50.0
+    with pytest.raises(StopIteration) as stop:
+        plan.send({"survived": True})
+    assert stop.value.value == (50.0, math.inf)
+
+
+def test_workers_are_capped_at_the_cores_and_the_runs_with_one_line():
+    assert worker_count(None, 10, cores=4) == (4, None)
+    assert worker_count(2, 10, cores=4) == (2, None)
+    assert worker_count(100000, 10, cores=4) == (
+        4,
+        "--workers 100000 capped at 4 (the cores of this machine)",
+    )
+    assert worker_count(3, 2, cores=4) == (2, "--workers 3 capped at 2 (the runs of the study)")

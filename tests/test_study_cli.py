@@ -1,0 +1,207 @@
+"""``drake-sot study`` in subprocesses, on real (short) runs of ``reach``: a local cluster and a
+``dask scheduler`` with two ``dask worker`` processes give the same table; SIGINT and SIGTERM
+stop a study within 10 s with its finished runs kept and no process left; ``--workers`` above
+the cores is capped with one line; a worker killed mid-run loses no run."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+
+#: A study of its own for ``drake_sot.app.study.main``: RUNS runs of ``reach`` of DURATION s,
+#: pushed at 0.1 s by 0, 50, ... N.
+DRIVER = """
+import sys
+from drake_sot.app.study import main
+from drake_sot.studies import Grid, Study
+
+if __name__ == "__main__":  # the local cluster's workers are spawned: they import this file
+    runs, duration = int(sys.argv[1]), float(sys.argv[2])
+    TINY = Study(
+        "tiny", "reach pushed", "reach", Grid({"push_force": tuple(50.0 * k for k in range(runs))}),
+        duration=duration, metrics=("survived", "min_pelvis_height", "max_final_error"),
+        fixed={"push_time": 0.1},
+    )
+    sys.exit(main(sys.argv[3:], {"tiny": TINY}))
+"""
+
+
+def _start(tmp_path: Path, runs: int, duration: float, *argv: str) -> subprocess.Popen:
+    driver = tmp_path / "driver.py"
+    driver.write_text(DRIVER)
+    return subprocess.Popen(
+        [sys.executable, str(driver), str(runs), str(duration), "tiny", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ENV,
+        cwd=tmp_path,
+        # a background shell ignores SIGINT in its jobs: the study must see it as Ctrl-C does;
+        # a session of its own: a group to send a terminal's Ctrl-C to
+        preexec_fn=lambda: (
+            [signal.signal(s, signal.SIG_DFL) for s in (signal.SIGINT, signal.SIGTERM)] and os.setsid()
+        ),
+    )
+
+
+def _table(path: Path) -> dict[str, dict[str, str]]:
+    with open(path, newline="") as file:
+        return {row["run_id"]: row for row in csv.DictReader(file)}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _gone(pids: set[int], within: float = 3.0) -> set[int]:
+    """The processes of ``pids`` still alive (not zombies) after ``within`` seconds at most."""
+    deadline = time.monotonic() + within
+    while True:
+        alive = set()
+        for pid in pids:
+            try:
+                if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+                    alive.add(pid)
+            except psutil.NoSuchProcess:
+                pass
+        if not alive or time.monotonic() > deadline:
+            return alive
+        time.sleep(0.1)
+
+
+def test_a_local_cluster_and_a_dask_scheduler_give_the_same_table(tmp_path):
+    local = _start(tmp_path, 3, 0.3, "--workers", "2", "--out", str(tmp_path / "local"))
+    out, err = local.communicate(timeout=300)
+    assert local.returncode == 0, err
+    assert "wrote" in out
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    dask = [sys.executable, "-m", "dask"]
+    started = [
+        subprocess.Popen(
+            [*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+            env=ENV,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
+    try:
+        for _ in range(2):
+            started.append(
+                subprocess.Popen(
+                    [*dask, "worker", address, "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1"],
+                    env=ENV,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
+        remote = _start(tmp_path, 3, 0.3, "--scheduler", address, "--out", str(tmp_path / "remote"))
+        out, err = remote.communicate(timeout=300)
+        assert remote.returncode == 0, err
+    finally:
+        for process in reversed(started):
+            process.terminate()
+            process.wait(timeout=30)
+    a, b = _table(tmp_path / "local" / "tiny_runs.csv"), _table(tmp_path / "remote" / "tiny_runs.csv")
+    assert len(a) == 3 and set(a) == set(b)
+    for run_id, row in a.items():
+        assert row["status"] == b[run_id]["status"] == "ok"
+        for metric in ("survived", "min_pelvis_height", "max_final_error", "push_force", "seed"):
+            assert row[metric] == b[run_id][metric], (metric, row, b[run_id])
+    # the remote runs ran on the two dask workers, not on a cluster of the study's own
+    assert all(row["worker"].startswith("tcp://127.0.0.1:") for row in b.values())
+    assert not {row["worker"] for row in b.values()} & {row["worker"] for row in a.values()}
+
+
+@pytest.mark.parametrize(
+    ("signum", "group"), [(signal.SIGINT, False), (signal.SIGTERM, False), (signal.SIGINT, True)]
+)
+def test_a_signal_stops_a_study_within_10_s_keeping_its_finished_runs_and_no_process(tmp_path, signum, group):
+    """To the study's process, or (a terminal's Ctrl-C) to its whole group, workers included:
+    they leave the decision to the study, which stops without a traceback."""
+    proc = _start(tmp_path, 8, 2.0, "--workers", "2", "--out", str(tmp_path))
+    children: set[int] = set()
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        children |= {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
+        if line.startswith("1/8 runs done"):
+            children |= {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
+            sent = time.monotonic()
+            if group:
+                os.killpg(proc.pid, signum)
+            else:
+                proc.send_signal(signum)
+            break
+    else:
+        pytest.fail("".join(seen))
+    _, rest = proc.communicate(timeout=30)
+    took = time.monotonic() - sent
+    err = "".join(seen) + rest
+    assert proc.returncode == 128 + signum, err
+    assert took < 10.0, err
+    assert f"interrupted by {signal.Signals(signum).name}" in err
+    assert "Traceback" not in err, err
+    rows = _table(tmp_path / "tiny_runs.csv")
+    assert 1 <= len(rows) < 8 and {r["status"] for r in rows.values()} == {"ok"}
+    assert len(children) >= 2  # the two workers were seen
+    assert _gone(children) == set()
+
+
+def test_workers_above_the_cores_are_capped_with_one_line(tmp_path):
+    proc = _start(tmp_path, 1, 0.1, "--workers", "1000", "--out", str(tmp_path))
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    capped = [line for line in err.splitlines() if "capped" in line]
+    assert capped == ["--workers 1000 capped at 1 (the runs of the study)"] or capped == [
+        f"--workers 1000 capped at {os.cpu_count()} (the cores of this machine)"
+    ]
+
+
+def _workers(pid: int) -> list[psutil.Process]:
+    """The local cluster's worker processes under ``pid`` (spawned, not the resource tracker)."""
+    found = []
+    for child in psutil.Process(pid).children(recursive=True):
+        try:
+            command = " ".join(child.cmdline())
+            child.cpu_times()
+        except psutil.Error:  # ended meanwhile, or a zombie
+            continue
+        if "spawn_main" in command and "resource_tracker" not in command:
+            found.append(child)
+    return found
+
+
+def test_a_worker_killed_mid_run_loses_no_run(tmp_path):
+    proc = _start(tmp_path, 2, 4.0, "--workers", "2", "--out", str(tmp_path))
+    killed = None
+    deadline = time.monotonic() + 120
+    while killed is None and time.monotonic() < deadline and proc.poll() is None:
+        # a worker running its task: past the ~2 s of CPU of its start and of importing Drake
+        # (the task's function imports it), before any run is done (a run takes ~10 s)
+        busy = [p for p in _workers(proc.pid) if sum(p.cpu_times()[:2]) > 3.0]
+        if busy and not (tmp_path / "tiny_runs.csv").exists():
+            busy[0].send_signal(signal.SIGKILL)
+            killed = busy[0].pid
+        time.sleep(0.2)
+    out, err = proc.communicate(timeout=300)
+    assert killed is not None, err
+    assert proc.returncode == 0, err
+    rows = _table(tmp_path / "tiny_runs.csv")
+    assert len(rows) == 2 and {r["status"] for r in rows.values()} == {"ok"}, rows

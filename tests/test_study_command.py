@@ -1,0 +1,73 @@
+"""``drake-sot study`` in-process: the listing, the refusals (exit 2, nothing run), and the
+push-recovery survival map read off a table's rows."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drake_sot.app import cli
+from drake_sot.diagrams.push_recovery_plots import survival_map, write_figures
+from drake_sot.studies.catalog import PUSH_RECOVERY
+
+
+def test_the_listing_names_every_study_its_target_and_its_runs(capsys):
+    assert cli.main(["study", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert "alpha_sweep" in out and "(36 runs of priority_switching)" in out
+    assert "push_recovery" in out and f"({2 * 4 * 4 * 6} runs of walk)" in out
+    assert "gain_sweep" in out and "(6 runs of reach)" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["study"], "give a study's NAME"),
+        (["study", "nope"], "study 'nope': unknown; one of: alpha_sweep, gain_sweep, push_recovery"),
+        (["study", "alpha_sweep", "--workers", "0"], "workers = 0: must be an integer >= 1"),
+        (["study", "alpha_sweep", "--duration", "nan"], "duration = nan"),
+        (["study", "alpha_sweep", "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"], "--workers is for"),
+    ],
+)
+def test_bad_arguments_exit_2_with_one_line_and_nothing_run(tmp_path, capsys, argv, message):
+    with pytest.raises(SystemExit) as exit_:
+        cli.main([*argv, "--out", str(tmp_path)])
+    assert exit_.value.code == 2
+    assert message in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_survival_map_keeps_per_cell_the_largest_force_survived(tmp_path):
+    def row(stabilizer, time, direction, force, survived, status="ok"):
+        return {
+            "stabilizer": stabilizer,
+            "push_time": time,
+            "push_direction": direction,
+            "push_force": force,
+            "survived": survived,
+            "status": status,
+        }
+
+    rows = dict(
+        enumerate(
+            [
+                row(True, 2.3, 90.0, 800.0, False),
+                row(True, 2.3, 90.0, 400.0, True),
+                row(True, 2.3, 90.0, 600.0, False),
+                row(True, 2.3, 90.0, 500.0, True),
+                row(False, 2.3, 90.0, 800.0, False),
+                row(False, 2.3, 90.0, 400.0, False),
+                row(True, 2.1, 0.0, 900.0, True, status="failed"),  # a failed run says nothing
+            ]
+        )
+    )
+    survival = survival_map(PUSH_RECOVERY, rows)
+    largest = survival["largest_survived"]
+    assert largest.shape == (2, 4, 4)
+    i, j = list(survival["push_time"]).index(2.3), list(survival["push_direction"]).index(90.0)
+    assert largest[0, i, j] == 500.0  # stabilizer on (the first of the axis)
+    assert largest[1, i, j] == 0.0  # nothing survived: the bisection's low
+    assert np.count_nonzero(largest) == 1
+    files = write_figures(PUSH_RECOVERY, rows, tmp_path)
+    assert files["png"].stat().st_size > 1000
+    np.testing.assert_array_equal(np.load(files["npz"])["largest_survived"], largest)
