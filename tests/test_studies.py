@@ -84,7 +84,7 @@ def test_a_random_sample_is_reproduced_by_its_seed_and_stays_in_its_ranges():
     ("study", "message"),
     [
         (grid_study(runs=Grid({"force": (0.0, -1.0)})), "force = -1"),
-        (grid_study(runs=Grid({"gain": (1.0,)})), "takes no parameter ['gain']"),
+        (grid_study(runs=Grid({"gain": (1.0,)})), "unknown parameter 'gain'"),
         (grid_study(fixed={"stabilizer": "yes"}), "stabilizer = 'yes'"),
         (grid_study(runs=RandomSample({"force": (0.0, 2000.0)}, count=3)), "force = 2000"),
         (grid_study(runs=Bisection(Grid({"phase": (0.0,)}), "force", 0.0, 5000.0, 3)), "force = 5000"),

@@ -33,7 +33,7 @@ from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams import reach, walk
 from drake_sot.diagrams.artifacts import log_arrays
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_push_times
-from drake_sot.diagrams.run import MAX_DURATION, Command, RunResult, simulate
+from drake_sot.diagrams.run import MAX_DURATION, RunResult, TimedCommand, simulate
 from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup, build_scenario
 from drake_sot.parameters import Parameter, check_parameters
 from drake_sot.studies.description import Metrics
@@ -135,7 +135,9 @@ def _reach_with_gain(parameters: dict[str, Any], duration: float) -> ScenarioSet
     setup = _pushed(reach.SCENARIO)(parameters, duration)
     if "rh_gain" in parameters:
         task, gain = setup.built.tasks["taskRH"], parameters["rh_gain"]
-        setup.commands.insert(0, Command(0.0, f"{GAIN_COMMAND} {gain:g}", lambda c: task.set_gain(c, gain)))
+        setup.commands.insert(
+            0, TimedCommand(0.0, f"{GAIN_COMMAND} {gain:g}", lambda c: task.set_gain(c, gain))
+        )
     return setup
 
 
