@@ -69,6 +69,16 @@ def _array(name: str, value) -> np.ndarray:
         raise ValueError(f"{name}: an entry is an integer beyond float range (±1.8e308)") from None
 
 
+def is_number(text: str) -> bool:
+    """True when ``text`` reads as a float (``"1e3"``, ``"nan"``): a command-line value that is a
+    number, so that a refusal can say why the number is refused rather than that it is not one."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def finite(name: str, value) -> float:
     """``value`` as a finite float (not NaN, not ±inf)."""
     v = _scalar(name, value)

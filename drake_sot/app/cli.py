@@ -67,7 +67,7 @@ from drake_sot.robots import ROBOTS, RobotDataMissing, RobotFileError, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT
 from drake_sot.robots.description import LOGICAL_FRAMES
 from drake_sot.script import ScriptError, Statement
-from drake_sot.validation import bounded, finite, nonnegative, positive, positive_int
+from drake_sot.validation import bounded, finite, is_number, nonnegative, positive, positive_int
 
 #: Exit status of a run in which the robot fell.
 FELL = 3
@@ -164,7 +164,7 @@ def _push(text: str) -> ExternalPush:
         try:
             values[name] = check(name, float(field))
         except ValueError as exc:
-            reason = str(exc) if _is_number(field) else f"{name} = {field!r}: must be a number"
+            reason = str(exc) if is_number(field) else f"{name} = {field!r}: must be a number"
             raise argparse.ArgumentTypeError(f"{text!r}: {reason}") from None
     body = fields[1]
     if body not in LOGICAL_FRAMES:
@@ -238,14 +238,6 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser, parameters
 
 
 # --- end two-process mode ---
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 #: The options each kind of ``run`` target takes besides its parameters' (two-process mode: a peer).

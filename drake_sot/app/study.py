@@ -29,6 +29,7 @@ from drake_sot.diagrams.study_runs import TARGETS, measure
 from drake_sot.studies.catalog import STUDIES
 from drake_sot.studies.description import Study
 from drake_sot.studies.runner import read_table, run_study
+from drake_sot.validation import is_number
 
 EPILOG = (
     "exit status: 0 every run ok, 1 some runs failed (see the table) or no scheduler, 2 bad arguments, "
@@ -53,16 +54,8 @@ def _duration(text: str) -> float:
         return check_duration("duration", float(text))
     except ValueError as exc:
         raise argparse.ArgumentTypeError(
-            str(exc) if _is_number(text) else f"duration = {text!r}: must be a number"
+            str(exc) if is_number(text) else f"duration = {text!r}: must be a number"
         ) from None
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] = STUDIES) -> None:
