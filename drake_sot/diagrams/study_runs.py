@@ -35,6 +35,7 @@ from drake_sot.diagrams.artifacts import log_arrays
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_push_times
 from drake_sot.diagrams.run import MAX_DURATION, RunResult, TimedCommand, simulate
 from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup, build_scenario
+from drake_sot.errors import UnknownNameError
 from drake_sot.parameters import Parameter, check_parameters
 from drake_sot.studies.description import Metrics
 from drake_sot.transitions import AlphaSchedule
@@ -182,7 +183,7 @@ def measure(target: str, parameters: dict[str, Any], duration: float, seed: int)
         RuntimeError: the run failed (an exception in the simulation), naming when and why.
     """
     if target not in TARGETS:
-        raise KeyError(f"target {target!r}: unknown; known: {', '.join(sorted(TARGETS))}")
+        raise UnknownNameError("study target", target, TARGETS)
     chosen = TARGETS[target]
     parameters = check_parameters(target, chosen.parameters, parameters)
     setup = chosen.build(parameters, duration)
