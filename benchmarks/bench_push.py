@@ -1,16 +1,17 @@
-"""Push recovery: the largest 0.1 s push survived, stabilizer off vs on; and the ``walk``
-real-time factor with the stabilizer beside the plant alone.
+"""Push recovery: the push-recovery map of each robot (the ``push_recovery`` study on Dask),
+and the ``walk`` real-time factor with the stabilizer beside the plant alone.
 
-    python benchmarks/bench_push.py [--steps N] [--workers W] [--no-rtf]
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_push.py [--robots embedded,talos,g1]
+        [--iterations 5] [--stabilizer both|on|off] [--times 4] [--workers 2] [--no-rtf] [--no-push]
 
-1. For each case — standing (the README stack: feet, CoM, posture; push at 0.5 s), walking
-   in mid single support (t = 2.55 s, the first step: left support) and walking in double
-   support (t = 2.9 s, the 0.1 s double support after it) — and each direction, lateral
-   (+y) and frontal (+x), on the pelvis: a bisection of the force between a bracket's ends,
-   ``--steps`` runs each (the bracket's ends are not run: its lower end is taken as survived
-   and its upper end as fallen, and the table says when a bisection never left an end).
-   A run is survived when the fall monitor saw no fall within 3 s after the push (the walk
-   is cut there: the slow shared machine). Stabilizer off and on.
+1. Per robot, the ``push_recovery`` study (``drake_sot.studies.catalog.PUSH_RECOVERY``): the
+   largest 0.1 s pelvis push the ``walk`` survives, by bisection in [0, 800] N, per push time x
+   direction (0°, 90°, 180°, 270°) x stabilizer off/on. The push times are a quarter of the
+   robot's step apart (its own step timing) over one step, as the catalog's study on the embedded
+   robot; each run
+   lasts until 2.3 s after the latest push. ``--times 2`` keeps the first two (mid single
+   support is the second), ``--iterations`` the bisection's depth (5: to 25 N). Its table and
+   npz go to ``out/bench_push/<robot>``: a run again resumes there.
 2. The ``walk`` scenario's real-time factor, stabilizer on and off, beside the humanoid's
    plant alone on constant set points (all with the whole-body collision shapes), run one
    after the other in one process.
@@ -19,90 +20,75 @@ real-time factor with the stabilizer beside the plant alone.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_sot import plant_alone_realtime, print_table
 
-PUSH = 0.1  # [s]
-AFTER = 3.0  # [s] simulated after the push's start
-CASES = {  # name -> (push time [s], bracket of the lateral force [N], of the frontal force [N])
-    "standing": (0.5, (250.0, 650.0), (150.0, 550.0)),
-    "walk, single support": (2.55, (100.0, 500.0), (100.0, 500.0)),
-    "walk, double support": (2.9, (100.0, 500.0), (100.0, 500.0)),
-}
+from drake_sot.studies.catalog import PUSH_DIRECTIONS, PUSH_RECOVERY
+from drake_sot.studies.description import Bisection, Grid, Study
+
+FIRST_STEP = 0.5  # [s] when the walk's steps begin
+AFTER = 2.3  # [s] simulated after the latest push
 
 
-def survives(case: str, axis: int, force: float, stabilizer: bool) -> bool:
-    """One run: does the robot stand ``AFTER`` s after a push of ``force`` [N] along ``axis``?"""
-    from drake_sot.diagrams import walk
-    from drake_sot.diagrams.balance import add_stabilizer
-    from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
-    from drake_sot.diagrams.pushes import ExternalPush
-    from drake_sot.diagrams.run import simulate
+def robot_study(robot: str, iterations: int, stabilizer: str, times: int) -> Study:
+    """``push_recovery`` on ``robot``, its push times from the robot's step timing (those of the
+    catalog's study on the embedded robot: 2.1, 2.3, 2.5 and 2.7 s)."""
+    from drake_sot.robots import get_robot
 
-    t = CASES[case][0]
-    vector = [0.0, 0.0, 0.0]
-    vector[axis] = force
-    pushes = [ExternalPush(t, "pelvis", tuple(vector), PUSH)]
-    if case == "standing":
-        b = HumanoidSoTBuilder(pushes=pushes)
-        b.add_op_point_task("taskLF", "left_foot", gain=5.0)
-        b.add_op_point_task("taskRF", "right_foot", gain=5.0)
-        b.add_com_task("taskCom", selection="110", gain=3.0)
-        b.add_posture_task("taskPosture")
-        if stabilizer:
-            add_stabilizer(b, "taskCom")
-        built, commands = b.build(stack=["taskLF", "taskRF", "taskCom", "taskPosture"]), []
-    else:
-        setup = walk.build(pushes=pushes, stabilizer=stabilizer)
-        built, commands = setup.built, setup.commands
-    result = simulate(built.create_simulator(), t + AFTER, commands)
-    if not result.completed and result.fell is None:
-        raise RuntimeError(f"{case}: {result.failure}")
-    return result.fell is None
+    step = get_robot(robot).step_timing.period
+    push_times = tuple(round(FIRST_STEP + 2 * step + k * step / 4, 3) for k in range(4))[:times]
+    on = {"both": (True, False), "on": (True,), "off": (False,)}[stabilizer]
+    cells = Grid({"stabilizer": on, "push_time": push_times, "push_direction": PUSH_DIRECTIONS})
+    return dataclasses.replace(
+        PUSH_RECOVERY,
+        runs=dataclasses.replace(PUSH_RECOVERY.runs, cells=cells, iterations=iterations),
+        duration=round(push_times[-1] + AFTER, 3),
+        fixed={**PUSH_RECOVERY.fixed, "robot": robot},
+    )
 
 
-def bisect(case: str, axis: int, stabilizer: bool, steps: int) -> tuple[float, float, int]:
-    """(largest survived, smallest fallen, runs) after ``steps`` bisection runs in the bracket."""
-    low, high = CASES[case][1 + (axis == 0)]
-    for _ in range(steps):
-        middle = round((low + high) / 2)
-        if survives(case, axis, middle, stabilizer):
-            low = middle
-        else:
-            high = middle
-    return low, high, steps
+def push_map(robot: str, iterations: int, stabilizer: str, times: int, workers: int) -> None:
+    """Run the study on ``robot`` and print its map."""
+    from drake_sot.diagrams.study_runs import TARGETS, measure
+    from drake_sot.studies.runner import run_study
 
-
-def _job(job: tuple[str, int, bool, int]) -> tuple[tuple[str, int, bool], tuple[float, float, int], float]:
-    case, axis, stabilizer, steps = job
+    study = robot_study(robot, iterations, stabilizer, times)
     start = time.perf_counter()
-    return (case, axis, stabilizer), bisect(case, axis, stabilizer, steps), time.perf_counter() - start
-
-
-def push_table(steps: int, workers: int) -> None:
-    jobs = [(case, axis, on, steps) for case in CASES for axis in (1, 0) for on in (False, True)]
-    results = {}
-    with ProcessPoolExecutor(workers) as pool:
-        for key, value, seconds in pool.map(_job, jobs):  # each cell as it comes: a long run
-            results[key] = value
-            print(f"  {key}: survived {value[0]:.0f} N, fell {value[1]:.0f} N ({seconds:.0f} s)", flush=True)
-    print(f"Largest survived 0.1 s pelvis push (bisection, {steps} runs per cell; survived / fell, N)")
-    print("| case | direction | stabilizer off | stabilizer on |")
-    print("|---|---|---|---|")
-    for case in CASES:
-        for axis, direction in ((1, "lateral (+y)"), (0, "frontal (+x)")):
-            cells = []
-            for on in (False, True):
-                low, high, _ = results[(case, axis, on)]
-                bracket = CASES[case][1 + (axis == 0)]
-                edge = " (bracket end)" if low == bracket[0] or high == bracket[1] else ""
-                cells.append(f"{low:.0f} / {high:.0f}{edge}")
-            print(f"| {case} | {direction} | {cells[0]} | {cells[1]} |")
+    outcome = run_study(
+        study,
+        Path("out/bench_push") / robot,
+        declared=TARGETS[study.scenario].parameters,
+        measure=measure,
+        workers=workers,
+    )
+    wall = time.perf_counter() - start
+    brackets = {(c["stabilizer"], c["push_time"], c["push_direction"]): b for c, b in outcome.brackets}
+    assert isinstance(study.runs, Bisection)
+    cells = study.runs.cells.axes
+    print(
+        f"\n{robot}: the largest survived 0.1 s pelvis push [N] (bisection in [0, 800] N, "
+        f"{iterations} iterations: survived / fell; {outcome.ran} runs of {study.duration:g} s, "
+        f"{outcome.skipped} from the table, {outcome.failed} failed, {wall:.0f} s wall)"
+    )
+    print("| stabilizer | push time [s] | " + " | ".join(f"{d:g}°" for d in cells["push_direction"]) + " |")
+    print("|---|---|" + "---|" * len(cells["push_direction"]))
+    for on in cells["stabilizer"]:
+        for t in cells["push_time"]:
+            row = []
+            for d in cells["push_direction"]:
+                low, high = brackets.get((on, t, d), (math.nan, math.nan))
+                row.append(
+                    "failed"
+                    if math.isnan(low)
+                    else f"{low:.0f} / {'-' if math.isinf(high) else f'{high:.0f}'}"
+                )
+            print(f"| {'on' if on else 'off'} | {t:g} | " + " | ".join(row) + " |", flush=True)
 
 
 def rtf_table() -> None:
@@ -134,13 +120,17 @@ def main() -> None:
 
     limit_blas_threads(1)  # as the front-ends do when they start a run (drake_sot.blas)
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=3, help="bisection runs per cell (default 3)")
+    parser.add_argument("--robots", default="embedded,talos,g1", help="comma-separated robot names")
+    parser.add_argument("--iterations", type=int, default=5, help="bisection depth (default 5: 25 N)")
+    parser.add_argument("--stabilizer", choices=("both", "on", "off"), default="both")
+    parser.add_argument("--times", type=int, choices=(1, 2, 3, 4), default=4, help="push times kept")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--no-rtf", action="store_true", help="skip the real-time factor table")
     parser.add_argument("--no-push", action="store_true", help="skip the push-recovery table")
     args = parser.parse_args()
     if not args.no_push:
-        push_table(args.steps, args.workers)
+        for robot in args.robots.split(","):
+            push_map(robot, args.iterations, args.stabilizer, args.times, args.workers)
     if not args.no_rtf:
         rtf_table()
 

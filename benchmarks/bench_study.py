@@ -1,0 +1,117 @@
+"""Studies on Dask: the throughput of a local cluster against the same runs serially in one
+process, and the engine's cost per run.
+
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_study.py [--rounds 2] [--runs 12]
+
+**Throughput.** A grid of ``--runs`` runs of ``reach`` (the right hand's gain varied, 3 s each)
+is run (a) serially, each run built and simulated by ``study_runs.measure`` in this process, and
+(b) as a study by ``run_study`` on a new ``LocalCluster`` of 2 worker processes — the cluster's
+start, the workers' imports and the table included, as a user gets it. The two alternate, round
+after round (this machine's 2 cores are shared: only ratios within a round are compared). The
+ratio serial / cluster is the speed-up; 2 is the most 2 cores give.
+
+**Cost per run.** Tiny runs (``reach`` for 0.02 s) through a study on one worker, against the same
+runs called directly, for two counts of runs: the difference of the differences, per run, is
+what the engine adds to a run (scheduling, the result's transfer, the table's flushed row); what
+is left at zero runs is the cluster's start and stop.
+
+Prints the tables of benchmarks/README.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+
+from drake_sot.blas import limit_blas_threads
+from drake_sot.diagrams.study_runs import TARGETS, measure
+from drake_sot.studies import Grid, Study
+from drake_sot.studies.runner import run_study
+
+GAINS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 7.5, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0)
+
+
+def study(runs: int, duration: float, name: str) -> Study:
+    """``runs`` runs of ``reach`` over the right hand's gain, ``duration`` [s] each."""
+    if not (1 <= runs <= len(GAINS)):
+        raise SystemExit(f"--runs = {runs}: must be in [1, {len(GAINS)}]")
+    return Study(
+        name=name,
+        description="benchmark",
+        scenario="reach",
+        runs=Grid({"rh_gain": GAINS[:runs]}),
+        duration=duration,
+        metrics=("survived", "rh_settle_time"),
+        fixed={"robot": "embedded"},
+    )
+
+
+def serial(chosen: Study) -> float:
+    """[s] the wall time of the study's runs one after the other in this process."""
+    start = time.perf_counter()
+    for point in chosen.runs.points():
+        measure(chosen.scenario, {**chosen.fixed, **point}, chosen.duration, 0)
+    return time.perf_counter() - start
+
+
+def on_cluster(chosen: Study, workers: int) -> float:
+    """[s] the wall time of the study on a new local cluster of ``workers`` processes."""
+    with tempfile.TemporaryDirectory() as out:
+        start = time.perf_counter()
+        outcome = run_study(
+            chosen,
+            out,
+            declared=TARGETS[chosen.scenario].parameters,
+            measure=measure,
+            workers=workers,
+            say=lambda line: None,
+        )
+        wall = time.perf_counter() - start
+    if outcome.failed or outcome.ran != chosen.total():
+        raise SystemExit(f"{chosen.name}: {outcome.failed} of {outcome.ran} runs failed")
+    return wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--runs", type=int, default=12, help="runs of the throughput study (<= 16)")
+    args = parser.parse_args()
+    limit_blas_threads(1)
+    measure("reach", {"robot": "embedded"}, 0.02, 0)  # imports and first-build caches, outside the timing
+    load = os.getloadavg()
+    print(f"load average before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
+
+    print(
+        "\n| round | runs x 3 s of reach | serial in one process [s] | local cluster, 2 workers [s] "
+        "| speed-up |"
+    )
+    print("|---|---|---|---|---|")
+    throughput = study(args.runs, 3.0, "throughput")
+    for k in range(args.rounds):
+        s = serial(throughput)
+        c = on_cluster(throughput, 2)
+        print(f"| {k + 1} | {args.runs} | {s:.1f} | {c:.1f} | {s / c:.2f} |", flush=True)
+
+    print(
+        "\n| round | tiny runs (0.02 s) | direct [s] | study, 1 worker [s] | engine per run [ms] "
+        "| start and stop [s] |"
+    )
+    print("|---|---|---|---|---|---|")
+    few, many = study(4, 0.02, "few"), study(16, 0.02, "many")
+    for k in range(args.rounds):
+        direct = {n: serial(s) for n, s in ((4, few), (16, many))}
+        engine = {n: on_cluster(s, 1) for n, s in ((4, few), (16, many))}
+        per_run = ((engine[16] - engine[4]) - (direct[16] - direct[4])) / 12
+        fixed = engine[4] - direct[4] - 4 * per_run
+        for n in (4, 16):
+            print(
+                f"| {k + 1} | {n} | {direct[n]:.2f} | {engine[n]:.2f} | {1000 * per_run:.0f} | {fixed:.1f} |",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
