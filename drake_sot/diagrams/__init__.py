@@ -2,6 +2,7 @@
 
 from drake_sot.diagrams import (
     alpha_sweep,
+    delay_sweep_plots,
     gain_sweep_plots,
     look_and_reach,
     priority_switching,
@@ -46,6 +47,7 @@ STUDY_FIGURES = {
     "alpha_sweep": alpha_sweep.write_figures,
     "push_recovery": push_recovery_plots.write_figures,
     "gain_sweep": gain_sweep_plots.write_figures,
+    "delay_sweep": delay_sweep_plots.write_figures,
 }
 
 __all__ = ["PEERS", "SCENARIOS", "STUDIES", "STUDY_FIGURES", "Scenario"]

@@ -55,5 +55,28 @@ GAIN_SWEEP = Study(
     fixed={"robot": "embedded"},
 )
 
+#: The one-way delays of ``delay_sweep`` [s]: 0 to 250 ms (the Munich-Tsukuba link of Evrard et al.
+#: 2009 is 140 ms); with the largest jitter the worst delay stays within the link's 300 ms.
+DELAYS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25)
+
+DELAY_SWEEP = Study(
+    name="delay_sweep",
+    description="the tele-cooperation standing (Evrard et al. 2009): hand tracking and force "
+    "transparency over the link's one-way delay, with and without jitter and packet loss",
+    scenario="telecooperation_standing",
+    runs=Grid({"jitter": (0.0, 0.04), "loss": (0.0, 0.3), "delay": DELAYS}),
+    duration=4.0,  # [s]: the leader lifts the board from 1 s to 2 s, sets it back by 3 s
+    metrics=(
+        "tracking_error_rms",
+        "tracking_error_max",
+        "force_error_rms",
+        "force_ratio",
+        "survived",
+        "fall_time",
+        "min_pelvis_height",
+    ),
+    fixed={"leader": "operator", "admittance": "plain"},
+)
+
 #: The studies, by name.
-STUDIES: dict[str, Study] = {s.name: s for s in (ALPHA_SWEEP, PUSH_RECOVERY, GAIN_SWEEP)}
+STUDIES: dict[str, Study] = {s.name: s for s in (ALPHA_SWEEP, PUSH_RECOVERY, GAIN_SWEEP, DELAY_SWEEP)}
