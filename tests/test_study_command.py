@@ -112,3 +112,18 @@ def test_the_delay_sweep_figure_has_one_curve_per_jitter_and_loss_over_increasin
     np.testing.assert_array_equal(curves[(0.04, 0.3)]["delay"], [0.1])
     files = delay_sweep_plots.write_figures(DELAY_SWEEP, rows, tmp_path)
     assert files["png"].stat().st_size > 1000
+
+
+def test_an_unreachable_scheduler_exits_1_with_one_line_and_leaves_no_output_directory(tmp_path, capsys):
+    out = tmp_path / "new" / "out"
+    assert cli.main(["study", "gain_sweep", "--scheduler", "tcp://127.0.0.1:1", "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0] == "connecting to the Dask scheduler at tcp://127.0.0.1:1"
+    assert len(err) == 2 and err[1].startswith("drake-sot study: ") and "tcp://127.0.0.1:1" in err[1]
+    assert list(tmp_path.iterdir()) == []  # neither out nor its new parent
+
+
+def test_an_unreachable_scheduler_leaves_an_existing_output_directory_as_it_was(tmp_path):
+    (tmp_path / "notes.txt").write_text("mine")
+    assert cli.main(["study", "gain_sweep", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 1
+    assert [p.name for p in tmp_path.iterdir()] == ["notes.txt"]

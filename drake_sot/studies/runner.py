@@ -12,7 +12,9 @@ parameter, every metric, the seed, the duration [s], the worker, the wall time [
 drake_sot and drake versions of the worker, the status (``ok`` or ``failed``) and the error text.
 A row is appended and flushed as each run finishes, so that nothing finished is lost; a study
 given the same directory again skips the runs whose last row is ``ok``. ``<study>_runs.npz``
-holds the same columns (the last row of each run), written when the study ends or stops.
+holds the same columns (the last row of each run), written when the study ends or stops (not
+while the table has no row: a scheduler that does not answer leaves no file, nor a directory
+made for them).
 
 A run that raises, or whose worker dies, is retried once (Dask ``retries=1``; a worker's death
 also makes the scheduler move its task to another worker), then recorded as failed with its error;
@@ -44,6 +46,7 @@ from drake_sot.studies.description import Metrics, Plan, Run, Study, plans
 __all__ = [
     "RUN_COLUMNS",
     "Measure",
+    "Progress",
     "StudyOutcome",
     "read_table",
     "run_study",
@@ -260,7 +263,8 @@ def run_study(
     Raises:
         ValueError: a study the target's ``declared`` parameters refuse, a table in ``out_dir``
             with other columns, ``workers`` with ``scheduler`` or below 1 (before anything starts).
-        OSError: ``out_dir`` cannot be written (before anything starts).
+        OSError: ``out_dir`` cannot be written (before anything starts), or no scheduler answers
+            at ``scheduler`` (the directories made for ``out_dir`` are removed again when empty).
         KeyboardInterrupt: the study was interrupted: the pending runs were cancelled, every
             finished run is in the table and the cluster is closed.
     """
@@ -270,6 +274,7 @@ def run_study(
     if workers is not None and not (workers >= 1):
         raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
     out = Path(out_dir)
+    created = _missing_directories(out)
     out.mkdir(parents=True, exist_ok=True)
     table = _Table(out / f"{study.name}_runs.csv", study)
     outcome = StudyOutcome(table.path, out / f"{study.name}_runs.npz", table.rows)
@@ -308,7 +313,11 @@ def run_study(
     client = cluster = None
     try:
         # in the try: a signal while the cluster starts closes what started
-        client, cluster = _connect(scheduler, workers, len(pending), processes, say)
+        try:
+            client, cluster = _connect(scheduler, workers, len(pending), processes, say)
+        except Exception:  # no scheduler there: no directory of ours is left behind either
+            _remove_empty(created)
+            raise
         start = time.perf_counter()
         from distributed import as_completed
 
@@ -363,8 +372,28 @@ def run_study(
             client.close()
         if cluster is not None:
             cluster.close()
-        table.write_npz(outcome.npz)
+        if table.path.exists():  # some run recorded
+            table.write_npz(outcome.npz)
     return outcome
+
+
+def _missing_directories(out: Path) -> list[Path]:
+    """``out`` and those of its parents that do not exist yet, the deepest first."""
+    missing = []
+    for path in (out, *out.parents):
+        if path.exists():
+            break
+        missing.append(path)
+    return missing
+
+
+def _remove_empty(directories: Sequence[Path]) -> None:
+    """Remove ``directories`` (the deepest first), stopping at the first that is not empty."""
+    for directory in directories:
+        try:
+            directory.rmdir()
+        except OSError:
+            return
 
 
 def _connect(
