@@ -8,8 +8,9 @@ tcp://HOST:PORT``, to the workers of that Dask scheduler (``dask scheduler``, th
 tcp://HOST:PORT`` on each machine). Given the same ``--out`` again, a study runs only what its
 table does not hold yet.
 
-Exit status: 0 every run ok, 1 some runs failed (the table says which and why) or the scheduler
-could not be reached, 2 bad arguments (nothing run), 130 interrupted by SIGINT (Ctrl-C), 143 by
+Exit status: 0 every run ok, 1 some runs failed (the table says which and why), the scheduler
+could not be reached or a figure could not be written (a full disk: one line names it), 2 bad
+arguments (nothing run), 130 interrupted by SIGINT (Ctrl-C), 143 by
 SIGTERM: the pending runs are cancelled, the finished ones are in the table, the figures cover
 them and no worker process is left.
 """
@@ -18,21 +19,19 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import signal
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from drake_sot.diagrams import STUDY_FIGURES
-from drake_sot.diagrams.run import MAX_DURATION, Interrupted, SignalGuard, check_duration
-from drake_sot.diagrams.study_runs import TARGETS, measure
+from drake_sot.diagrams.run import MAX_DURATION, check_duration
+from drake_sot.diagrams.study_session import run_with_figures
 from drake_sot.studies.catalog import STUDIES
 from drake_sot.studies.description import Study
-from drake_sot.studies.runner import read_table, run_study
 from drake_sot.validation import is_number
 
 EPILOG = (
-    "exit status: 0 every run ok, 1 some runs failed (see the table) or no scheduler, 2 bad arguments, "
+    "exit status: 0 every run ok, 1 some runs failed (see the table), no scheduler or a figure not "
+    "written, 2 bad arguments, "
     "130 interrupted (Ctrl-C), 143 SIGTERM"
 )
 
@@ -93,14 +92,18 @@ def _progress(done: int, failed: int, total: int, left: float) -> None:
     print(f"{done}/{total} runs done, {failed} failed{eta}", file=sys.stderr, flush=True)
 
 
+def describe(study: Study) -> str:
+    """The line ``--list`` (and ``drake-sot list``) gives ``study`` after its name."""
+    return f"{study.description} ({study.total()} runs of {study.scenario})"
+
+
 def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDIES) -> int:
     """Run ``drake-sot study`` with the ``args`` parsed by a parser given :func:`add_arguments`;
     its exit status (see the module)."""
     parser: argparse.ArgumentParser = args.study_parser
     if args.list:
         for name in sorted(studies):
-            study = studies[name]
-            print(f"{name:20s} {study.description} ({study.total()} runs of {study.scenario})")
+            print(f"{name:20s} {describe(studies[name])}")
         return 0
     if args.name is None:
         parser.error("give a study's NAME (or --list)")
@@ -111,45 +114,32 @@ def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDI
     study = studies[args.name]
     if args.duration is not None:
         study = dataclasses.replace(study, duration=args.duration)
-    out = Path(args.out)
-    stopped: Interrupted | None = None
-    with SignalGuard() as guard:
-        try:
-            outcome = run_study(
-                study,
-                out,
-                declared=TARGETS[study.scenario].parameters,
-                measure=measure,
-                scheduler=args.scheduler,
-                workers=args.workers,
-                progress=_progress,
-                hold=guard.hold,
-            )
-            rows, failed = outcome.rows, outcome.failed
-            files = {"table": outcome.table, "runs": outcome.npz}
-        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (SignalGuard raises Interrupted)
-            stopped = exc if isinstance(exc, Interrupted) else Interrupted(signal.SIGINT)
-            rows, failed = read_table(out / f"{study.name}_runs.csv", study), 0
-            files = {"table": out / f"{study.name}_runs.csv", "runs": out / f"{study.name}_runs.npz"}
-        except ValueError as exc:  # refused before anything ran: the study, the table, the workers
-            parser.error(str(exc))
-        except OSError as exc:  # --out not writable, or no scheduler at --scheduler
-            print(f"drake-sot study: {exc}", file=sys.stderr)
-            return 1
-        if study.name in STUDY_FIGURES:
-            files |= STUDY_FIGURES[study.name](study, rows, out)
+    try:
+        session = run_with_figures(
+            study, Path(args.out), scheduler=args.scheduler, workers=args.workers, progress=_progress
+        )
+    except ValueError as exc:  # refused before anything ran: the study, the table, the workers
+        parser.error(str(exc))
+    except OSError as exc:  # --out not writable, or no scheduler at --scheduler
+        print(f"drake-sot study: {exc}", file=sys.stderr)
+        return 1
+    files, unwritten = session.artefacts.files, session.artefacts.unwritten
     for path in files.values():
         print(f"wrote {path}")
-    if stopped is not None:
+    if unwritten:
+        named = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
+        print(f"could not write: {named}", file=sys.stderr)
+    table = Path(args.out) / f"{study.name}_runs.csv"
+    if session.stopped is not None:
         print(
-            f"interrupted by {stopped.signum.name}: the {len(rows)} runs done are in {files['table']}",
+            f"interrupted by {session.stopped.signum.name}: the {len(session.rows)} runs done are in {table}",
             file=sys.stderr,
         )
-        return 128 + stopped.signum
-    if failed:
-        print(f"{failed} runs failed: their errors are in {files['table']}", file=sys.stderr)
+        return 128 + session.stopped.signum
+    if session.failed:
+        print(f"{session.failed} runs failed: their errors are in {table}", file=sys.stderr)
         return 1
-    return 0
+    return 1 if unwritten else 0
 
 
 def main(argv: Sequence[str] | None = None, studies: Mapping[str, Study] = STUDIES) -> int:
