@@ -13,9 +13,13 @@ run measures:
   saw it) in the run's duration;
 - ``fall_time`` [s]: when it fell, NaN when it did not;
 - ``min_pelvis_height`` [m]: the lowest height of the floating base (the pelvis), NaN on a fixed base;
-- ``max_final_error`` [m or rad]: the largest norm of a task's error at the run's end, over the
-  tasks in the stack then;
-- ``final_error/<task>``: that norm per task;
+- ``max_final_error_m`` [m] and ``max_final_error_rad`` [rad]: the largest norm of the
+  components of a task's error at the run's end in that unit (a 6D task's position, its
+  orientation; the units each feature gives, ``Feature.units``), over the tasks in the stack
+  then (NaN when none has such components; the torque controller's tasks, which say no units,
+  count in neither);
+- ``final_error/<task>``: the norm of each task's whole error at the run's end (its units mixed
+  when it has several);
 
 ``priority_switching`` also ``steady_error_head`` and ``steady_error_lh`` [m], the mean
 error norm of the head and left-hand tasks over the run's last second, and ``reach`` also
@@ -53,6 +57,8 @@ from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup, build_sc
 from drake_sot.errors import UnknownNameError
 from drake_sot.parameters import Parameter, check_parameters
 from drake_sot.studies.description import Metrics
+from drake_sot.systems.inequalities import InequalityTask
+from drake_sot.systems.task import Task
 from drake_sot.transitions import AlphaSchedule
 
 #: A pelvis push given as numbers: when, which way, how hard, how long (no push at 0 N).
@@ -249,20 +255,28 @@ def measure(target: str, parameters: dict[str, Any], duration: float, seed: int)
 
 
 def common_metrics(setup: ScenarioSetup, arrays: dict[str, np.ndarray], result: RunResult) -> Metrics:
-    """``survived``, ``fall_time``, ``min_pelvis_height``, ``max_final_error`` and
-    ``final_error/<task>`` of a run (see the module's docstring)."""
+    """``survived``, ``fall_time``, ``min_pelvis_height``, ``max_final_error_m``,
+    ``max_final_error_rad`` and ``final_error/<task>`` of a run (see the module's docstring)."""
     built = setup.built
     instance = built.info.model_instance
     floating = built.plant.num_positions(instance) == built.plant.num_velocities(instance) + 1
-    final = {
-        name.removeprefix("error/"): float(np.linalg.norm(values[-1]))
+    last = {
+        name.removeprefix("error/"): values[-1]
         for name, values in arrays.items()
         if name.startswith("error/") and len(values) and np.isfinite(values[-1]).all()
     }
+    by_unit: dict[str, list[float]] = {"m": [], "rad": []}
+    for task_name, error in last.items():
+        task = built.tasks.get(task_name)
+        units = np.array(task.units if isinstance(task, Task | InequalityTask) else ("",) * len(error))
+        for unit, norms in by_unit.items():
+            if (units == unit).any():
+                norms.append(float(np.linalg.norm(error[units == unit])))
     return {
         "survived": result.fell is None,
         "fall_time": math.nan if result.fell is None else result.fell.time,
         "min_pelvis_height": float(arrays["q"][:, 6].min()) if floating else math.nan,  # qw qx qy qz x y z
-        "max_final_error": max(final.values(), default=math.nan),
-        **{f"final_error/{task}": value for task, value in final.items()},
+        "max_final_error_m": max(by_unit["m"], default=math.nan),
+        "max_final_error_rad": max(by_unit["rad"], default=math.nan),
+        **{f"final_error/{task}": float(np.linalg.norm(error)) for task, error in last.items()},
     }

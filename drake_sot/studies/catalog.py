@@ -17,7 +17,7 @@ ALPHA_SWEEP = Study(
     scenario="priority_switching",
     runs=Grid({"alpha_lh_head": ALPHA_GRID, "alpha_head_lh": ALPHA_GRID}),
     duration=4.0,  # [s]: the errors settle in 3 s; the steady ones are averaged over the last second
-    metrics=("steady_error_head", "steady_error_lh", "max_final_error"),
+    metrics=("steady_error_head", "steady_error_lh", "max_final_error_m", "max_final_error_rad"),
     fixed={"robot": "embedded"},
 )
 
@@ -40,7 +40,7 @@ PUSH_RECOVERY = Study(
         iterations=5,  # to 25 N
     ),
     duration=5.0,  # [s]: at least 2.3 s after the last push, time enough to fall
-    metrics=("survived", "fall_time", "min_pelvis_height", "max_final_error"),
+    metrics=("survived", "fall_time", "min_pelvis_height", "max_final_error_m", "max_final_error_rad"),
     fixed={"robot": "embedded", "push_duration": 0.1},
 )
 
@@ -51,7 +51,7 @@ GAIN_SWEEP = Study(
     scenario="reach",
     runs=Grid({"rh_gain": (0.5, 1.0, 2.5, 5.0, 10.0, 20.0)}),
     duration=3.0,  # [s]: the target moves at 1 s
-    metrics=("survived", "rh_settle_time", "final_error/taskRH", "max_final_error"),
+    metrics=("survived", "rh_settle_time", "final_error/taskRH", "max_final_error_m", "max_final_error_rad"),
     fixed={"robot": "embedded"},
 )
 

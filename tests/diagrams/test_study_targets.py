@@ -8,10 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from drake_sot.diagrams import telecooperation
+from drake_sot.diagrams import reach, telecooperation
 from drake_sot.diagrams.artifacts import log_arrays
 from drake_sot.diagrams.reach import RIGHT_HAND_OFFSET
 from drake_sot.diagrams.run import simulate
+from drake_sot.diagrams.scenario import build_scenario
 from drake_sot.diagrams.study_runs import SETTLED, measure
 
 pytestmark = pytest.mark.slow
@@ -98,3 +99,40 @@ def test_the_telecooperation_metrics_are_the_hands_distances_and_forces_from_the
 def test_a_delay_and_jitter_over_the_links_largest_delay_is_refused_naming_them():
     with pytest.raises(ValueError, match=r"LinkConfig.jitter = 0.1 s: must be in \[0, 0.05\]"):
         measure("telecooperation_standing", {"delay": 0.25, "jitter": 0.1}, 1.0, 0)
+
+
+#: Where reach's tasks have metres and radians in their errors, by their kind: 6D operational
+#: points [p - p*; rotation vector], the CoM's ground projection, joint limits and posture (the
+#: embedded humanoid's joints are all revolute).
+REACH_UNITS = {
+    **{task: {"m": slice(0, 3), "rad": slice(3, 6)} for task in ("taskLF", "taskRF", "taskRH", "taskLH")},
+    "taskCom": {"m": slice(None)},
+    "taskJL": {"rad": slice(None)},
+    "taskPosture": {"rad": slice(None)},
+}
+
+
+def test_the_largest_final_errors_are_split_into_metres_and_radians_by_the_tasks_kinds():
+    """reach at 1.5 s (the right hand still far from its moved target): the largest norm of the
+    position parts and of the orientation parts of the tasks' errors at the end, each in its unit."""
+    duration = 1.5
+    metrics = measure("reach", {}, duration, 0)
+    setup = build_scenario(reach.SCENARIO, None)
+    simulator = setup.built.create_simulator()
+    result = simulate(simulator, duration, setup.commands)
+    logs = log_arrays(setup.built, simulator.get_context(), result)
+    final = {
+        name.removeprefix("error/"): values[-1]
+        for name, values in logs.items()
+        if name.startswith("error/") and np.isfinite(values[-1]).all()
+    }
+    assert {"taskRH", "taskJL", "taskCom"} <= set(final) <= set(REACH_UNITS)  # taskLH comes later
+    for unit in ("m", "rad"):
+        parts = [
+            float(np.linalg.norm(final[t][kinds[unit]]))
+            for t, kinds in REACH_UNITS.items()
+            if unit in kinds and t in final
+        ]
+        assert metrics[f"max_final_error_{unit}"] == pytest.approx(max(parts), rel=1e-9), unit
+    assert metrics["max_final_error_m"] > 0.05  # the right hand: its target moved at 1 s, λ = 2.5 /s
+    assert "max_final_error" not in metrics
