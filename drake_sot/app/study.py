@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import re
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from drake_sot.diagrams.alpha_sweep import MAX_WORKERS, WORKERS
 from drake_sot.diagrams.run import MAX_DURATION, check_duration
 from drake_sot.diagrams.study_session import run_with_figures
 from drake_sot.studies.catalog import STUDIES
@@ -37,14 +39,30 @@ EPILOG = (
 
 
 def _workers(text: str) -> int:
-    """An argparse ``type``: ``--workers``, an integer >= 1."""
+    """An argparse ``type``: ``--workers``, an integer in [1, :data:`MAX_WORKERS`]."""
     try:
         value = int(text)
-    except ValueError:
-        value = 0
-    if not (value >= 1):
-        raise argparse.ArgumentTypeError(f"workers = {text}: must be an integer >= 1")
-    return value
+    except ValueError:  # not an integer, or beyond 4300 digits
+        raise argparse.ArgumentTypeError(f"workers = {text!r}: must be {WORKERS.accepted()}") from None
+    try:
+        return int(WORKERS.check(value))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+#: A Dask scheduler's address: ``tcp://`` or ``tls://``, a host name or an IPv4 address (or an
+#: IPv6 one in brackets), a port.
+SCHEDULER_ADDRESS = re.compile(r"(?:tcp|tls)://(?:[A-Za-z0-9._-]+|\[[0-9A-Fa-f:.]+\]):([0-9]{1,5})")
+
+
+def _scheduler(text: str) -> str:
+    """An argparse ``type``: ``--scheduler``, ``tcp://HOST:PORT`` (or ``tls://``), PORT in [1, 65535]."""
+    match = SCHEDULER_ADDRESS.fullmatch(text)
+    if match is None or not (1 <= int(match[1]) <= 65535):
+        raise argparse.ArgumentTypeError(
+            f"scheduler = {text!r}: must be tcp://HOST:PORT (or tls://HOST:PORT), PORT in [1, 65535]"
+        )
+    return text
 
 
 def _duration(text: str) -> float:
@@ -65,6 +83,7 @@ def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] 
     parser.add_argument("--list", action="store_true", help="list the studies")
     parser.add_argument(
         "--scheduler",
+        type=_scheduler,
         default=None,
         metavar="ADDRESS",
         help="the Dask scheduler to run on (tcp://HOST:PORT, see 'dask scheduler'); default: a local "
@@ -75,7 +94,8 @@ def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] 
         type=_workers,
         default=None,
         metavar="N",
-        help="local worker processes (default: one per core; at most one per core and per run)",
+        help=f"local worker processes, at most {MAX_WORKERS} (default: one per core; at most one per core "
+        "and per run are started)",
     )
     parser.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
     parser.add_argument(
