@@ -3,15 +3,19 @@ push-recovery survival map read off a table's rows."""
 
 from __future__ import annotations
 
+import errno
+import os
+
 import numpy as np
 import pytest
 
 from drake_sot.app import cli
-from drake_sot.diagrams import delay_sweep_plots
+from drake_sot.diagrams import delay_sweep_plots, study_session
 from drake_sot.diagrams.push_recovery_plots import survival_map, write_figures
 from drake_sot.diagrams.study_runs import TARGETS
 from drake_sot.studies.catalog import DELAY_SWEEP, PUSH_RECOVERY, STUDIES
 from drake_sot.studies.description import check_study
+from drake_sot.studies.runner import StudyOutcome
 
 
 def test_the_listing_names_every_study_its_target_and_its_runs(capsys):
@@ -127,3 +131,25 @@ def test_an_unreachable_scheduler_leaves_an_existing_output_directory_as_it_was(
     (tmp_path / "notes.txt").write_text("mine")
     assert cli.main(["study", "gain_sweep", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 1
     assert [p.name for p in tmp_path.iterdir()] == ["notes.txt"]
+
+
+def test_a_full_disk_costs_the_study_its_figures_with_one_line_and_exit_1(tmp_path, monkeypatch, capsys):
+    """The runs are in the table; the figures do not fit: one line names them, the table is
+    still listed as written, exit status 1 (no traceback)."""
+    table = tmp_path / "gain_sweep_runs.csv"
+
+    def ran(study, out, **kwargs):
+        table.write_text("run_id\n")
+        return StudyOutcome(table, tmp_path / "gain_sweep_runs.npz", {})
+
+    def full(study, rows, out):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(out / "gain_sweep.png"))
+
+    monkeypatch.setattr(study_session, "run_study", ran)
+    monkeypatch.setitem(study_session.STUDY_FIGURES, "gain_sweep", full)
+    assert cli.main(["study", "gain_sweep", "--out", str(tmp_path)]) == 1
+    captured = capsys.readouterr()
+    assert (
+        captured.err == f"could not write: {tmp_path}/gain_sweep.* (No space left on device, errno ENOSPC)\n"
+    )
+    assert captured.out == f"wrote {table}\n"

@@ -37,7 +37,7 @@ from drake_sot.app.study import study_command
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import StudyScenario
-from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.artifacts import output_directory, report_unwritten
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
 from drake_sot.diagrams.run import (
     MAX_DURATION,
@@ -228,7 +228,7 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser, parameters
             run.error(f"{args.scenario}: {exc}")
         for path in output.files.values():
             print(f"wrote {path}")
-        _report_unwritten(output.unwritten)
+        report_unwritten(output.unwritten)
         if output.result.failure is not None:
             print(
                 f"the run failed at t = {output.result.end_time:.3f} s: {output.result.failure}",
@@ -506,13 +506,6 @@ def exit_status(result: RunResult, unwritten: Mapping[str, str] | None = None) -
     return FELL if result.fell is not None else 0
 
 
-def _report_unwritten(unwritten: Mapping[str, str]) -> None:
-    """One line on stderr naming the files that could not be written, and why."""
-    if unwritten:
-        files = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
-        print(f"could not write: {files}", file=sys.stderr)
-
-
 #: The exit status of a command whose standard output's reader went away (``drake-sot list | head``),
 #: as for a process ended by SIGPIPE (128 + 13).
 EXIT_BROKEN_PIPE = 141
@@ -676,7 +669,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 )
                 for path in output.files.values():
                     print(f"wrote {path}", flush=True)
-                _report_unwritten(output.unwritten)
+                report_unwritten(output.unwritten)
                 unwritten = output.unwritten
                 result = output.result
             else:
@@ -776,7 +769,7 @@ def _run_study(args: argparse.Namespace, parameters: dict[str, Any], progress: P
     artefacts = STUDIES[args.scenario].run(args.out, progress=progress, **parameters, **kwargs)
     for path in artefacts.files.values():
         print(f"wrote {path}")
-    _report_unwritten(artefacts.unwritten)
+    report_unwritten(artefacts.unwritten)
     return UNWRITTEN if artefacts.unwritten else 0
 
 
@@ -806,7 +799,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
     result = output.result
     for path in output.files.values():
         print(f"wrote {path}")
-    _report_unwritten(output.unwritten)
+    report_unwritten(output.unwritten)
     print(
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"

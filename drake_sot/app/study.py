@@ -25,6 +25,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from drake_sot.diagrams.alpha_sweep import MAX_WORKERS, WORKERS
+from drake_sot.diagrams.artifacts import report_unwritten
 from drake_sot.diagrams.run import MAX_DURATION, check_duration
 from drake_sot.diagrams.study_session import run_with_figures
 from drake_sot.studies.catalog import STUDIES
@@ -146,9 +147,7 @@ def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDI
     files, unwritten = session.artefacts.files, session.artefacts.unwritten
     for path in files.values():
         print(f"wrote {path}")
-    if unwritten:
-        named = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
-        print(f"could not write: {named}", file=sys.stderr)
+    report_unwritten(unwritten)
     table = Path(args.out) / f"{study.name}_runs.csv"
     if session.stopped is not None:
         print(
