@@ -136,3 +136,12 @@ def test_the_largest_final_errors_are_split_into_metres_and_radians_by_the_tasks
         assert metrics[f"max_final_error_{unit}"] == pytest.approx(max(parts), rel=1e-9), unit
     assert metrics["max_final_error_m"] > 0.05  # the right hand: its target moved at 1 s, λ = 2.5 /s
     assert "max_final_error" not in metrics
+
+
+def test_a_runs_seed_draws_both_directions_packets_apart_and_seed_0_is_the_two_process_links():
+    forward, backward = telecooperation.link_configs(0.1, 0.02, 0.2, seed=3)
+    assert (forward.seed, backward.seed) == (6, 7)
+    assert [forward.packet(k) for k in range(50)] != [backward.packet(k) for k in range(50)]
+    assert [c.seed for c in telecooperation.link_configs(0.1, 0.02, 0.2)] == [0, 1]  # telecoop_master's
+    with pytest.raises(ValueError, match="seed = -1: must be an integer >= 0"):
+        telecooperation.link_configs(0.1, seed=-1)
