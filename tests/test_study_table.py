@@ -132,3 +132,11 @@ def test_a_resumed_study_runs_the_row_cut_short_again_on_a_line_of_its_own(tmp_p
     assert refusal is None and len(rows) == 6 and {r["status"] for r in rows.values()} == {"ok"}
     assert said == _said_skipped(first.table, 1)  # the half row, still there: its run is in the new one
     assert all(math.isfinite(r["margin"]) for r in rows.values())
+
+
+def test_a_blank_line_is_no_row_and_nothing_is_said(tmp_path):
+    """What a row appended after a line cut at its CR leaves: ``CR CR LF``, a blank line."""
+    path = tmp_path / "fake_runs.csv"
+    path.write_bytes(_table(3).removesuffix(b"\n") + b"\r\n" + _table(6)[len(_table(3)) :])
+    rows, said, refusal = _read(path)
+    assert refusal is None and set(rows) == set(WRITTEN) and said == []

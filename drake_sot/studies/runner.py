@@ -130,6 +130,8 @@ def read_table(
                     f"{list(columns)}: give another output directory"
                 )
             for cells in reader:
+                if not cells:  # a blank line (a line end written after one cut short at its CR)
+                    continue
                 row = dict(zip(columns, cells, strict=False))
                 if (
                     len(cells) != len(columns)
