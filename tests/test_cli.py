@@ -20,9 +20,12 @@ from drake_sot.systems.fall_monitor import Fall
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 
 
-def test_list_names_the_scenarios():
+def test_list_names_the_scenarios_then_the_studies():
     out = subprocess.run([*DRAKE_SOT, "list"], capture_output=True, text=True, check=True).stdout
-    listed = [line.split()[0] for line in out.splitlines()]
+    listed = [
+        " ".join(line.split()[:2]) if line.startswith("study ") else line.split()[0]
+        for line in out.splitlines()
+    ]
     assert listed == [
         "look_and_reach",
         "priority_switching",
@@ -36,7 +39,12 @@ def test_list_names_the_scenarios():
         "walk_then_interact",
         "alpha_sweep",
         "telecoop_master",
+        "study alpha_sweep",
+        "study delay_sweep",
+        "study gain_sweep",
+        "study push_recovery",
     ]
+    assert "(24 runs of telecooperation_standing)" in out
 
 
 def test_a_reader_closing_the_output_early_gets_no_traceback():

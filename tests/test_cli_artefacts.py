@@ -45,9 +45,9 @@ def test_a_run_with_every_artefact_written_exits_0(tmp_path, capsys):
 def test_a_full_disk_costs_the_study_its_figures_and_not_its_table(tmp_path, monkeypatch):
     """The sweep's grid does not fit: the runs' table (written as the runs finished) is kept, and
     the run says which files it could not write."""
-    from drake_sot.diagrams import alpha_sweep
+    from drake_sot.diagrams import alpha_sweep, alpha_sweep_plots
 
-    monkeypatch.setattr(alpha_sweep, "write_npz", lambda arrays, path: _disk_full(path))
+    monkeypatch.setattr(alpha_sweep_plots, "write_npz", lambda arrays, path: _disk_full(path))
     artefacts = alpha_sweep.run(tmp_path, grid=(0.0,), duration=0.1, workers=1)
     assert artefacts.unwritten == {str(tmp_path / "alpha_sweep.*"): "No space left on device, errno ENOSPC"}
     assert "npz" not in artefacts.files and "png" not in artefacts.files

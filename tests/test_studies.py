@@ -10,14 +10,25 @@ import threading
 import numpy as np
 import pytest
 
+from drake_sot.channel import MAX_DELAY
 from drake_sot.parameters import Parameter
 from drake_sot.studies import Bisection, Grid, RandomSample, Study, make_run, plans, run_id
+from drake_sot.studies.catalog import DELAY_SWEEP
 from drake_sot.studies.runner import read_table, run_study, table_columns, worker_count
 
 DECLARED = (
     Parameter("force", "float", 0.0, "the push", minimum=0.0, maximum=1000.0, unit="N"),
     Parameter("phase", "float", 0.0, "the gait phase", minimum=0.0, maximum=1.0),
     Parameter("stabilizer", "bool", True, "the stabilizer"),
+)
+#: What the ``telecooperation_standing`` target declares (its declarations are on the measuring
+#: side, with Drake): the link's delay, jitter, loss, the leader and the hands' admittance.
+TELECOOPERATION_STANDING = (
+    Parameter("leader", "choice", "operator", "who leads", choices=("operator", "cooperator")),
+    Parameter("delay", "float", 0.14, "one-way delay", minimum=0.0, maximum=MAX_DELAY, unit="s"),
+    Parameter("jitter", "float", 0.0, "jitter", minimum=0.0, maximum=MAX_DELAY, unit="s"),
+    Parameter("loss", "float", 0.0, "loss", minimum=0.0, maximum=1.0, maximum_excluded=True),
+    Parameter("admittance", "choice", "plain", "admittance", choices=("plain", "weighted")),
 )
 THRESHOLD = 137.3  # [N] the fake robot survives a push below it, with the stabilizer
 
@@ -221,3 +232,19 @@ def test_workers_are_capped_at_the_cores_and_the_runs_with_one_line():
         "--workers 100000 capped at 4 (the cores of this machine)",
     )
     assert worker_count(3, 2, cores=4) == (2, "--workers 3 capped at 2 (the runs of the study)")
+
+
+def test_the_delay_sweep_runs_each_delay_per_jitter_and_loss_and_stays_within_the_links_largest_delay():
+    runs = [next(p) for p in plans(DELAY_SWEEP, TELECOOPERATION_STANDING)]
+    points = [(r.parameters["jitter"], r.parameters["loss"], r.parameters["delay"]) for r in runs]
+    delays = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25)
+    assert points == [
+        (j, p, d) for j in (0.0, 0.04) for p in (0.0, 0.3) for d in delays
+    ]  # a curve's runs together
+    assert DELAY_SWEEP.total() == len(runs) == 24
+    assert all(d + j <= MAX_DELAY for j, _, d in points)  # no run refused by the link
+    assert all(r.parameters["leader"] == "operator" and r.parameters["admittance"] == "plain" for r in runs)
+    assert len({r.seed for r in runs}) == 24  # each run's packets drawn from its own seed
+    assert {"tracking_error_rms", "tracking_error_max", "force_error_rms", "force_ratio", "survived"} <= set(
+        DELAY_SWEEP.metrics
+    )

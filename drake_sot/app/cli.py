@@ -32,11 +32,12 @@ from pydrake.systems.analysis import Simulator
 from drake_sot.app.serving import decision_runner, serve_run
 from drake_sot.app.study import EPILOG as STUDY_EPILOG
 from drake_sot.app.study import add_arguments as study_arguments
+from drake_sot.app.study import describe as describe_study
 from drake_sot.app.study import study_command
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
-from drake_sot.diagrams.alpha_sweep import Study
-from drake_sot.diagrams.artifacts import output_directory
+from drake_sot.diagrams.alpha_sweep import StudyScenario
+from drake_sot.diagrams.artifacts import output_directory, report_unwritten
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
 from drake_sot.diagrams.run import (
     MAX_DURATION,
@@ -67,6 +68,7 @@ from drake_sot.robots import ROBOTS, RobotDataMissing, RobotFileError, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT
 from drake_sot.robots.description import LOGICAL_FRAMES
 from drake_sot.script import ScriptError, Statement
+from drake_sot.studies.catalog import STUDIES as CATALOG
 from drake_sot.validation import bounded, finite, is_number, nonnegative, positive, positive_int
 
 #: Exit status of a run in which the robot fell.
@@ -226,7 +228,7 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser, parameters
             run.error(f"{args.scenario}: {exc}")
         for path in output.files.values():
             print(f"wrote {path}")
-        _report_unwritten(output.unwritten)
+        report_unwritten(output.unwritten)
         if output.result.failure is not None:
             print(
                 f"the run failed at t = {output.result.end_time:.3f} s: {output.result.failure}",
@@ -251,7 +253,7 @@ Takes = tuple[tuple[str, ...], tuple[Parameter, ...]]
 
 def runnables(
     scenarios: Mapping[str, Scenario] | None = None,
-    studies: Mapping[str, Study] | None = None,
+    studies: Mapping[str, StudyScenario] | None = None,
     peers: Mapping[str, PeerScenario] | None = None,
 ) -> dict[str, Takes]:
     """Each target of ``run`` by name (by default :data:`~drake_sot.diagrams.SCENARIOS`,
@@ -317,7 +319,10 @@ def _parser(
     targets = runnables() if targets is None else targets
     parser = _Parser(prog="drake-sot", description="The Stack of Tasks on Drake.")
     sub = parser.add_subparsers(dest="command", required=True)
-    listing = sub.add_parser("list", help="list the scenarios (or, with --robots, the robots)")
+    listing = sub.add_parser(
+        "list",
+        help="list the scenarios, then the studies of 'drake-sot study' (or, with --robots, the robots)",
+    )
     listing.add_argument("--robots", action="store_true", help="list the robots --robot takes")
     run = sub.add_parser(
         "run",
@@ -501,13 +506,6 @@ def exit_status(result: RunResult, unwritten: Mapping[str, str] | None = None) -
     return FELL if result.fell is not None else 0
 
 
-def _report_unwritten(unwritten: Mapping[str, str]) -> None:
-    """One line on stderr naming the files that could not be written, and why."""
-    if unwritten:
-        files = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
-        print(f"could not write: {files}", file=sys.stderr)
-
-
 #: The exit status of a command whose standard output's reader went away (``drake-sot list | head``),
 #: as for a process ended by SIGPIPE (128 + 13).
 EXIT_BROKEN_PIPE = 141
@@ -547,6 +545,8 @@ def _main(argv: Sequence[str] | None) -> int:
             print(f"{name:20s} {STUDIES[name].description}")
         for name in sorted(PEERS):  # two-process mode
             print(f"{name:20s} {PEERS[name].description}")
+        for name, study in sorted(CATALOG.items()):  # drake-sot study NAME
+            print(f"{'study ' + name:20s} {describe_study(study)}")
         return 0
     targets = runnables()
     options, declared = targets[args.scenario]
@@ -669,7 +669,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 )
                 for path in output.files.values():
                     print(f"wrote {path}", flush=True)
-                _report_unwritten(output.unwritten)
+                report_unwritten(output.unwritten)
                 unwritten = output.unwritten
                 result = output.result
             else:
@@ -769,7 +769,7 @@ def _run_study(args: argparse.Namespace, parameters: dict[str, Any], progress: P
     artefacts = STUDIES[args.scenario].run(args.out, progress=progress, **parameters, **kwargs)
     for path in artefacts.files.values():
         print(f"wrote {path}")
-    _report_unwritten(artefacts.unwritten)
+    report_unwritten(artefacts.unwritten)
     return UNWRITTEN if artefacts.unwritten else 0
 
 
@@ -799,7 +799,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
     result = output.result
     for path in output.files.values():
         print(f"wrote {path}")
-    _report_unwritten(output.unwritten)
+    report_unwritten(output.unwritten)
     print(
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"

@@ -8,8 +8,9 @@ tcp://HOST:PORT``, to the workers of that Dask scheduler (``dask scheduler``, th
 tcp://HOST:PORT`` on each machine). Given the same ``--out`` again, a study runs only what its
 table does not hold yet.
 
-Exit status: 0 every run ok, 1 some runs failed (the table says which and why) or the scheduler
-could not be reached, 2 bad arguments (nothing run), 130 interrupted by SIGINT (Ctrl-C), 143 by
+Exit status: 0 every run ok, 1 some runs failed (the table says which and why), the scheduler
+could not be reached or a figure could not be written (a full disk: one line names it), 2 bad
+arguments (nothing run), 130 interrupted by SIGINT (Ctrl-C), 143 by
 SIGTERM: the pending runs are cancelled, the finished ones are in the table, the figures cover
 them and no worker process is left.
 """
@@ -18,34 +19,51 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import signal
+import re
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from drake_sot.diagrams import STUDY_FIGURES
-from drake_sot.diagrams.run import MAX_DURATION, Interrupted, SignalGuard, check_duration
-from drake_sot.diagrams.study_runs import TARGETS, measure
+from drake_sot.diagrams.alpha_sweep import MAX_WORKERS, WORKERS
+from drake_sot.diagrams.artifacts import report_unwritten
+from drake_sot.diagrams.run import MAX_DURATION, check_duration
+from drake_sot.diagrams.study_session import run_with_figures
 from drake_sot.studies.catalog import STUDIES
 from drake_sot.studies.description import Study
-from drake_sot.studies.runner import read_table, run_study
 from drake_sot.validation import is_number
 
 EPILOG = (
-    "exit status: 0 every run ok, 1 some runs failed (see the table) or no scheduler, 2 bad arguments, "
+    "exit status: 0 every run ok, 1 some runs failed (see the table), no scheduler or a figure not "
+    "written, 2 bad arguments, "
     "130 interrupted (Ctrl-C), 143 SIGTERM"
 )
 
 
 def _workers(text: str) -> int:
-    """An argparse ``type``: ``--workers``, an integer >= 1."""
+    """An argparse ``type``: ``--workers``, an integer in [1, :data:`MAX_WORKERS`]."""
     try:
         value = int(text)
-    except ValueError:
-        value = 0
-    if not (value >= 1):
-        raise argparse.ArgumentTypeError(f"workers = {text}: must be an integer >= 1")
-    return value
+    except ValueError:  # not an integer, or beyond 4300 digits
+        raise argparse.ArgumentTypeError(f"workers = {text!r}: must be {WORKERS.accepted()}") from None
+    try:
+        return int(WORKERS.check(value))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+#: A Dask scheduler's address: ``tcp://`` or ``tls://``, a host name or an IPv4 address (or an
+#: IPv6 one in brackets), a port.
+SCHEDULER_ADDRESS = re.compile(r"(?:tcp|tls)://(?:[A-Za-z0-9._-]+|\[[0-9A-Fa-f:.]+\]):([0-9]{1,5})")
+
+
+def _scheduler(text: str) -> str:
+    """An argparse ``type``: ``--scheduler``, ``tcp://HOST:PORT`` (or ``tls://``), PORT in [1, 65535]."""
+    match = SCHEDULER_ADDRESS.fullmatch(text)
+    if match is None or not (1 <= int(match[1]) <= 65535):
+        raise argparse.ArgumentTypeError(
+            f"scheduler = {text!r}: must be tcp://HOST:PORT (or tls://HOST:PORT), PORT in [1, 65535]"
+        )
+    return text
 
 
 def _duration(text: str) -> float:
@@ -66,6 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] 
     parser.add_argument("--list", action="store_true", help="list the studies")
     parser.add_argument(
         "--scheduler",
+        type=_scheduler,
         default=None,
         metavar="ADDRESS",
         help="the Dask scheduler to run on (tcp://HOST:PORT, see 'dask scheduler'); default: a local "
@@ -76,7 +95,8 @@ def add_arguments(parser: argparse.ArgumentParser, studies: Mapping[str, Study] 
         type=_workers,
         default=None,
         metavar="N",
-        help="local worker processes (default: one per core; at most one per core and per run)",
+        help=f"local worker processes, at most {MAX_WORKERS} (default: one per core; at most one per core "
+        "and per run are started)",
     )
     parser.add_argument("--out", default="out", metavar="DIR", help="output directory (default: out/)")
     parser.add_argument(
@@ -93,14 +113,18 @@ def _progress(done: int, failed: int, total: int, left: float) -> None:
     print(f"{done}/{total} runs done, {failed} failed{eta}", file=sys.stderr, flush=True)
 
 
+def describe(study: Study) -> str:
+    """The line ``--list`` (and ``drake-sot list``) gives ``study`` after its name."""
+    return f"{study.description} ({study.total()} runs of {study.scenario})"
+
+
 def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDIES) -> int:
     """Run ``drake-sot study`` with the ``args`` parsed by a parser given :func:`add_arguments`;
     its exit status (see the module)."""
     parser: argparse.ArgumentParser = args.study_parser
     if args.list:
         for name in sorted(studies):
-            study = studies[name]
-            print(f"{name:20s} {study.description} ({study.total()} runs of {study.scenario})")
+            print(f"{name:20s} {describe(studies[name])}")
         return 0
     if args.name is None:
         parser.error("give a study's NAME (or --list)")
@@ -111,45 +135,30 @@ def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDI
     study = studies[args.name]
     if args.duration is not None:
         study = dataclasses.replace(study, duration=args.duration)
-    out = Path(args.out)
-    stopped: Interrupted | None = None
-    with SignalGuard() as guard:
-        try:
-            outcome = run_study(
-                study,
-                out,
-                declared=TARGETS[study.scenario].parameters,
-                measure=measure,
-                scheduler=args.scheduler,
-                workers=args.workers,
-                progress=_progress,
-                hold=guard.hold,
-            )
-            rows, failed = outcome.rows, outcome.failed
-            files = {"table": outcome.table, "runs": outcome.npz}
-        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (SignalGuard raises Interrupted)
-            stopped = exc if isinstance(exc, Interrupted) else Interrupted(signal.SIGINT)
-            rows, failed = read_table(out / f"{study.name}_runs.csv", study), 0
-            files = {"table": out / f"{study.name}_runs.csv", "runs": out / f"{study.name}_runs.npz"}
-        except ValueError as exc:  # refused before anything ran: the study, the table, the workers
-            parser.error(str(exc))
-        except OSError as exc:  # --out not writable, or no scheduler at --scheduler
-            print(f"drake-sot study: {exc}", file=sys.stderr)
-            return 1
-        if study.name in STUDY_FIGURES:
-            files |= STUDY_FIGURES[study.name](study, rows, out)
+    try:
+        session = run_with_figures(
+            study, Path(args.out), scheduler=args.scheduler, workers=args.workers, progress=_progress
+        )
+    except ValueError as exc:  # refused before anything ran: the study, the table, the workers
+        parser.error(str(exc))
+    except OSError as exc:  # --out not writable, or no scheduler at --scheduler
+        print(f"drake-sot study: {exc}", file=sys.stderr)
+        return 1
+    files, unwritten = session.artefacts.files, session.artefacts.unwritten
     for path in files.values():
         print(f"wrote {path}")
-    if stopped is not None:
+    report_unwritten(unwritten)
+    table = Path(args.out) / f"{study.name}_runs.csv"
+    if session.stopped is not None:
         print(
-            f"interrupted by {stopped.signum.name}: the {len(rows)} runs done are in {files['table']}",
+            f"interrupted by {session.stopped.signum.name}: the {len(session.rows)} runs done are in {table}",
             file=sys.stderr,
         )
-        return 128 + stopped.signum
-    if failed:
-        print(f"{failed} runs failed: their errors are in {files['table']}", file=sys.stderr)
+        return 128 + session.stopped.signum
+    if session.failed:
+        print(f"{session.failed} runs failed: their errors are in {table}", file=sys.stderr)
         return 1
-    return 0
+    return 1 if unwritten else 0
 
 
 def main(argv: Sequence[str] | None = None, studies: Mapping[str, Study] = STUDIES) -> int:

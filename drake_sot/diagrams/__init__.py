@@ -2,10 +2,8 @@
 
 from drake_sot.diagrams import (
     alpha_sweep,
-    gain_sweep_plots,
     look_and_reach,
     priority_switching,
-    push_recovery_plots,
     reach,
     table_pounding,
     telecoop_master,
@@ -17,6 +15,7 @@ from drake_sot.diagrams import (
     walk_then_interact,
 )
 from drake_sot.diagrams.scenario import Scenario
+from drake_sot.diagrams.study_session import STUDY_FIGURES
 
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
@@ -37,15 +36,8 @@ SCENARIOS: dict[str, Scenario] = {
 #: Scenarios run as the client of a served one (``drake-sot run NAME --connect HOST:PORT``).
 PEERS: dict[str, telecoop_master.PeerScenario] = {s.name: s for s in (telecoop_master.SCENARIO,)}
 
-#: Batches of simulations (the ``drake-sot run`` command accepts them like scenarios).
-STUDIES: dict[str, alpha_sweep.Study] = {s.name: s for s in (alpha_sweep.STUDY,)}
-
-#: What writes the figures of a study of ``drake-sot study`` from its table's rows, by study name:
-#: ``write(study, rows, out_dir)`` -> name -> file.
-STUDY_FIGURES = {
-    "alpha_sweep": alpha_sweep.write_figures,
-    "push_recovery": push_recovery_plots.write_figures,
-    "gain_sweep": gain_sweep_plots.write_figures,
-}
+#: Studies the ``drake-sot run`` command accepts like scenarios (``drake-sot study`` runs every
+#: study of :data:`drake_sot.studies.catalog.STUDIES`, the figures of each in ``STUDY_FIGURES``).
+STUDIES: dict[str, alpha_sweep.StudyScenario] = {s.name: s for s in (alpha_sweep.STUDY,)}
 
 __all__ = ["PEERS", "SCENARIOS", "STUDIES", "STUDY_FIGURES", "Scenario"]

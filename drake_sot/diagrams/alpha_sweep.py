@@ -5,32 +5,26 @@ Each grid point is one run of the fixed-base robot with constant priorities
 (:data:`drake_sot.studies.catalog.ALPHA_SWEEP`, measured by
 :func:`drake_sot.diagrams.study_runs.measure`), on Dask (:mod:`drake_sot.studies.runner`):
 ``drake-sot study alpha_sweep``, or ``drake-sot run alpha_sweep`` (:func:`run`, a local cluster).
-:func:`write_figures` turns the runs' table into the grid's npz and heat maps.
+:func:`drake_sot.diagrams.alpha_sweep_plots.write_figures` turns the runs' table into the grid's
+npz and heat maps.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
-import signal
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-
-from drake_sot.diagrams.alpha_sweep_plots import plot_alpha_sweep
-from drake_sot.diagrams.artifacts import Artefacts, output_directory, write_npz
-from drake_sot.diagrams.run import Interrupted, SignalGuard
-from drake_sot.diagrams.study_runs import TARGETS, measure
+from drake_sot.diagrams.artifacts import Artefacts, output_directory
+from drake_sot.diagrams.study_runs import measure
+from drake_sot.diagrams.study_session import run_with_figures
 from drake_sot.parameters import Parameter
 from drake_sot.robots import get_robot
 from drake_sot.studies.catalog import ALPHA_GRID, ALPHA_SWEEP
 from drake_sot.studies.description import Grid
-from drake_sot.studies.description import Study as StudyDescription
-from drake_sot.studies.runner import read_table, run_study
 from drake_sot.validation import positive
 
 GRID = ALPHA_GRID  # {0, 0.2, ..., 1}
@@ -70,32 +64,10 @@ def steady_errors(
     return metrics["steady_error_head"], metrics["steady_error_lh"]
 
 
-def write_figures(
-    study: StudyDescription, rows: Mapping[str, Mapping[str, Any]], out: Path
-) -> dict[str, Path]:
-    """The grid of ``study`` (an ``alpha_sweep``) from its table's ``rows``: ``alpha_sweep.npz``
-    (``alpha_lh_head``, ``alpha_head_lh`` the axes, ``head_error`` and ``lh_error`` [m] rows
-    α_lh,head and columns α_head,lh, NaN where not done, ``done`` which were) and the heat maps
-    ``alpha_sweep.png``."""
-    axes = study.runs.axes  # type: ignore[union-attr]
-    rows_axis, columns_axis = np.array(axes["alpha_lh_head"]), np.array(axes["alpha_head_lh"])
-    head = np.full((len(rows_axis), len(columns_axis)), np.nan)
-    lh = np.full_like(head, np.nan)
-    for row in rows.values():
-        if row["status"] == "ok":
-            i = int(np.flatnonzero(rows_axis == row["alpha_lh_head"])[0])
-            j = int(np.flatnonzero(columns_axis == row["alpha_head_lh"])[0])
-            head[i, j], lh[i, j] = row["steady_error_head"], row["steady_error_lh"]
-    files = {"npz": out / f"{study.name}.npz", "png": out / f"{study.name}.png"}
-    arrays = {"alpha_lh_head": rows_axis, "alpha_head_lh": columns_axis, "head_error": head, "lh_error": lh}
-    write_npz(arrays | {"done": np.isfinite(head) & np.isfinite(lh)}, files["npz"])
-    plot_alpha_sweep(rows_axis, head, lh, files["png"])
-    return files
-
-
 @dataclass(frozen=True)
-class Study:
-    """A named batch of simulations of the ``drake-sot run`` command."""
+class StudyScenario:
+    """A study as ``drake-sot run`` runs it, beside the scenarios: on a local cluster, with its
+    own options (what the study itself is, a :class:`drake_sot.studies.Study`, is its ``run``'s)."""
 
     name: str
     description: str
@@ -136,37 +108,19 @@ def run(
         duration=duration,
         fixed={"robot": robot},
     )
-    out = output_directory(out_dir)
     start = time.perf_counter()
 
     def report(done: int, failed: int, total: int, left: float) -> None:
         if progress is not None:
             progress(done, total, time.perf_counter() - start)
 
-    stopped: Interrupted | None = None
-    with SignalGuard() as guard:
-        try:
-            outcome = run_study(
-                study,
-                out,
-                declared=TARGETS[study.scenario].parameters,
-                measure=measure,
-                workers=workers,
-                progress=report,
-                hold=guard.hold,
-            )
-            rows, table = outcome.rows, {"table": outcome.table, "runs": outcome.npz}
-        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (SignalGuard raises Interrupted)
-            stopped = exc if isinstance(exc, Interrupted) else Interrupted(signal.SIGINT)
-            rows, table = read_table(out / f"{study.name}_runs.csv", study), {}
-        artefacts = Artefacts(files=dict(table))
-        artefacts.write_several(str(out / f"{study.name}.*"), lambda: write_figures(study, rows, out))
-    if stopped is not None:
-        raise stopped
-    return artefacts
+    session = run_with_figures(study, output_directory(out_dir), workers=workers, progress=report)
+    if session.stopped is not None:
+        raise session.stopped
+    return session.artefacts
 
 
-STUDY = Study(
+STUDY = StudyScenario(
     name="alpha_sweep",
     description="steady head and left-hand errors over a 6x6 grid of priorities, on a local Dask "
     "cluster (Liu, Lober, Padois 2016, fig. 11; 'drake-sot study alpha_sweep' also runs it on a cluster)",

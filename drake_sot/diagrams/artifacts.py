@@ -13,8 +13,9 @@ import os
 import secrets
 import shutil
 import subprocess
+import sys
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -68,6 +69,14 @@ class Artefacts:
             self.files.update(writer())
         except WRITE_ERRORS as exc:
             self.unwritten[what] = _reason(exc)
+
+
+def report_unwritten(unwritten: Mapping[str, str]) -> None:
+    """One line on stderr naming the files that could not be written (``Artefacts.unwritten``),
+    and why; nothing when there are none."""
+    if unwritten:
+        files = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
+        print(f"could not write: {files}", file=sys.stderr)
 
 
 def _reason(error: Exception) -> str:

@@ -104,6 +104,7 @@ from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from drake_sot import validation
 from drake_sot.channel import DEFAULT_DELAY, MAX_DELAY, LinkConfig
 from drake_sot.diagrams.balance import add_zmp_estimator, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
@@ -386,14 +387,22 @@ def initial_master_values() -> dict[str, np.ndarray]:
     return values
 
 
-def link_configs(delay: float, jitter: float = 0.0, loss: float = 0.0) -> tuple[LinkConfig, LinkConfig]:
-    """The link's two directions, forward (master → slave, seed 0) and backward (seed 1), each with
-    the one-way ``delay`` [s], the jitter's half-width ``jitter`` [s] and the probability ``loss``
-    that a packet is lost: the one-process ``Channel`` and the two-process master draw the same
-    packets from them."""
+def link_configs(
+    delay: float, jitter: float = 0.0, loss: float = 0.0, seed: int = 0
+) -> tuple[LinkConfig, LinkConfig]:
+    """The link's two directions, forward (master → slave, seed ``2 seed``) and backward (seed
+    ``2 seed + 1``), each with the one-way ``delay`` [s], the jitter's half-width ``jitter`` [s]
+    and the probability ``loss`` that a packet is lost: the one-process ``Channel`` and the
+    two-process master draw the same packets from them.
+
+    Raises:
+        ValueError: a value :class:`~drake_sot.channel.LinkConfig` refuses (naming it), e.g.
+            ``delay + jitter`` over ``MAX_DELAY`` or a negative ``seed``.
+    """
+    seed = validation.positive_int("seed", seed, minimum=0)
     return (
-        LinkConfig(delay=delay, jitter=jitter, loss=loss, seed=0),
-        LinkConfig(delay=delay, jitter=jitter, loss=loss, seed=1),
+        LinkConfig(delay=delay, jitter=jitter, loss=loss, seed=2 * seed),
+        LinkConfig(delay=delay, jitter=jitter, loss=loss, seed=2 * seed + 1),
     )
 
 
@@ -519,6 +528,7 @@ def build(
     loss: float = 0.0,
     command_server: bool = False,
     config: TelecooperationConfig = DEFAULT_CONFIG,
+    seed: int = 0,
 ) -> ScenarioSetup:
     """Build the ``telecooperation`` diagram (its constants ``config``); ``leader`` is
     ``"operator"`` or ``"cooperator"``, ``delay`` the one-way delay [s] of both directions
@@ -528,10 +538,11 @@ def build(
     signals ``remote.<name>`` of ``MASTER_SIGNALS`` (see ``telecoop_slave``; ``delay`` is then
     the master process's, and so are ``jitter`` and ``loss``); ``admittance``: the hands'
     admittance, one of :data:`ADMITTANCES`; ``jitter`` [s], ``loss`` (a probability in [0, 1)):
-    the link's, both directions (:func:`link_configs`); ``command_server``: see
+    the link's, both directions (:func:`link_configs`, with ``seed``, an int >= 0, drawing their
+    packets' jitter and loss); ``command_server``: see
     :func:`~drake_sot.diagrams.scenario.build_scenario` (``remote=True`` has one whatever it says)."""
     leader, admittance, delay = LEADER.check(leader), ADMITTANCE.check(admittance), DELAY.check(delay)
-    forward_link, backward_link = link_configs(delay, jitter, loss)
+    forward_link, backward_link = link_configs(delay, jitter, loss, seed)
     hands0 = _initial_hands(config)
     b = HumanoidSoTBuilder(
         meshcat=meshcat,

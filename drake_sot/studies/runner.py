@@ -12,7 +12,9 @@ parameter, every metric, the seed, the duration [s], the worker, the wall time [
 drake_sot and drake versions of the worker, the status (``ok`` or ``failed``) and the error text.
 A row is appended and flushed as each run finishes, so that nothing finished is lost; a study
 given the same directory again skips the runs whose last row is ``ok``. ``<study>_runs.npz``
-holds the same columns (the last row of each run), written when the study ends or stops.
+holds the same columns (the last row of each run), written when the study ends or stops (not
+while the table has no row: a scheduler that does not answer leaves no file, nor a directory
+made for them).
 
 A run that raises, or whose worker dies, is retried once (Dask ``retries=1``; a worker's death
 also makes the scheduler move its task to another worker), then recorded as failed with its error;
@@ -26,6 +28,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 import sys
 import tempfile
 import time
@@ -43,7 +46,9 @@ from drake_sot.studies.description import Metrics, Plan, Run, Study, plans
 
 __all__ = [
     "RUN_COLUMNS",
+    "STATUSES",
     "Measure",
+    "Progress",
     "StudyOutcome",
     "read_table",
     "run_study",
@@ -78,6 +83,12 @@ def table_columns(study: Study) -> tuple[str, ...]:
     return ("run_id", *study.parameter_names(), *study.metrics, *RUN_COLUMNS)
 
 
+#: The statuses of a run in the table.
+STATUSES = ("ok", "failed")
+#: A run id as :func:`~drake_sot.studies.description.run_id` makes it.
+_RUN_ID = re.compile("[0-9a-f]{16}")
+
+
 def _value(text: str) -> bool | float | str:
     """A cell of the table as written: ``True``/``False`` as a bool, a number as a float
     (``nan`` included), anything else as the text."""
@@ -89,26 +100,52 @@ def _value(text: str) -> bool | float | str:
         return text
 
 
-def read_table(path: str | Path, study: Study) -> dict[str, dict[str, Any]]:
+def read_table(
+    path: str | Path, study: Study, say: Callable[[str], None] = lambda line: None
+) -> dict[str, dict[str, Any]]:
     """The rows of the table at ``path`` (none when there is no file) by run id, the last row of
-    a run id winning, cells as :func:`_value` reads them.
+    a run id winning, cells as :func:`_value` reads them. A row that is not whole (a field
+    missing, as the last line of a table cut short, or one too many; a run id that is not 16 hex
+    digits, a status that is not one of :data:`STATUSES`) is skipped and ``say`` is told how
+    many were, with the file: their runs are run again.
 
     Raises:
-        ValueError: the file's header is not the study's (another study, or other parameters or
-            metrics), naming the file and both headers.
+        ValueError: the file is not a readable table (not UTF-8 text, a NUL byte, a malformed
+            quote) or its header is not the study's (another study, or other parameters or
+            metrics), naming the file and what is wrong.
     """
     path = Path(path)
     if not path.exists():
         return {}
-    with open(path, newline="") as file:
-        reader = csv.DictReader(file)
-        header = tuple(reader.fieldnames or ())
-        if header != table_columns(study):
-            raise ValueError(
-                f"{path}: its columns {list(header)} are not those of study {study.name!r} "
-                f"{list(table_columns(study))}: give another output directory"
-            )
-        return {row["run_id"]: {k: _value(v) for k, v in row.items()} for row in reader}
+    columns = table_columns(study)
+    rows: dict[str, dict[str, Any]] = {}
+    skipped = 0
+    try:
+        with open(path, newline="", encoding="utf-8") as file:
+            reader = csv.reader(file)
+            header = tuple(next(reader, ()))
+            if header != columns:
+                raise ValueError(
+                    f"{path}: its columns {list(header)} are not those of study {study.name!r} "
+                    f"{list(columns)}: give another output directory"
+                )
+            for cells in reader:
+                if not cells:  # a blank line (a line end written after one cut short at its CR)
+                    continue
+                row = dict(zip(columns, cells, strict=False))
+                if (
+                    len(cells) != len(columns)
+                    or not _RUN_ID.fullmatch(row["run_id"])
+                    or row["status"] not in STATUSES
+                ):
+                    skipped += 1
+                    continue
+                rows[row["run_id"]] = {k: _value(v) for k, v in row.items()}
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"{path}: not a study table ({exc}): give another output directory") from None
+    if skipped:
+        say(f"{path}: {skipped} rows not whole (a line cut short?) skipped: their runs are run again")
+    return rows
 
 
 def worker_count(requested: int | None, runs: int, cores: int | None = None) -> tuple[int, str | None]:
@@ -176,14 +213,19 @@ class StudyOutcome:
 class _Table:
     """The CSV table, appended to one flushed row at a time."""
 
-    def __init__(self, path: Path, study: Study) -> None:
+    def __init__(self, path: Path, study: Study, say: Callable[[str], None]) -> None:
         self.path = path
         self.columns = table_columns(study)
-        self.rows = read_table(path, study)
+        self.rows = read_table(path, study, say)
 
     def append(self, row: Mapping[str, Any]) -> None:
         new = not self.path.exists() or self.path.stat().st_size == 0
-        with open(self.path, "a", newline="") as file:
+        if not new:  # a last line cut short (no line end): the new row goes on a line of its own
+            with open(self.path, "rb+") as file:
+                file.seek(-1, os.SEEK_END)
+                if file.read(1) != b"\n":
+                    file.write(b"\r\n")
+        with open(self.path, "a", newline="", encoding="utf-8") as file:
             writer = csv.DictWriter(file, self.columns)
             if new:
                 writer.writeheader()
@@ -260,7 +302,8 @@ def run_study(
     Raises:
         ValueError: a study the target's ``declared`` parameters refuse, a table in ``out_dir``
             with other columns, ``workers`` with ``scheduler`` or below 1 (before anything starts).
-        OSError: ``out_dir`` cannot be written (before anything starts).
+        OSError: ``out_dir`` cannot be written (before anything starts), or no scheduler answers
+            at ``scheduler`` (the directories made for ``out_dir`` are removed again when empty).
         KeyboardInterrupt: the study was interrupted: the pending runs were cancelled, every
             finished run is in the table and the cluster is closed.
     """
@@ -270,8 +313,9 @@ def run_study(
     if workers is not None and not (workers >= 1):
         raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
     out = Path(out_dir)
+    created = _missing_directories(out)
     out.mkdir(parents=True, exist_ok=True)
-    table = _Table(out / f"{study.name}_runs.csv", study)
+    table = _Table(out / f"{study.name}_runs.csv", study, say)
     outcome = StudyOutcome(table.path, out / f"{study.name}_runs.npz", table.rows)
     total = study.total()
     per_plan = total // len(study_plans)
@@ -308,7 +352,11 @@ def run_study(
     client = cluster = None
     try:
         # in the try: a signal while the cluster starts closes what started
-        client, cluster = _connect(scheduler, workers, len(pending), processes, say)
+        try:
+            client, cluster = _connect(scheduler, workers, len(pending), processes, say)
+        except Exception:  # no scheduler there: no directory of ours is left behind either
+            _remove_empty(created)
+            raise
         start = time.perf_counter()
         from distributed import as_completed
 
@@ -363,8 +411,28 @@ def run_study(
             client.close()
         if cluster is not None:
             cluster.close()
-        table.write_npz(outcome.npz)
+        if table.path.exists():  # some run recorded
+            table.write_npz(outcome.npz)
     return outcome
+
+
+def _missing_directories(out: Path) -> list[Path]:
+    """``out`` and those of its parents that do not exist yet, the deepest first."""
+    missing = []
+    for path in (out, *out.parents):
+        if path.exists():
+            break
+        missing.append(path)
+    return missing
+
+
+def _remove_empty(directories: Sequence[Path]) -> None:
+    """Remove ``directories`` (the deepest first), stopping at the first that is not empty."""
+    for directory in directories:
+        try:
+            directory.rmdir()
+        except OSError:
+            return
 
 
 def _connect(

@@ -45,7 +45,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import JointIndex
+from pydrake.multibody.tree import Joint, JointIndex, PrismaticJoint
 from pydrake.systems.framework import AbstractParameterIndex, Context, InputPort, LeafSystem, ValueProducer
 
 from drake_sot import features as fmath
@@ -65,6 +65,8 @@ class Feature(LeafSystem):
         self._indices = fmath.selection_indices(selection, size, name=f"selection of {self.get_name()!r}")
         self._full = self._indices.size == size
         self._size = size
+        #: The unit of each (unselected) component, "" when it has none (set by each kind of feature).
+        self._units: tuple[str, ...] = ("",) * size
         self._desired_port: InputPort | None = None
         self._desired_param: int | None = None
 
@@ -72,6 +74,13 @@ class Feature(LeafSystem):
     def dimension(self) -> int:
         """Number of selected components m (the size of ``error``)."""
         return int(self._indices.size)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """The unit of each component of ``error``: ``"m"``, ``"rad"``, or ``""`` where the
+        feature does not know one (a generic feature's signal, a visual point's normalised image
+        coordinates)."""
+        return tuple(self._units[i] for i in self._indices)
 
     def _declare_desired(self, port_name: str, default_value, vector_size: int | None) -> None:
         """The ``s*`` input (vector of ``vector_size``, or abstract), its parameter fallback, and the
@@ -269,6 +278,7 @@ class FeatureCoM(FeatureGeneric):
         desired: np.ndarray | None = None,
     ) -> None:
         super().__init__(3, selection=selection, name=name, desired=desired)
+        self._units = ("m",) * 3
 
     def _check_desired(self, value) -> np.ndarray:
         return check_desired_com(self.get_name(), value)
@@ -311,6 +321,7 @@ class _PoseFeature(Feature):
         self, selection: fmath.SelectionLike, name: str | None, desired: RigidTransform | None
     ) -> None:
         super().__init__(6, selection, name)
+        self._units = ("m",) * 3 + ("rad",) * 3  # [p - p*; rotation vector]
         self._frame = self._declare_frame()
         self._declare_desired(
             "position_des", self._check_desired(RigidTransform() if desired is None else desired), None
@@ -499,6 +510,7 @@ class FeaturePosture(Feature):
         if bad:
             raise ValueError(f"FeaturePosture: joints {bad} are not one-DoF joints")
         super().__init__(len(names), selection, name)
+        self._units = joint_units(joint_objs)
         self.joint_names = tuple(names)
         self._q_index = np.array([j.position_start() for j in joint_objs])
         self._J_full = np.zeros((len(names), plant.num_velocities()))
@@ -546,6 +558,11 @@ def posture_bounds(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np
     return lo, hi
 
 
+def joint_units(joints: Sequence[Joint]) -> tuple[str, ...]:
+    """The unit of each one-DoF joint's position: ``"m"`` on a prismatic joint, else ``"rad"``."""
+    return tuple("m" if isinstance(joint, PrismaticJoint) else "rad" for joint in joints)
+
+
 def _one_dof_joint_names(plant: MultibodyPlant) -> list[str]:
     joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
     return [j.name() for j in joints if j.num_positions() == 1 and j.num_velocities() == 1]
@@ -588,6 +605,7 @@ class FeatureJointLimits(Feature):
         if not np.all(upper - lower > 2 * margin):
             raise ValueError(f"margin = {margin!r}: must leave room inside every joint's limits")
         super().__init__(len(names), None, name)
+        self._units = joint_units(joint_objs)
         self.joint_names = tuple(names)
         self._q_index = np.array([j.position_start() for j in joint_objs])
         self._v_index = np.array([j.velocity_start() for j in joint_objs])

@@ -26,7 +26,7 @@ from pydrake.systems.framework import Context, LeafSystem
 from drake_sot import inequalities as ineq
 from drake_sot import validation
 from drake_sot.signals import BoundedTaskSignal
-from drake_sot.systems.features import _one_dof_joint_names
+from drake_sot.systems.features import _one_dof_joint_names, joint_units
 
 __all__ = [
     "CoMInSupportPolygon",
@@ -42,15 +42,21 @@ class InequalityTask(LeafSystem):
     """What every inequality task shares: its name, its dimension m and its ``task`` output
     (module docstring). Subclasses compute ``(error, J, lower, upper)`` in ``_compute``."""
 
-    def __init__(self, name: str, dimension: int) -> None:
+    def __init__(self, name: str, dimension: int, units: str | Sequence[str]) -> None:
         super().__init__()
         self.set_name(validation.nonempty_string("task name", name))
         self._m = validation.positive_int(f"task {name!r}: dimension", dimension)
+        self._units = (units,) * self._m if isinstance(units, str) else tuple(units)
 
     @property
     def dimension(self) -> int:
         """Number of rows m."""
         return self._m
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """The unit of each row's ``error`` (e.g. ``"m"``, ``"rad"``, ``"rad/s"``)."""
+        return self._units
 
     def _declare_task(self, prerequisites: set) -> None:
         m = self._m
@@ -146,7 +152,7 @@ class JointPositionLimits(InequalityTask):
         name: str = "taskJointPositionLimits",
     ) -> None:
         objs = _joints(plant, joints, f"JointPositionLimits {name!r}")
-        super().__init__(name, len(objs))
+        super().__init__(name, len(objs), joint_units(objs))
         self.joint_names = tuple(j.name() for j in objs)
         self._period = validation.positive(f"{name!r}: period", period, unit="s")
         margin = validation.nonnegative(f"{name!r}: margin", margin, unit="rad or m")
@@ -215,7 +221,7 @@ class JointVelocityLimits(InequalityTask):
         name: str = "taskJointVelocityLimits",
     ) -> None:
         objs = _joints(plant, joints, f"JointVelocityLimits {name!r}")
-        super().__init__(name, len(objs))
+        super().__init__(name, len(objs), [f"{unit}/s" for unit in joint_units(objs)])
         self.joint_names = tuple(j.name() for j in objs)
         self._signal = (np.zeros(len(objs)), _selection(plant, objs), *_velocity_limits(objs, scale, name))
         self._declare_task({self.nothing_ticket()})
@@ -263,7 +269,9 @@ class CoMInSupportPolygon(InequalityTask):
         max_vertices: int = 8,
         name: str = "taskCoMSupport",
     ) -> None:
-        super().__init__(name, validation.positive_int(f"{name!r}: max_vertices", max_vertices, minimum=3))
+        super().__init__(
+            name, validation.positive_int(f"{name!r}: max_vertices", max_vertices, minimum=3), "m"
+        )
         self._margin = validation.nonnegative(f"{name!r}: margin", margin, unit="m")
         self._gain = validation.positive(f"{name!r}: gain", gain, unit="1/s")
         self._com = self.DeclareVectorInputPort("com", 3)
@@ -348,7 +356,7 @@ class PointAbovePlane(InequalityTask):
         gain: float = 5.0,
         name: str = "taskAbovePlane",
     ) -> None:
-        super().__init__(name, 1)
+        super().__init__(name, 1, "m")
         self._normal = _unit(name, "normal", normal)
         self._origin = validation.vector(f"{name!r}: origin", origin, 3)
         self._clearance = validation.finite(f"{name!r}: clearance", clearance)
@@ -396,7 +404,7 @@ class DistanceAbove(InequalityTask):
         gain: float = 5.0,
         name: str = "taskDistance",
     ) -> None:
-        super().__init__(name, 1)
+        super().__init__(name, 1, "m")
         self._minimum = validation.positive(f"{name!r}: minimum", minimum, unit="m")
         self._offsets = (
             validation.vector(f"{name!r}: offset_a", offset_a, 3),

@@ -60,6 +60,7 @@ class Task(LeafSystem):
         self._period: float | None = None if period is None else float(period)
         # (input port, dimension, rows of the feature's output the task keeps or None for all)
         self._features: list[tuple[InputPort, int, np.ndarray | slice | None]] = []
+        self._units: list[str] = []
         # Value[object]: the parameter holds a float or an AdaptiveGain.
         self._gain = self.DeclareAbstractParameter(Value[object](gain))
         self._default_gain = gain
@@ -106,7 +107,15 @@ class Task(LeafSystem):
         if rows is not None and rows.size and (np.diff(rows) == 1).all():
             rows = slice(int(rows[0]), int(rows[-1]) + 1)  # consecutive components: views, not copies
         self._features.append((port, feature.dimension if rows is None else _count(rows), rows))
+        units = np.array(feature.units, dtype=object)
+        self._units.extend(units if rows is None else units[rows])
         return port
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """The unit of each component of the task's error (its features' :attr:`Feature.units`,
+        in the order they were added)."""
+        return tuple(self._units)
 
     @property
     def period(self) -> float | None:

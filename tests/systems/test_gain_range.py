@@ -39,9 +39,10 @@ def _closed_loop(task: Task, sot: StackOfTasks, steps: int, e0: float = 1.0) -> 
 
 
 class _OneFeature:
-    """What ``Task.add`` reads of a feature: its name and dimension (a 1-D feature "f")."""
+    """What ``Task.add`` reads of a feature: its name, dimension and units (a 1-D feature "f")."""
 
     dimension = 1
+    units = ("",)
 
     def get_name(self) -> str:
         return "f"
