@@ -1,4 +1,4 @@
-"""Tests of the strict hierarchy with inequalities, drake_sot.hierarchy.solve_hqp.
+"""Tests of the strict hierarchy with inequalities, drake_sot.hqp.solve_hqp.
 
 The reference is a cascade written here with scipy only (lstsq, null_space), exact up to
 rounding: each level minimises its slack with the levels above held at their optimum, over
@@ -27,7 +27,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_hierarchy import stacks
 
-from drake_sot.hierarchy import _inequalities_idle, solve_hqp, solve_strict
+from drake_sot.hierarchy import solve_strict
+from drake_sot.hqp import _inequalities_idle, solve_hqp
 
 SETTINGS = settings(max_examples=120, deadline=None)
 Level3 = tuple[np.ndarray, np.ndarray, np.ndarray]
