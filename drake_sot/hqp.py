@@ -94,6 +94,12 @@ class HqpResult:
             above) leave to the levels below; inequality rows that hold do not count.
         iterations: active-set iterations over all levels (one equality-constrained
             least-squares solve each).
+        unsettled: the names of the levels whose active set stopped at its last-resort
+            guard instead of reaching the level's optimum (the regularisation level is
+            called ``"regularisation I q̇ = 0"``); empty when every level reached it, as on
+            every problem the tests generate. q̇ then still keeps every inequality row of the
+            levels above the first unsettled level that held at their optimum, and those
+            levels' slacks: the robot is held back, not thrown.
         levels: one :class:`LevelReport` per level, highest priority first, computed
             when first read (a controller that does not read them does not pay).
     """
@@ -101,6 +107,7 @@ class HqpResult:
     qdot: np.ndarray
     free_dims: tuple[int, ...]
     iterations: int
+    unsettled: tuple[str, ...] = ()
     names: tuple[str, ...] = field(default=(), repr=False)
     problem: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default=(), repr=False)
     tolerance: float = field(default=TOLERANCE, repr=False)
@@ -242,15 +249,17 @@ def solve_hqp(
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
-        dimensions and the iteration count.
+        dimensions, the iteration count and the levels whose active set did not settle
+        (:attr:`HqpResult.unsettled`, normally empty).
 
     Raises:
         ValueError: a level that is not a pair or a triple, shapes that disagree, NaN
             or Inf in a Jacobian or a target, NaN in a bound or ``lower > upper`` (the
             message names the level, its name, and the row), names of the wrong
-            number, or a bad ``rank_threshold`` / ``tolerance``.
-        RuntimeError: the active set did not settle (cycling on a degenerate
-            problem), naming the level.
+            number, or a bad ``rank_threshold`` / ``tolerance``. Nothing else: an active
+            set that does not settle (:meth:`_ActiveSet._minimise`: Bland's rule, then a
+            last-resort guard) gives the iterate it reached, named in ``unsettled``, not
+            an error; a controller that stops its robot on a crash would rather hold it.
     """
     if validate:
         rank_threshold = nonnegative("rank_threshold", rank_threshold)
@@ -292,6 +301,7 @@ def solve_hqp(
         qdot=solver.x,
         free_dims=tuple(free_dims),
         iterations=solver.iterations,
+        unsettled=tuple(solver.unsettled),
         names=level_names,
         problem=checked,
         tolerance=tolerance,
@@ -390,9 +400,11 @@ class _ActiveSet:
     """The state of :func:`solve_hqp` between levels: q̇ so far, the basis ``Z`` of what
     the fixed rows leave free (None for the identity), and the hard rows ``lo <= C q̇ <= hi``."""
 
-    #: Active-set iterations allowed per level, per row and hard row it holds (a generous
-    #: bound: each iteration adds or removes one row; only cycling reaches it).
-    ITERATIONS_PER_ROW = 10
+    #: Active-set iterations allowed per level, per row and hard row it holds: a last-resort
+    #: guard (:meth:`_minimise`), far above what the random problems of the tests take.
+    ITERATIONS_PER_ROW = 50
+    #: Iterations in a row without moving q̇ after which a level turns to Bland's rule.
+    BLAND_AFTER = 5
 
     def __init__(self, n: int, rank_threshold: float, tolerance: float) -> None:
         self.n = n
@@ -412,6 +424,8 @@ class _ActiveSet:
         self.c_norm_max = 0.0
         self.c_l1_max: float | None = 0.0  # None: not computed since rows were added
         self.iterations = 0
+        #: The names of the levels whose active set stopped at the guard (:meth:`_minimise`).
+        self.unsettled: list[str] = []
         #: True while q̇ is still the zero vector (no step taken): J q̇ = 0 without a product.
         self.x_zero = True
         #: True while every level took one minimum-norm step: q̇ is then orthogonal to Z.
@@ -745,12 +759,27 @@ class _ActiveSet:
         it ran with no hard row held (its null space is what the level leaves; None
         otherwise), and the number of iterations. ``first``: the SVD and the step of the first
         iteration when the caller has them (:meth:`_equality_step`, blocked), not recomputed.
+
+        Anti-cycling: each iteration either moves q̇ (the level's cost decreases) or changes the
+        working set where q̇ stands. On a degenerate point (rows at their bounds with zero
+        multipliers, rows that depend on the held ones) the usual choices (the first row to
+        block, the row whose multiplier is the most wrong) can cycle through working sets
+        without moving. After :attr:`BLAND_AFTER` consecutive iterations that did not move q̇,
+        the level switches to Bland's smallest-index rule for good: the blocking row is the
+        first in a fixed order (the level's rows, then the hard rows) among those that block
+        at the shortest step, and the row that leaves is the first in that order among those
+        whose multiplier has the wrong sign. Last resort, far past what Bland's rule needs:
+        after ``ITERATIONS_PER_ROW`` iterations per row the level stops where it stands (q̇
+        keeps every hard row, the levels above keep their optimum) and its name is added to
+        :attr:`unsettled`.
         """
         Z, C, tol, rt = self.Z, self.C, self.tol, self.rank_threshold
         hard = np.zeros(C.shape[0], dtype=np.int8)  # 0 free, ±1 held at upper/lower
         held = _NO_ROWS
         limit = self.ITERATIONS_PER_ROW * (A.shape[0] + C.shape[0] + 1)
         x = self.x
+        still, bland = 0, False  # iterations in a row that did not move q̇; Bland's rule on
+        last = None
         for iteration in range(1, limit + 1):
             self.iterations += 1
             if held.size:
@@ -767,6 +796,7 @@ class _ActiveSet:
             else:
                 rows, AW, target = None, A, upper
             last = None
+            moved = False
             if AW.shape[0] and (ZN is None or ZN.shape[1]):
                 if first is None:
                     split = SvdSplit.of(AW if ZN is None else AW @ ZN, rt)
@@ -785,7 +815,7 @@ class _ActiveSet:
                         if free.size:
                             Af = A[free]
                             k, step, bound = _first_block(
-                                Af, lower[free], upper[free], x, d, 1e-10 * d_norm * _row_norms(Af)
+                                Af, lower[free], upper[free], x, d, 1e-10 * d_norm * _row_norms(Af), bland
                             )
                             if step < alpha:
                                 alpha, blocker = step, (side, int(free[k]), bound)
@@ -796,54 +826,72 @@ class _ActiveSet:
                             if free is None
                             else (C[free], self.lo[free], self.hi[free], self.c_norms[free])
                         )
-                        k, step, bound = _first_block(M, lo, hi, x, d, 1e-10 * d_norm * norms)
+                        k, step, bound = _first_block(M, lo, hi, x, d, 1e-10 * d_norm * norms, bland)
                         if step < alpha:
                             alpha, blocker = step, (hard, int(k if free is None else free[k]), bound)
+                    moved = alpha * d_norm > 1e-15 * (1.0 + math.sqrt(float(x @ x)))
                     x = x + alpha * d
                     if blocker is not None:
                         status, row, bound = blocker
                         status[row] = bound
                         if status is hard:
                             held = np.flatnonzero(hard)
+                        still = 0 if moved else still + 1
+                        bland = bland or still >= self.BLAND_AFTER
                         continue
             # A full step (or none possible): the least squares is optimal on this active set.
-            worst, leaving = tol, None
+            leaving = None
             if AW.shape[0] and (soft.size or held.size):
+                candidates: list[tuple[float, np.ndarray, int]] = []  # (how wrong, status, row)
                 residual = AW @ x - target
                 if soft.size:
                     held_side = side[rows]
                     inequality = held_side != 2
                     if inequality.any():
                         wrong = -held_side[inequality] * residual[inequality]  # < 0: pulled outward, fine
-                        k = int(np.argmax(wrong))
-                        if wrong[k] > worst:
-                            worst, leaving = float(wrong[k]), (side, int(rows[inequality][k]))
-                if held.size:
+                        candidates += _leaving(wrong, rows[inequality], side, tol, bland)
+                if held.size and not (bland and candidates):
                     g = AW.T @ residual
                     if Z is not None:
                         g = Z.T @ g
                     r = constraint.rank
                     multiplier = constraint.U[:, :r] @ ((constraint.Vt[:r] @ -g) / constraint.s[:r])
-                    wrong = -hard[held] * multiplier
-                    k = int(np.argmax(wrong))
-                    if wrong[k] > worst:
-                        leaving = (hard, int(held[k]))
+                    candidates += _leaving(-hard[held] * multiplier, held, hard, tol, bland)
+                if candidates:
+                    leaving = candidates[0] if bland else max(candidates, key=lambda c: c[0])
             if leaving is None:
                 self.x = x
                 self.x_zero = False
                 self.room = self._room(C, self.lo, self.hi)
                 return last, iteration
-            status, row = leaving
+            _, status, row = leaving
             if status is hard:
                 hard[row] = 0
                 held = np.flatnonzero(hard)
             else:  # free the row, unless it has crossed to its other bound
                 value = float(A[row] @ x)
                 side[row] = 1 if value > upper[row] + tol else (-1 if value < lower[row] - tol else 0)
-        raise RuntimeError(
-            f"solve_hqp: the active set of level {name!r} did not settle in {limit} iterations "
-            "(a degenerate problem: rows at their bounds with zero multipliers)"
-        )
+            still = 0 if moved else still + 1
+            bland = bland or still >= self.BLAND_AFTER
+        # The guard: q̇ stays where the active set stands (it keeps every hard row).
+        self.x = x
+        self.x_zero = self.x_zero and not x.any()
+        self.room = self._room(C, self.lo, self.hi)
+        self.unsettled.append(name)
+        return None, limit
+
+
+def _leaving(
+    wrong: np.ndarray, rows: np.ndarray, status: np.ndarray, tol: float, bland: bool
+) -> list[tuple[float, np.ndarray, int]]:
+    """The candidate to leave among held rows whose multiplier is wrong by ``wrong`` (> ``tol``:
+    wrong sign): ``[(wrong, status, row)]`` for the most wrong, or under Bland's rule the one of
+    smallest index (``rows`` increasing); ``[]`` when none is."""
+    if bland:
+        over = np.flatnonzero(wrong > tol)
+        return [(float(wrong[over[0]]), status, int(rows[over[0]]))] if over.size else []
+    k = int(np.argmax(wrong))
+    return [(float(wrong[k]), status, int(rows[k]))] if wrong[k] > tol else []
 
 
 _NO_ROWS = np.zeros(0, dtype=np.intp)
@@ -855,11 +903,19 @@ def _row_norms(M: np.ndarray) -> np.ndarray:
 
 
 def _first_block(
-    M: np.ndarray, lower: np.ndarray, upper: np.ndarray, x: np.ndarray, d: np.ndarray, eps: np.ndarray
+    M: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    x: np.ndarray,
+    d: np.ndarray,
+    eps: np.ndarray,
+    lowest: bool = False,
 ) -> tuple[int, float, int]:
     """The first of the rows ``lower <= M q̇ <= upper`` that the step ``x + alpha d`` leaves:
     ``(row, alpha >= 0, +1 upper / -1 lower)``, or ``(-1, inf, 0)`` when none does. A row
-    moves when ``|M_i d| > eps_i``; one already past its bound (rounding) blocks at once."""
+    moves when ``|M_i d| > eps_i``; one already past its bound (rounding) blocks at once.
+    ``lowest``: among the rows that block at the shortest step (to 1e-12), the one of smallest
+    index (Bland's rule) instead of any."""
     after = M @ (x + d)
     if ((after <= upper) & (after >= lower)).all():
         return -1, _INF, 0  # the whole step stays inside every row (the common case)
@@ -873,4 +929,7 @@ def _first_block(
     np.divide(upper - value, rate, out=steps, where=up)
     np.divide(lower - value, rate, out=steps, where=down)
     k = int(np.argmin(steps))
-    return k, max(float(steps[k]), 0.0), 1 if up[k] else -1
+    step = max(float(steps[k]), 0.0)
+    if lowest:
+        k = int(np.flatnonzero(steps <= step + 1e-12)[0])
+    return k, step, 1 if up[k] else -1

@@ -27,6 +27,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_hierarchy import stacks
 
+from drake_sot import hqp
 from drake_sot.hierarchy import solve_strict
 from drake_sot.hqp import _inequalities_idle, solve_hqp
 
@@ -383,6 +384,74 @@ def test_unvalidated_fast_path_gives_the_same_result():
     a = solve_hqp(levels)
     b = solve_hqp([(J, *rest) for J, *rest in levels], validate=False)
     np.testing.assert_array_equal(a.qdot, b.qdot)
+
+
+# --- d) degenerate problems: Bland's rule, and the guard that never raises ------------------
+
+
+@st.composite
+def degenerate_problems(draw: st.DrawFn) -> Problem:
+    """Like :func:`problems`, made degenerate: rows of small integers, bounds through 0 (rows at
+    their bound where q̇ starts, zero multipliers), rows repeated from above with the same bounds
+    or scaled, and rank-deficient levels (a row the sum of two others)."""
+    problem = draw(problems())
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    levels: list[Level3] = []
+    for J, lo, hi in problem.levels:
+        J = rng.integers(-2, 3, size=J.shape).astype(float)
+        if J.shape[0] >= 3 and draw(st.booleans()):
+            J[2] = J[0] + J[1]
+        if levels and draw(st.booleans()):
+            J_src, lo_src, hi_src = levels[rng.integers(len(levels))]
+            k, i = rng.integers(J_src.shape[0]), rng.integers(J.shape[0])
+            factor = draw(st.sampled_from([1.0, -1.0, 2.0]))
+            J[i] = factor * J_src[k]
+            lo, hi = lo.copy(), hi.copy()
+            if factor == 1.0 and draw(st.booleans()):
+                lo[i], hi[i] = lo_src[k], hi_src[k]
+        # Shift the finite bounds of inequality rows onto 0 (equalities keep their targets).
+        lo, hi = lo.copy(), hi.copy()
+        box = (lo < hi) & (rng.random(lo.size) < 0.6)
+        lo[box & np.isfinite(lo)] = np.minimum(lo[box & np.isfinite(lo)], 0.0) * (rng.random() < 0.5)
+        hi[box & np.isfinite(hi)] = np.maximum(hi[box & np.isfinite(hi)], 0.0) * (rng.random() < 0.5)
+        levels.append((J, lo, hi))
+    return Problem(levels=levels, n=problem.n)
+
+
+@pytest.mark.parametrize("bland_after", [5, 0])
+@settings(max_examples=200, deadline=None)
+@given(problem=degenerate_problems())
+def test_degenerate_problems_reach_the_cascade_with_and_without_blands_rule(problem, bland_after):
+    """On degenerate problems the active set settles on the cascade's optimum, whether Bland's
+    smallest-index rule takes over after a few iterations that do not move q̇ (the default) or
+    rules every choice from the start (``BLAND_AFTER = 0``)."""
+    reference = cascade(problem.levels, problem.n)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(hqp._ActiveSet, "BLAND_AFTER", bland_after)
+        result = solve_hqp(problem.levels)
+    assert result.unsettled == ()
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
+
+
+def test_an_active_set_stopped_by_its_guard_returns_where_it_stands(monkeypatch):
+    """The last-resort guard (no iteration allowed here) does not raise: the level stops where it
+    stands, is named in ``unsettled``, and q̇ keeps the level above at its optimum and the box."""
+    monkeypatch.setattr(hqp._ActiveSet, "ITERATIONS_PER_ROW", 0)
+    n = 3
+    levels = [
+        (np.array([[1.0, 0.0, 0.0]]), np.array([0.3])),  # q̇1 = 0.3, met by the first step
+        (np.eye(n), -np.full(n, 0.5), np.full(n, 0.5)),  # holds at (0.3, 0, 0): hard rows
+        (np.eye(n), np.full(n, 2.0)),  # blocked by the box: its active set is stopped at once
+    ]
+    result = solve_hqp(levels, names=["first", "box", "task"])
+    assert result.unsettled == ("task",)
+    np.testing.assert_allclose(result.qdot, [0.3, 0.0, 0.0], atol=1e-15)
+    assert result.level("first").violation == 0.0 and result.level("box").violation == 0.0
+    # Without the guard, the task gets the box's corner (0.5, 0.5, 0.5) but q̇1, fixed at 0.3.
+    monkeypatch.undo()
+    settled = solve_hqp(levels, names=["first", "box", "task"])
+    assert settled.unsettled == ()
+    np.testing.assert_allclose(settled.qdot, [0.3, 0.5, 0.5], atol=1e-12)
 
 
 # --- c) bad input -------------------------------------------------------------------------

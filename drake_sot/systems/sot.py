@@ -207,9 +207,9 @@ class StackOfTasks(LeafSystem):
             RuntimeError naming the task when its signal carries another task's name,
             has the wrong sizes (e, J or ė*; or the bounds), holds NaN/Inf (NaN only, in
             bounds), has a lower bound above its upper one (naming the row), or is an
-            inequality task's signal while ``solver="svd"``; a RuntimeError of
-            :func:`~drake_sot.hqp.solve_hqp` (an active set that did not settle) is raised
-            again naming the system, the time, the stack and its tasks' errors (:meth:`task_errors`).
+            inequality task's signal while ``solver="svd"``. An active set of
+            :func:`~drake_sot.hqp.solve_hqp` that does not settle raises nothing: the tick
+            takes the iterate it reached (:attr:`~drake_sot.hqp.HqpResult.unsettled`).
     """
 
     def __init__(
@@ -573,16 +573,8 @@ class StackOfTasks(LeafSystem):
             levels = [signals[task_name] for task_name in active]
             # Shapes, finiteness and bounds were checked above, with the task's name.
             if self._solver == "hqp":
-                try:
-                    result = solve_hqp(
-                        levels, names=active, rank_threshold=self._rank_threshold, validate=False
-                    )
-                except RuntimeError as error:  # e.g. an active set that did not settle: say where
-                    far = ", ".join(f"{n} {v:.3g}" for n, v in self._error_norms(errors))
-                    raise RuntimeError(
-                        f"{self.get_name()!r} at t = {context.get_time():.4f} s, stack {' > '.join(active)}: "
-                        f"{error}; the errors ‖e‖ of its tasks, largest first: {far}"
-                    ) from error
+                # An active set that does not settle gives its last iterate (solve_hqp's unsettled).
+                result = solve_hqp(levels, names=active, rank_threshold=self._rank_threshold, validate=False)
             else:
                 result = solve_strict(
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
