@@ -20,10 +20,11 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass
 
+import daqp
 import numpy as np
 import pytest
 import scipy.linalg
-from hypothesis import given, settings
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from test_hierarchy import stacks
 
@@ -452,6 +453,144 @@ def test_an_active_set_stopped_by_its_guard_returns_where_it_stands(monkeypatch)
     settled = solve_hqp(levels, names=["first", "box", "task"])
     assert settled.unsettled == ()
     np.testing.assert_allclose(settled.qdot, [0.3, 0.5, 0.5], atol=1e-12)
+
+
+# --- e) large random hierarchies against daqp's cascade, polished -----------------------------
+
+
+def daqp_guess(levels: list[Level3], n: int) -> np.ndarray | None:
+    """A cascade of QPs solved by daqp (a dual active set, independent of solve_hqp): level k
+    minimises ``||v_k||²`` over ``x = x_{k-1} + N y`` and ``l_k <= J_k x - v_k <= u_k``, with the
+    rows that held at the levels above as constraints (relaxed by 1e-9 for rounding); its equality
+    and violated rows then shrink the basis N (SVD, singular values > 1e-9); last, the least-norm
+    x. None when daqp reports no optimum. Its answers carry daqp's own tolerances (rows of the
+    levels above violated by up to ~1e-6): :func:`polished` makes them exact."""
+    x, N, hard = np.zeros(n), np.eye(n), []
+    for J, lo, hi in levels:
+        m, k = J.shape[0], N.shape[1]
+        if k:
+            A = np.vstack(
+                [np.hstack([J @ N, -np.eye(m)])]
+                + [np.hstack([C @ N, np.zeros((C.shape[0], m))]) for C, _, _ in hard]
+            )
+            lower = np.concatenate([lo - J @ x] + [c_lo - C @ x - 1e-9 for C, c_lo, _ in hard])
+            upper = np.concatenate([hi - J @ x] + [c_hi - C @ x + 1e-9 for C, _, c_hi in hard])
+            z, _, flag, _ = daqp.solve(
+                np.diag(np.r_[np.zeros(k), np.ones(m)]),
+                np.zeros(k + m),
+                A,
+                np.minimum(upper, 1e30),
+                np.maximum(lower, -1e30),
+                np.zeros(lower.size, dtype=np.int32),
+                eps_prox=-1.0,
+                primal_tol=1e-11,
+                dual_tol=1e-12,
+            )
+            if flag != 1:
+                return None
+            x = x + N @ z[:k]
+        value = J @ x
+        fixed = (lo == hi) | (np.abs(value - np.clip(value, lo, hi)) > 1e-7)
+        if fixed.any() and k:
+            _, s, Vt = scipy.linalg.svd(J[fixed] @ N)
+            N = N @ Vt[int(np.sum(s > 1e-9)) :].T
+        hard.append((J[~fixed], lo[~fixed], hi[~fixed]))
+    if N.shape[1] and hard:
+        A = np.vstack([C @ N for C, _, _ in hard])
+        lower = np.concatenate([c_lo - C @ x - 1e-9 for C, c_lo, _ in hard])
+        upper = np.concatenate([c_hi - C @ x + 1e-9 for C, _, c_hi in hard])
+        y, _, flag, _ = daqp.solve(
+            np.eye(N.shape[1]),
+            N.T @ x,
+            A,
+            np.minimum(upper, 1e30),
+            np.maximum(lower, -1e30),
+            np.zeros(lower.size, dtype=np.int32),
+            primal_tol=1e-11,
+            dual_tol=1e-12,
+        )
+        if flag != 1:
+            return None
+        x = x + N @ y
+    elif N.shape[1]:
+        x = x - N @ (N.T @ x)
+    return x
+
+
+def polished(levels: list[Level3], x: np.ndarray, n: int) -> np.ndarray:
+    """The candidate of the module docstring for the active set seen at ``x``: each inequality
+    row within 1e-7 of a bound binds there, the others are dropped; exact to rounding."""
+    hierarchy = []
+    for J, lo, hi in levels:
+        v = J @ x
+        side = np.where(lo == hi, 2, np.where(v >= hi - 1e-7, 1, np.where(v <= lo + 1e-7, -1, 0)))
+        rows = np.flatnonzero(side)
+        hierarchy.append((J[rows], np.where(side[rows] == -1, lo[rows], hi[rows])))
+    return equality_hierarchy(hierarchy, n)
+
+
+@st.composite
+def large_problems(draw: st.DrawFn) -> Problem:
+    """6-10 levels of 2-13 rows on 38-50 joints; a level is all equalities or mixes one-sided,
+    two-sided and equality rows. Degenerate if drawn: rows repeated from a level above (the same
+    row, its opposite or its double, with its bounds or others: parallel and contradictory rows),
+    rank-deficient levels (a row the sum of two others), bounds through 0 (rows at their bound
+    where q̇ starts, with zero multipliers)."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    degenerate = draw(st.booleans())
+    n = draw(st.integers(38, 50))
+    levels: list[Level3] = []
+    for _ in range(draw(st.integers(6, 10))):
+        m = int(rng.integers(2, 14))
+        J = rng.normal(size=(m, n))
+        lo, hi = np.empty(m), np.empty(m)
+        equalities = rng.random() < 0.35
+        for i in range(m):
+            centre, width = rng.normal(), rng.uniform(0.0, 1.0)
+            if degenerate and rng.random() < 0.4:
+                centre, width = 0.0, float(rng.choice([0.0, 1.0]))
+            kind = "equality" if equalities or rng.random() < 0.2 else rng.choice(["box", "above", "below"])
+            lo[i], hi[i] = {
+                "equality": (centre, centre),
+                "box": (centre - width, centre + width),
+                "above": (centre - width, np.inf),
+                "below": (-np.inf, centre + width),
+            }[kind]
+            if degenerate and levels and rng.random() < 0.3:
+                J_src, lo_src, hi_src = levels[rng.integers(len(levels))]
+                k = rng.integers(J_src.shape[0])
+                J[i] = J_src[k] * rng.choice([1.0, -1.0, 2.0])
+                if rng.random() < 0.5:
+                    lo[i], hi[i] = lo_src[k], hi_src[k]
+        if degenerate and m >= 3 and rng.random() < 0.3:
+            J[2] = J[0] + J[1]
+        levels.append((J, lo, hi))
+    return Problem(levels=levels, n=n)
+
+
+@settings(max_examples=40, deadline=None)
+@given(large_problems())
+def test_large_hierarchies_settle_and_are_never_beaten_by_an_independent_cascade(problem):
+    """Large random hierarchies, degenerate ones included: the active set settles (no level is
+    unsettled), and daqp's cascade, its active set polished into an exact candidate, never
+    does lexicographically better; when it does as well, it is the same q̇ (the optimum is
+    unique). daqp sometimes stops on a worse point (its own tolerances), never on a better one."""
+    result = solve_hqp(problem.levels)
+    assert result.unsettled == ()
+    guess = daqp_guess(problem.levels, problem.n)
+    if guess is None:
+        event("daqp found no optimum")
+        return
+    reference = polished(problem.levels, guess, problem.n)
+    ours, theirs = slacks(problem.levels, result.qdot), slacks(problem.levels, reference)
+    for level, (mine, other) in enumerate(zip(ours, theirs, strict=True)):
+        margin = 1e-6 * (1.0 + other)
+        assert mine <= other + margin, f"level {level}: {mine} > {other}"
+        if mine < other - margin:
+            event("solve_hqp better than the candidate")
+            return  # the candidate is not the optimum
+    event("the candidate is solve_hqp's q̇")
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
 
 
 # --- c) bad input -------------------------------------------------------------------------
