@@ -185,6 +185,7 @@ def solve_hqp(
     rank_threshold: float = 1e-6,
     tolerance: float = TOLERANCE,
     validate: bool = True,
+    warm_start: HqpResult | None = None,
 ) -> HqpResult:
     """Solve a strict hierarchy of equalities and inequalities (Escande, Mansard, Wieber 2014).
 
@@ -246,6 +247,13 @@ def solve_hqp(
             ``tolerance`` (below). A caller that has checked them (``StackOfTasks`` checks
             the two numbers at construction and the signals at each tick, naming the
             task) may skip it.
+        warm_start: the result of a previous call (e.g. the last control tick) whose active
+            rows (:attr:`LevelReport.active_lower` / ``active_upper``, levels matched by name,
+            rows by index) are the first guess of the rows at a bound. When the guess is still
+            right and the problem has the shortcut's form (below), the answer is one equality
+            solve with those rows at their bounds, certified by the signs of their multipliers
+            (:func:`_inequalities_idle`); otherwise the active set runs as without it. Only a
+            guess: the result is the same either way (to rounding).
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
@@ -270,7 +278,8 @@ def solve_hqp(
         level_names = tuple(names) if names is not None else tuple(str(i) for i in range(len(checked)))
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
-    fast = _inequalities_idle(checked, rank_threshold)
+    binding = None if warm_start is None else _binding(warm_start, checked, level_names)
+    fast = _inequalities_idle(checked, rank_threshold, tolerance, binding)
     if fast is not None:
         qdot, free_dims = fast
         return HqpResult(
@@ -308,8 +317,35 @@ def solve_hqp(
     )
 
 
+def _binding(
+    previous: HqpResult,
+    levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    names: tuple[str, ...],
+) -> dict[int, tuple[np.ndarray, np.ndarray]] | None:
+    """The rows of ``previous`` at a bound, as :func:`_inequalities_idle`'s ``binding``: per index of
+    an inequality level of ``levels`` whose name ``previous`` knows, ``(rows, sides)`` (side +1 at
+    the upper bound, -1 at the lower one; rows that this level does not have are left out).
+    None when no row was at a bound."""
+    known = {report.name: report for report in previous.levels}
+    binding: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for index, (name, (J, lower, upper)) in enumerate(zip(names, levels, strict=True)):
+        report = known.get(name)
+        if report is None or lower is upper or not (report.active_lower or report.active_upper):
+            continue
+        side = np.zeros(J.shape[0], dtype=np.int8)
+        side[[i for i in report.active_lower if i < side.size]] = -1
+        side[[i for i in report.active_upper if i < side.size]] = 1
+        rows = np.flatnonzero(side)
+        if rows.size:
+            binding[index] = (rows, side[rows].astype(float))
+    return binding or None
+
+
 def _inequalities_idle(
-    levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], rank_threshold: float
+    levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    rank_threshold: float,
+    tolerance: float = TOLERANCE,
+    binding: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[np.ndarray, tuple[int, ...]] | None:
     """q̇ and the free dimensions of :func:`solve_hqp` when its inequalities change nothing, else None.
 
@@ -337,22 +373,55 @@ def _inequalities_idle(
     while every level's SVD floor is at most ``max(rank_threshold, n eps ||A||_F)``. Anything
     else (a rank in doubt, an inequality row that does not hold at q̇*, a level of mixed rows)
     returns None, for the active set.
+
+    Warm start: ``binding`` maps the index of an inequality level to the rows guessed at a bound
+    (``(rows, sides)``, side +1 upper, -1 lower; e.g. those of the previous tick). They join the
+    equality rows at their bounds, in their level's place, and q̇* is that equality hierarchy's
+    solution; each level's slack is as small as over the larger set where they are free (they hold
+    at q̇*, at zero slack, and the equality levels below them are met exactly, having full row rank),
+    except in the last level, the tall one or the least-norm one, whose optimality over the larger
+    set is the sign of their multipliers: with ``g`` that level's gradient at q̇* (``J_Lᵀ (J_L q̇* -
+    t_L)``, or q̇* itself for the least norm), ``g = Aᵀ ν`` over the stacked rows A above it
+    (``ν = R⁻¹ Q₁ᵀ g``), and a row at its upper bound needs ``ν <= tolerance`` (the level would
+    gain by moving it down otherwise), at its lower bound ``ν >= -tolerance``. Then q̇* satisfies the
+    hierarchy's optimality conditions level by level and is its solution; a wrong guess returns
+    None, for the active set. The binding rows hold, so they do not count in the free dimensions.
     """
     n = levels[0][0].shape[1]
     equalities: list[tuple[np.ndarray, np.ndarray]] = []  # (J, target)
     inequalities: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    guessed: list[tuple[int, np.ndarray]] = []  # (first row in the stack, sides) of each binding block
     free_dims: list[int] = []  # certified below: each equality row takes one dimension
-    total = 0
-    for J, lower, upper in levels:
+    total, fixed = 0, 0  # rows stacked (binding ones included), equality rows
+    last_is_equality = False
+    for index, (J, lower, upper) in enumerate(levels):
         if lower is not upper and (lower < upper).all():
-            inequalities.append((J, lower, upper))
+            bound = None if binding is None else binding.get(index)
+            if bound is None:
+                inequalities.append((J, lower, upper))
+            else:
+                rows, sides = bound
+                at = np.where(sides > 0, upper[rows], lower[rows])
+                if not np.isfinite(at).all():
+                    return None
+                equalities.append((J[rows], at))
+                guessed.append((total, sides))
+                total += rows.size
+                rest = np.ones(J.shape[0], dtype=bool)
+                rest[rows] = False
+                inequalities.append((J[rest], lower[rest], upper[rest]))
+                last_is_equality = False
         elif lower is upper or (lower == upper).all():
             if J.shape[0]:
                 equalities.append((J, upper))
                 total += J.shape[0]
+                fixed += J.shape[0]
+                last_is_equality = True
         else:
             return None
-        free_dims.append(max(n - total, 0))
+        free_dims.append(max(n - fixed, 0))
+    if total > n and not last_is_equality:
+        return None  # a tall block of guessed rows: not this form
     last = equalities.pop() if total > n else None  # a tall last level
     rows = total - (0 if last is None else last[0].shape[0])
     if rows >= n and last is not None:
@@ -393,6 +462,15 @@ def _inequalities_idle(
         value = J.dot(x)
         if not ((value <= upper) & (value >= lower)).all():
             return None
+    if guessed:
+        if last is None:
+            nu = R_inv.dot(y)  # q̇* = Q₁ y = Aᵀ ν with R ν = y
+        else:
+            J, target = last
+            nu = R_inv.dot(Q[:, :rows].T.dot(J.T.dot(J.dot(x) - target)))
+        for start, sides in guessed:
+            if (sides * nu[start : start + sides.size] > tolerance).any():
+                return None
     return x, tuple(free_dims)
 
 
