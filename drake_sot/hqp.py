@@ -5,6 +5,11 @@ per-level reports of its result.
 
 Level k holds rows ``l_k <= J_k q̇ <= u_k`` (``l = u`` for an equality); each level minimises
 its slack given the levels above, then a last level ``I q̇ = 0`` picks the minimum-norm q̇.
+
+The active set never gives up: on a degenerate point it turns to Bland's smallest-index rule,
+and a last-resort guard returns the iterate it reached, naming the level
+(:attr:`HqpResult.unsettled`), rather than raising. A control loop passes the last tick's
+result as ``warm_start``: when the same rows are at a bound, the tick is one equality solve.
 """
 
 from __future__ import annotations
