@@ -229,7 +229,9 @@ def solve_hqp(
 
     Shortcut: when every inequality row holds at the solution of the equality levels alone,
     that solution is the answer and no active set runs (:func:`_inequalities_idle` says why
-    and when it applies: a control tick whose limits do not bind).
+    and when it applies: a control tick whose limits do not bind). Without ``warm_start``, the
+    rows that do not hold there are tried once as the rows at a bound (the same function and
+    its certificate: one more QR); with it, its rows are tried instead, first.
 
     Why not DAQP's hierarchical mode: it is faster, but it makes each level soft with a fixed
     penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), so its q̇ can be
@@ -284,7 +286,12 @@ def solve_hqp(
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
     binding = None if warm_start is None else _binding(warm_start, checked, level_names)
-    fast = _inequalities_idle(checked, rank_threshold, tolerance, binding)
+    violated: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    fast = _inequalities_idle(
+        checked, rank_threshold, tolerance, binding, violated if binding is None else None
+    )
+    if fast is None and violated:  # the rows that the equality levels' solution crosses, as a guess
+        fast = _inequalities_idle(checked, rank_threshold, tolerance, violated)
     if fast is not None:
         qdot, free_dims = fast
         return HqpResult(
@@ -351,6 +358,7 @@ def _inequalities_idle(
     rank_threshold: float,
     tolerance: float = TOLERANCE,
     binding: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
+    violated: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[np.ndarray, tuple[int, ...]] | None:
     """q̇ and the free dimensions of :func:`solve_hqp` when its inequalities change nothing, else None.
 
@@ -387,23 +395,33 @@ def _inequalities_idle(
     except in the last level, the tall one or the least-norm one, whose optimality over the larger
     set is the sign of their multipliers: with ``g`` that level's gradient at q̇* (``J_Lᵀ (J_L q̇* -
     t_L)``, or q̇* itself for the least norm), ``g = Aᵀ ν`` over the stacked rows A above it
-    (``ν = R⁻¹ Q₁ᵀ g``), and a row at its upper bound needs ``ν <= tolerance`` (the level would
-    gain by moving it down otherwise), at its lower bound ``ν >= -tolerance``. Then q̇* satisfies the
+    (``ν = R⁻¹ Q₁ᵀ g``), and a row at its upper bound needs ``ν <= tolerance`` for the least norm
+    (the level would gain by moving it down otherwise), at its lower bound ``ν >= -tolerance``; for a
+    tall last level strictly (``ν < -tolerance``, ``ν > tolerance``): a row it does not hold on may
+    move in that level's optimal set, where the least norm decides. Then q̇* satisfies the
     hierarchy's optimality conditions level by level and is its solution; a wrong guess returns
-    None, for the active set. The binding rows hold, so they do not count in the free dimensions.
+    None, for the active set. The binding rows hold, so they do not count in the free dimensions
+    (those a tall last level leaves are counted by one more QR and SVD: the rank of its rows in what
+    the equality rows above leave).
+
+    ``violated``: when given (a dict) and the answer is None because inequality rows do not hold
+    at q̇*, it receives them as a ``binding`` guess (the rows of each inequality level without a
+    guessed row that q̇* leaves, with the side it leaves by): at a limit met for the first time,
+    the rows that the unlimited q̇ would cross are often those that bind.
     """
     n = levels[0][0].shape[1]
     equalities: list[tuple[np.ndarray, np.ndarray]] = []  # (J, target)
-    inequalities: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    inequalities: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []  # (level, J, lower, upper)
     guessed: list[tuple[int, np.ndarray]] = []  # (first row in the stack, sides) of each binding block
     free_dims: list[int] = []  # certified below: each equality row takes one dimension
     total, fixed = 0, 0  # rows stacked (binding ones included), equality rows
-    last_is_equality = False
+    fixed_rows: list[np.ndarray] = []  # the equality levels' J
+    last_is_equality, last_index = False, 0
     for index, (J, lower, upper) in enumerate(levels):
         if lower is not upper and (lower < upper).all():
             bound = None if binding is None else binding.get(index)
             if bound is None:
-                inequalities.append((J, lower, upper))
+                inequalities.append((index, J, lower, upper))
             else:
                 rows, sides = bound
                 at = np.where(sides > 0, upper[rows], lower[rows])
@@ -414,20 +432,23 @@ def _inequalities_idle(
                 total += rows.size
                 rest = np.ones(J.shape[0], dtype=bool)
                 rest[rows] = False
-                inequalities.append((J[rest], lower[rest], upper[rest]))
+                inequalities.append((-1, J[rest], lower[rest], upper[rest]))
                 last_is_equality = False
         elif lower is upper or (lower == upper).all():
             if J.shape[0]:
                 equalities.append((J, upper))
+                fixed_rows.append(J)
                 total += J.shape[0]
                 fixed += J.shape[0]
-                last_is_equality = True
+                last_is_equality, last_index = True, index
         else:
             return None
         free_dims.append(max(n - fixed, 0))
     if total > n and not last_is_equality:
         return None  # a tall block of guessed rows: not this form
     last = equalities.pop() if total > n else None  # a tall last level
+    if last is not None:
+        fixed_rows.pop()
     rows = total - (0 if last is None else last[0].shape[0])
     if rows >= n and last is not None:
         return None
@@ -463,19 +484,46 @@ def _inequalities_idle(
         if u is None:
             return None
         x = x + (u if Z is None else Z.dot(u))
-    for J, lower, upper in inequalities:
+    outside = False
+    for index, J, lower, upper in inequalities:
         value = J.dot(x)
-        if not ((value <= upper) & (value >= lower)).all():
-            return None
+        above, below = value > upper, value < lower
+        if above.any() or below.any():
+            outside = True
+            if violated is None:
+                return None
+            rows = np.flatnonzero(above | below)
+            violated[index] = (rows, np.where(above[rows], 1.0, -1.0))
+    if outside:
+        return None
     if guessed:
         if last is None:
             nu = R_inv.dot(y)  # q̇* = Q₁ y = Aᵀ ν with R ν = y
+            wrong = tolerance  # the least norm is unique: a multiplier may be zero
         else:
             J, target = last
             nu = R_inv.dot(Q[:, :rows].T.dot(J.T.dot(J.dot(x) - target)))
+            # A zero multiplier would leave its row free to move in the last level's optimal set,
+            # where the least norm decides: only rows that the last level strictly holds on.
+            wrong = -tolerance
         for start, sides in guessed:
-            if (sides * nu[start : start + sides.size] > tolerance).any():
+            if (sides * nu[start : start + sides.size] >= wrong).any():
                 return None
+        if last is not None:
+            # The last level fixes its rows in what the equality rows above it leave (the guessed
+            # rows hold, they fix nothing): that space is wider than Z, its rank there is counted.
+            J = last[0]
+            F = np.concatenate(fixed_rows) if fixed_rows else np.zeros((0, n))
+            if F.shape[0]:
+                qr_f, tau_f, _, info = _GEQRF(F.T)
+                padded = np.zeros((n, n), order="F")
+                padded[:, : F.shape[0]] = qr_f
+                Q_f, _, info_q = _ORGQR(padded, tau_f)
+                if info or info_q:
+                    return None
+                J = J.dot(Q_f[:, F.shape[0] :])
+            left = J.shape[1] - SvdSplit.of(J, rank_threshold).rank
+            free_dims[last_index:] = [left] * (len(free_dims) - last_index)
     return x, tuple(free_dims)
 
 

@@ -652,15 +652,36 @@ def limits_and_tasks(bound_rows: int, n: int = 30) -> list[Level3]:
 @pytest.mark.parametrize("bound_rows", [1, 4, 8])
 def test_a_tick_whose_rows_at_a_bound_do_not_change_is_one_equality_solve(bound_rows):
     """The rows at a bound of the last tick, still right: no active-set iteration (one per level,
-    the shortcut's count), the cold answer. (Of the tightened limits, all but a few bind.)"""
+    the shortcut's count), the cold answer, which is the independent cascade's. (With 16
+    tightened limits, 13 bind: with the tasks' 18 rows, more than the 30 joints, not the
+    shortcut's form.)"""
     levels = limits_and_tasks(bound_rows)
-    cold = solve_hqp(levels)
-    assert 0 < len(cold.levels[0].active_lower) + len(cold.levels[0].active_upper) <= bound_rows
-    assert cold.iterations > len(levels)  # the active set ran
+    previous = solve_hqp(levels)
+    assert 0 < len(previous.levels[0].active_lower) + len(previous.levels[0].active_upper) <= bound_rows
     nearby = moved(levels, np.random.default_rng(1), 1e-3)
-    warm = solve_hqp(nearby, warm_start=cold)
+    warm = solve_hqp(nearby, warm_start=previous)
     assert warm.iterations == len(levels)
-    np.testing.assert_allclose(warm.qdot, solve_hqp(nearby).qdot, rtol=0.0, atol=1e-12)
+    cold = solve_hqp(nearby)
+    np.testing.assert_allclose(warm.qdot, cold.qdot, rtol=0.0, atol=1e-12)
+    reference = polished(nearby, daqp_guess(nearby, 30), 30)
+    np.testing.assert_allclose(cold.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+
+
+@pytest.mark.parametrize(
+    ("bound_rows", "guessed"), [(1, True), (4, True), (6, True), (8, False), (16, False)]
+)
+def test_limits_met_for_the_first_time_are_guessed_from_the_rows_the_free_solution_crosses(
+    bound_rows, guessed
+):
+    """Without a warm start, the rows that the equality levels' own solution crosses are tried as
+    the rows at a bound: right here for 1, 4 and 6 tightened limits (one equality solve more, no
+    active set), wrong for 8 and 16 (7 and 13 of them bind: the active set runs). Either way the
+    independent cascade's answer."""
+    levels = limits_and_tasks(bound_rows)
+    result = solve_hqp(levels)
+    assert (result.iterations == len(levels)) == guessed
+    reference = polished(levels, daqp_guess(levels, 30), 30)
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
 
 
 # --- c) bad input -------------------------------------------------------------------------
