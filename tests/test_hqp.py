@@ -684,6 +684,41 @@ def test_limits_met_for_the_first_time_are_guessed_from_the_rows_the_free_soluti
     np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
 
 
+def test_a_guess_whose_row_the_tall_last_level_does_not_hold_on_is_declined():
+    """Six joints (a problem drawn by the warm-start test); the last level (3 rows) is tall in
+    what the rows above leave once row 1 of each inequality level is guessed at its upper bound
+    (the rows the equality levels' solution crosses). Its multipliers say nothing against the
+    guess but one is zero: that row may leave its bound inside the last level's optimal set, where
+    the least norm picks another q̇ (the same slacks, a smaller norm). The guess is declined, and
+    solve_hqp gives the cascade's q̇."""
+    J0 = [[0.23886608, -0.99354207, -0.24619597, 0.49059852, 0.09865879, -1.79773618],
+          [1.08519888, 1.7808936, 0.15387148, -0.93639985, -1.06122414, -1.0343604],
+          [0.82005546, 0.03305635, -0.67048348, -1.29101287, -1.28979652, 0.43117544]]  # fmt: skip
+    J1 = [[-0.96624565, 2.01056605, 0.27910279, -0.68923228, 1.88020045, -0.21210476],
+          [1.64254264, 0.22751585, -1.40172399, 0.34924981, 0.4418076, -1.2277591]]  # fmt: skip
+    J2 = [[0.2287021, 0.89252649, 2.07315697, -0.16163895, 2.18236131, -0.72216214],
+          [-0.0231937, 0.36639292, 1.23110768, -2.05484617, -0.62641843, 0.08691651]]  # fmt: skip
+    J3 = [[0.61601752, -0.63445516, -0.14056953, -0.67257739, -0.47461416, 1.82451072],
+          J1[1],  # the last level asks row 1 of level 1 for a value out of its bounds
+          [1.47042402, -1.50580556, 1.20515689, 0.23388077, 0.35630153, -0.42049917]]  # fmt: skip
+    t2, t3 = np.array([1.36998918, 0.05885112]), np.array([-1.7409731, 1.21777279, -0.11785095])
+    levels = [
+        (
+            np.array(J0),
+            np.array([-0.30128097, -np.inf, -2.91229613]),
+            np.array([3.37087475, -0.31984178, 0.77803986]),
+        ),
+        (np.array(J1), np.array([-0.93543346, -1.43463374]), np.array([2.4062721, -1.11692069])),
+        (np.array(J2), t2, t2.copy()),
+        (np.array(J3), t3, t3.copy()),
+    ]
+    reference = cascade(levels, 6)
+    guess = {0: (np.array([1]), np.array([1.0])), 1: (np.array([1]), np.array([1.0]))}
+    certified = _inequalities_idle(levels, 1e-6, 1e-9, guess)
+    assert certified is None or np.allclose(certified[0], reference, atol=1e-9)
+    np.testing.assert_allclose(solve_hqp(levels).qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+
+
 # --- c) bad input -------------------------------------------------------------------------
 
 
