@@ -1,4 +1,4 @@
-"""Peer benchmark: ``drake_sot.hierarchy.solve_hqp`` against PlaCo's ``KinematicsSolver`` on TALOS.
+"""Peer benchmark: ``drake_sot.hqp.solve_hqp`` against PlaCo's ``KinematicsSolver`` on TALOS.
 
     make bench-peers      (creates .venv-peers with placo, pin and example-robot-data, then runs this)
 
@@ -64,7 +64,8 @@ from importlib.metadata import version
 
 import numpy as np
 
-from drake_sot.hierarchy import HqpResult, solve_hqp, solve_strict
+from drake_sot.hierarchy import solve_strict
+from drake_sot.hqp import HqpResult, solve_hqp
 from drake_sot.inequalities import velocity_bounds
 from drake_sot.robots.catalog import RobotDataMissing
 from drake_sot.robots.catalog import talos as talos_description

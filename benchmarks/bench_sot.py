@@ -33,7 +33,8 @@ import time
 
 import numpy as np
 
-from drake_sot.hierarchy import solve_hqp, solve_strict
+from drake_sot.hierarchy import solve_strict
+from drake_sot.hqp import solve_hqp
 from drake_sot.linalg import pinv
 
 

@@ -47,7 +47,7 @@ class TaskSignal:
 @dataclass(frozen=True)
 class BoundedTaskSignal:
     """An inequality task as the solver sees it: ``lower <= J q̇ <= upper`` row by row
-    (a level of :func:`drake_sot.hierarchy.solve_hqp`; Escande, Mansard, Wieber 2014).
+    (a level of :func:`drake_sot.hqp.solve_hqp`; Escande, Mansard, Wieber 2014).
 
     Attributes:
         name: the task's name (the key the stack uses).

@@ -1,4 +1,4 @@
-"""Tests of the strict hierarchy with inequalities, drake_sot.hierarchy.solve_hqp.
+"""Tests of the strict hierarchy with inequalities, drake_sot.hqp.solve_hqp.
 
 The reference is a cascade written here with scipy only (lstsq, null_space), exact up to
 rounding: each level minimises its slack with the levels above held at their optimum, over
@@ -20,14 +20,17 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass
 
+import daqp
 import numpy as np
 import pytest
 import scipy.linalg
-from hypothesis import given, settings
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from test_hierarchy import stacks
 
-from drake_sot.hierarchy import _inequalities_idle, solve_hqp, solve_strict
+from drake_sot import hqp
+from drake_sot.hierarchy import solve_strict
+from drake_sot.hqp import _inequalities_idle, solve_hqp
 
 SETTINGS = settings(max_examples=120, deadline=None)
 Level3 = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -382,6 +385,338 @@ def test_unvalidated_fast_path_gives_the_same_result():
     a = solve_hqp(levels)
     b = solve_hqp([(J, *rest) for J, *rest in levels], validate=False)
     np.testing.assert_array_equal(a.qdot, b.qdot)
+
+
+# --- d) degenerate problems: Bland's rule, and the guard that never raises ------------------
+
+
+@st.composite
+def degenerate_problems(draw: st.DrawFn) -> Problem:
+    """Like :func:`problems`, made degenerate: rows of small integers, bounds through 0 (rows at
+    their bound where q̇ starts, zero multipliers), rows repeated from above with the same bounds
+    or scaled, and rank-deficient levels (a row the sum of two others)."""
+    problem = draw(problems())
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    levels: list[Level3] = []
+    for J, lo, hi in problem.levels:
+        J = rng.integers(-2, 3, size=J.shape).astype(float)
+        if J.shape[0] >= 3 and draw(st.booleans()):
+            J[2] = J[0] + J[1]
+        if levels and draw(st.booleans()):
+            J_src, lo_src, hi_src = levels[rng.integers(len(levels))]
+            k, i = rng.integers(J_src.shape[0]), rng.integers(J.shape[0])
+            factor = draw(st.sampled_from([1.0, -1.0, 2.0]))
+            J[i] = factor * J_src[k]
+            lo, hi = lo.copy(), hi.copy()
+            if factor == 1.0 and draw(st.booleans()):
+                lo[i], hi[i] = lo_src[k], hi_src[k]
+        # Shift the finite bounds of inequality rows onto 0 (equalities keep their targets).
+        lo, hi = lo.copy(), hi.copy()
+        box = (lo < hi) & (rng.random(lo.size) < 0.6)
+        lo[box & np.isfinite(lo)] = np.minimum(lo[box & np.isfinite(lo)], 0.0) * (rng.random() < 0.5)
+        hi[box & np.isfinite(hi)] = np.maximum(hi[box & np.isfinite(hi)], 0.0) * (rng.random() < 0.5)
+        levels.append((J, lo, hi))
+    return Problem(levels=levels, n=problem.n)
+
+
+@pytest.mark.parametrize("bland_after", [5, 0])
+@settings(max_examples=200, deadline=None)
+@given(problem=degenerate_problems())
+def test_degenerate_problems_reach_the_cascade_with_and_without_blands_rule(problem, bland_after):
+    """On degenerate problems the active set settles on the cascade's optimum, whether Bland's
+    smallest-index rule takes over after a few iterations that do not move q̇ (the default) or
+    rules every choice from the start (``BLAND_AFTER = 0``)."""
+    reference = cascade(problem.levels, problem.n)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(hqp._ActiveSet, "BLAND_AFTER", bland_after)
+        result = solve_hqp(problem.levels)
+    assert result.unsettled == ()
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
+
+
+def test_an_active_set_stopped_by_its_guard_returns_where_it_stands(monkeypatch):
+    """The last-resort guard (no iteration allowed here) does not raise: the level stops where it
+    stands, is named in ``unsettled``, and q̇ keeps the level above at its optimum and the box."""
+    monkeypatch.setattr(hqp._ActiveSet, "ITERATIONS_PER_ROW", 0)
+    n = 3
+    levels = [
+        (np.array([[1.0, 0.0, 0.0]]), np.array([0.3])),  # q̇1 = 0.3, met by the first step
+        (np.eye(n), -np.full(n, 0.5), np.full(n, 0.5)),  # holds at (0.3, 0, 0): hard rows
+        (np.eye(n), np.full(n, 2.0)),  # blocked by the box: its active set is stopped at once
+    ]
+    result = solve_hqp(levels, names=["first", "box", "task"])
+    assert result.unsettled == ("task",)
+    np.testing.assert_allclose(result.qdot, [0.3, 0.0, 0.0], atol=1e-15)
+    assert result.level("first").violation == 0.0 and result.level("box").violation == 0.0
+    # Without the guard, the task gets the box's corner (0.5, 0.5, 0.5) but q̇1, fixed at 0.3.
+    monkeypatch.undo()
+    settled = solve_hqp(levels, names=["first", "box", "task"])
+    assert settled.unsettled == ()
+    np.testing.assert_allclose(settled.qdot, [0.3, 0.5, 0.5], atol=1e-12)
+
+
+# --- e) large random hierarchies against daqp's cascade, polished -----------------------------
+
+
+def daqp_guess(levels: list[Level3], n: int) -> np.ndarray | None:
+    """A cascade of QPs solved by daqp (a dual active set, independent of solve_hqp): level k
+    minimises ``||v_k||²`` over ``x = x_{k-1} + N y`` and ``l_k <= J_k x - v_k <= u_k``, with the
+    rows that held at the levels above as constraints (relaxed by 1e-9 for rounding); its equality
+    and violated rows then shrink the basis N (SVD, singular values > 1e-9); last, the least-norm
+    x. None when daqp reports no optimum. Its answers carry daqp's own tolerances (rows of the
+    levels above violated by up to ~1e-6): :func:`polished` makes them exact."""
+    x, N, hard = np.zeros(n), np.eye(n), []
+    for J, lo, hi in levels:
+        m, k = J.shape[0], N.shape[1]
+        if k:
+            A = np.vstack(
+                [np.hstack([J @ N, -np.eye(m)])]
+                + [np.hstack([C @ N, np.zeros((C.shape[0], m))]) for C, _, _ in hard]
+            )
+            lower = np.concatenate([lo - J @ x] + [c_lo - C @ x - 1e-9 for C, c_lo, _ in hard])
+            upper = np.concatenate([hi - J @ x] + [c_hi - C @ x + 1e-9 for C, _, c_hi in hard])
+            z, _, flag, _ = daqp.solve(
+                np.diag(np.r_[np.zeros(k), np.ones(m)]),
+                np.zeros(k + m),
+                A,
+                np.minimum(upper, 1e30),
+                np.maximum(lower, -1e30),
+                np.zeros(lower.size, dtype=np.int32),
+                eps_prox=-1.0,
+                primal_tol=1e-11,
+                dual_tol=1e-12,
+            )
+            if flag != 1:
+                return None
+            x = x + N @ z[:k]
+        value = J @ x
+        fixed = (lo == hi) | (np.abs(value - np.clip(value, lo, hi)) > 1e-7)
+        if fixed.any() and k:
+            _, s, Vt = scipy.linalg.svd(J[fixed] @ N)
+            N = N @ Vt[int(np.sum(s > 1e-9)) :].T
+        hard.append((J[~fixed], lo[~fixed], hi[~fixed]))
+    if N.shape[1] and hard:
+        A = np.vstack([C @ N for C, _, _ in hard])
+        lower = np.concatenate([c_lo - C @ x - 1e-9 for C, c_lo, _ in hard])
+        upper = np.concatenate([c_hi - C @ x + 1e-9 for C, _, c_hi in hard])
+        y, _, flag, _ = daqp.solve(
+            np.eye(N.shape[1]),
+            N.T @ x,
+            A,
+            np.minimum(upper, 1e30),
+            np.maximum(lower, -1e30),
+            np.zeros(lower.size, dtype=np.int32),
+            primal_tol=1e-11,
+            dual_tol=1e-12,
+        )
+        if flag != 1:
+            return None
+        x = x + N @ y
+    elif N.shape[1]:
+        x = x - N @ (N.T @ x)
+    return x
+
+
+def polished(levels: list[Level3], x: np.ndarray, n: int) -> np.ndarray:
+    """The candidate of the module docstring for the active set seen at ``x``: each inequality
+    row within 1e-7 of a bound binds there, the others are dropped; exact to rounding."""
+    hierarchy = []
+    for J, lo, hi in levels:
+        v = J @ x
+        side = np.where(lo == hi, 2, np.where(v >= hi - 1e-7, 1, np.where(v <= lo + 1e-7, -1, 0)))
+        rows = np.flatnonzero(side)
+        hierarchy.append((J[rows], np.where(side[rows] == -1, lo[rows], hi[rows])))
+    return equality_hierarchy(hierarchy, n)
+
+
+@st.composite
+def large_problems(draw: st.DrawFn) -> Problem:
+    """6-10 levels of 2-13 rows on 38-50 joints; a level is all equalities or mixes one-sided,
+    two-sided and equality rows. Degenerate if drawn: rows repeated from a level above (the same
+    row, its opposite or its double, with its bounds or others: parallel and contradictory rows),
+    rank-deficient levels (a row the sum of two others), bounds through 0 (rows at their bound
+    where q̇ starts, with zero multipliers)."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    degenerate = draw(st.booleans())
+    n = draw(st.integers(38, 50))
+    levels: list[Level3] = []
+    for _ in range(draw(st.integers(6, 10))):
+        m = int(rng.integers(2, 14))
+        J = rng.normal(size=(m, n))
+        lo, hi = np.empty(m), np.empty(m)
+        equalities = rng.random() < 0.35
+        for i in range(m):
+            centre, width = rng.normal(), rng.uniform(0.0, 1.0)
+            if degenerate and rng.random() < 0.4:
+                centre, width = 0.0, float(rng.choice([0.0, 1.0]))
+            kind = "equality" if equalities or rng.random() < 0.2 else rng.choice(["box", "above", "below"])
+            lo[i], hi[i] = {
+                "equality": (centre, centre),
+                "box": (centre - width, centre + width),
+                "above": (centre - width, np.inf),
+                "below": (-np.inf, centre + width),
+            }[kind]
+            if degenerate and levels and rng.random() < 0.3:
+                J_src, lo_src, hi_src = levels[rng.integers(len(levels))]
+                k = rng.integers(J_src.shape[0])
+                J[i] = J_src[k] * rng.choice([1.0, -1.0, 2.0])
+                if rng.random() < 0.5:
+                    lo[i], hi[i] = lo_src[k], hi_src[k]
+        if degenerate and m >= 3 and rng.random() < 0.3:
+            J[2] = J[0] + J[1]
+        levels.append((J, lo, hi))
+    return Problem(levels=levels, n=n)
+
+
+@settings(max_examples=40, deadline=None)
+@given(large_problems())
+def test_large_hierarchies_settle_and_are_never_beaten_by_an_independent_cascade(problem):
+    """Large random hierarchies, degenerate ones included: the active set settles (no level is
+    unsettled), and daqp's cascade, its active set polished into an exact candidate, never
+    does lexicographically better by more than 1e-6 at the first level where they differ beyond
+    rounding; when it does as well, it is the same q̇ (the optimum is unique). daqp sometimes
+    stops on a worse point (its own tolerances)."""
+    result = solve_hqp(problem.levels)
+    assert result.unsettled == ()
+    guess = daqp_guess(problem.levels, problem.n)
+    if guess is None:
+        event("daqp found no optimum")
+        return
+    reference = polished(problem.levels, guess, problem.n)
+    ours, theirs = slacks(problem.levels, result.qdot), slacks(problem.levels, reference)
+    # The first level where the two differ beyond rounding (1e-8) decides.
+    for level, (mine, other) in enumerate(zip(ours, theirs, strict=True)):
+        if abs(mine - other) <= 1e-8 * (1.0 + other):
+            continue
+        assert mine <= other + 1e-6 * (1.0 + other), f"level {level}: {mine} > {other}"
+        event("solve_hqp better than the candidate" if mine < other else "within 1e-6, beyond 1e-8")
+        return  # the candidate is not the optimum, or they differ by little more than rounding
+    event("the candidate is solve_hqp's q̇")
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
+
+
+# --- f) warm start ------------------------------------------------------------------------------
+
+
+def moved(levels: list[Level3], rng: np.random.Generator, size: float) -> list[Level3]:
+    """The same rows with every finite bound moved by up to ``size`` (a next control tick)."""
+    out = []
+    for J, lo, hi in levels:
+        shift = rng.uniform(-size, size, lo.size)
+        out.append((J, lo + shift, np.where(lo == hi, lo + shift, hi + shift)))
+    return out
+
+
+@settings(max_examples=150, deadline=None)
+@given(problems(), st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.01, 1.0]))
+def test_a_warm_start_gives_the_cold_answer(problem, seed, size):
+    """Warm-started from the result of the same problem, of a nearby one (bounds moved by 0.01:
+    the same rows bind, mostly) or of another (moved by 1: a wrong guess), the answer is the
+    cold one, which is the cascade's."""
+    previous = solve_hqp(problem.levels)
+    levels = moved(problem.levels, np.random.default_rng(seed), size)
+    cold = solve_hqp(levels)
+    warm = solve_hqp(levels, warm_start=previous)
+    reference = cascade(levels, problem.n)
+    np.testing.assert_allclose(cold.qdot, reference, rtol=0.0, atol=1e-6 * scale(reference))
+    np.testing.assert_allclose(warm.qdot, cold.qdot, rtol=0.0, atol=1e-9 * scale(cold.qdot))
+    assert warm.free_dims == cold.free_dims and warm.unsettled == ()
+    if warm.iterations < cold.iterations:
+        event("the guess certified: one equality solve")
+
+
+@settings(max_examples=30, deadline=None)
+@given(large_problems(), st.integers(0, 2**32 - 1))
+def test_a_warm_start_gives_the_cold_answer_on_large_hierarchies(problem, seed):
+    previous = solve_hqp(problem.levels)
+    levels = moved(problem.levels, np.random.default_rng(seed), 0.01)
+    cold = solve_hqp(levels)
+    warm = solve_hqp(levels, warm_start=previous)
+    np.testing.assert_allclose(warm.qdot, cold.qdot, rtol=0.0, atol=1e-9 * scale(cold.qdot))
+    assert warm.free_dims == cold.free_dims
+
+
+def limits_and_tasks(bound_rows: int, n: int = 30) -> list[Level3]:
+    """Joint-velocity limits on top, three tasks of 6 rows and a posture below: the limits are
+    tightened to half the unconstrained q̇ on its ``bound_rows`` largest joints."""
+    rng = np.random.default_rng(7)
+    tasks = [(rng.normal(size=(6, n)), rng.normal(size=6)) for _ in range(3)]
+    posture = (np.eye(n), 0.3 * rng.normal(size=n))
+    free = solve_strict([*tasks, posture]).qdot
+    limit = 2.0 * np.abs(free) + 1.0
+    largest = np.argsort(-np.abs(free))[:bound_rows]
+    limit[largest] = 0.5 * np.abs(free[largest])
+    return [(np.eye(n), -limit, limit)] + [(J, t, t) for J, t in (*tasks, posture)]
+
+
+@pytest.mark.parametrize("bound_rows", [1, 4, 8])
+def test_a_tick_whose_rows_at_a_bound_do_not_change_is_one_equality_solve(bound_rows):
+    """The rows at a bound of the last tick, still right: no active-set iteration (one per level,
+    the shortcut's count), the cold answer, which is the independent cascade's. (With 16
+    tightened limits, 13 bind: with the tasks' 18 rows, more than the 30 joints, not the
+    shortcut's form.)"""
+    levels = limits_and_tasks(bound_rows)
+    previous = solve_hqp(levels)
+    assert 0 < len(previous.levels[0].active_lower) + len(previous.levels[0].active_upper) <= bound_rows
+    nearby = moved(levels, np.random.default_rng(1), 1e-3)
+    warm = solve_hqp(nearby, warm_start=previous)
+    assert warm.iterations == len(levels)
+    cold = solve_hqp(nearby)
+    np.testing.assert_allclose(warm.qdot, cold.qdot, rtol=0.0, atol=1e-12)
+    reference = polished(nearby, daqp_guess(nearby, 30), 30)
+    np.testing.assert_allclose(cold.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+
+
+@pytest.mark.parametrize(
+    ("bound_rows", "guessed"), [(1, True), (4, True), (6, True), (8, False), (16, False)]
+)
+def test_limits_met_for_the_first_time_are_guessed_from_the_rows_the_free_solution_crosses(
+    bound_rows, guessed
+):
+    """Without a warm start, the rows that the equality levels' own solution crosses are tried as
+    the rows at a bound: right here for 1, 4 and 6 tightened limits (one equality solve more, no
+    active set), wrong for 8 and 16 (7 and 13 of them bind: the active set runs). Either way the
+    independent cascade's answer."""
+    levels = limits_and_tasks(bound_rows)
+    result = solve_hqp(levels)
+    assert (result.iterations == len(levels)) == guessed
+    reference = polished(levels, daqp_guess(levels, 30), 30)
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+
+
+def test_a_guess_whose_row_the_tall_last_level_does_not_hold_on_is_declined():
+    """Six joints (a problem drawn by the warm-start test); the last level (3 rows) is tall in
+    what the rows above leave once row 1 of each inequality level is guessed at its upper bound
+    (the rows the equality levels' solution crosses). Its multipliers say nothing against the
+    guess but one is zero: that row may leave its bound inside the last level's optimal set, where
+    the least norm picks another q̇ (the same slacks, a smaller norm). The guess is declined, and
+    solve_hqp gives the cascade's q̇."""
+    J0 = [[0.23886608, -0.99354207, -0.24619597, 0.49059852, 0.09865879, -1.79773618],
+          [1.08519888, 1.7808936, 0.15387148, -0.93639985, -1.06122414, -1.0343604],
+          [0.82005546, 0.03305635, -0.67048348, -1.29101287, -1.28979652, 0.43117544]]  # fmt: skip
+    J1 = [[-0.96624565, 2.01056605, 0.27910279, -0.68923228, 1.88020045, -0.21210476],
+          [1.64254264, 0.22751585, -1.40172399, 0.34924981, 0.4418076, -1.2277591]]  # fmt: skip
+    J2 = [[0.2287021, 0.89252649, 2.07315697, -0.16163895, 2.18236131, -0.72216214],
+          [-0.0231937, 0.36639292, 1.23110768, -2.05484617, -0.62641843, 0.08691651]]  # fmt: skip
+    J3 = [[0.61601752, -0.63445516, -0.14056953, -0.67257739, -0.47461416, 1.82451072],
+          J1[1],  # the last level asks row 1 of level 1 for a value out of its bounds
+          [1.47042402, -1.50580556, 1.20515689, 0.23388077, 0.35630153, -0.42049917]]  # fmt: skip
+    t2, t3 = np.array([1.36998918, 0.05885112]), np.array([-1.7409731, 1.21777279, -0.11785095])
+    levels = [
+        (
+            np.array(J0),
+            np.array([-0.30128097, -np.inf, -2.91229613]),
+            np.array([3.37087475, -0.31984178, 0.77803986]),
+        ),
+        (np.array(J1), np.array([-0.93543346, -1.43463374]), np.array([2.4062721, -1.11692069])),
+        (np.array(J2), t2, t2.copy()),
+        (np.array(J3), t3, t3.copy()),
+    ]
+    reference = cascade(levels, 6)
+    guess = {0: (np.array([1]), np.array([1.0])), 1: (np.array([1]), np.array([1.0]))}
+    certified = _inequalities_idle(levels, 1e-6, 1e-9, guess)
+    assert certified is None or np.allclose(certified[0], reference, atol=1e-9)
+    np.testing.assert_allclose(solve_hqp(levels).qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
 
 
 # --- c) bad input -------------------------------------------------------------------------

@@ -3,7 +3,7 @@
 Each keeps a quantity ``s(q)`` in an allowed set through the velocity damper of
 :mod:`drake_sot.inequalities` (``λ (s_min - s) <= J q̇ <= λ (s_max - s)``) and may sit
 at any level of the stack, like an equality task: the strict hierarchy of
-:func:`drake_sot.hierarchy.solve_hqp` keeps it exactly when it can, and minimises its
+:func:`drake_sot.hqp.solve_hqp` keeps it exactly when it can, and minimises its
 violation given the levels above when it cannot.
 
 Output ports (all):

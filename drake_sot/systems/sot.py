@@ -14,7 +14,8 @@ from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.errors import prefixed
-from drake_sot.hierarchy import LevelReport, level_report, solve_hqp, solve_strict
+from drake_sot.hierarchy import solve_strict
+from drake_sot.hqp import LevelReport, level_report, solve_hqp
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 from drake_sot.systems._context import own_context, settable_context
@@ -81,7 +82,7 @@ class StackOfTasks(LeafSystem):
     On a periodic discrete update (the control period, 5 ms by default as on HRP-2)
     it evaluates the tasks of the stack and solves them with
     :func:`drake_sot.hierarchy.solve_strict` (``solver="svd"``: equality tasks only) or
-    :func:`drake_sot.hierarchy.solve_hqp` (``solver="hqp"``: the stack may also hold
+    :func:`drake_sot.hqp.solve_hqp` (``solver="hqp"``: the stack may also hold
     inequality tasks, :class:`~drake_sot.systems.inequalities.InequalityTask`, at any
     level; with equality tasks only both give the same q̇); outputs are held in state
     between ticks, so physics steps in between do not run any of the controller's Python.
@@ -167,12 +168,12 @@ class StackOfTasks(LeafSystem):
         command_results: only with ``commands_input=True``; abstract
             :class:`StackCommandResults` of the last batch of the ``commands`` input.
         report: only with ``report=True``; abstract ``tuple`` of
-            :class:`~drake_sot.hierarchy.LevelReport`, one per task of the stack of the last tick
+            :class:`~drake_sot.hqp.LevelReport`, one per task of the stack of the last tick
             (the stack reached, during a change), highest priority first, each named by its task:
             ``slack`` (m,) = ``J q̇ - clip(J q̇, lower, upper)`` at the ``qdot`` output (an
             equality task's ``J q̇ - ė*``; 0 on a row that holds) [the task's rows' units /s],
             and ``active_lower`` / ``active_upper``, the rows of an inequality task within
-            :data:`~drake_sot.hierarchy.TOLERANCE` of that bound (indices into the task's rows).
+            :data:`~drake_sot.hqp.TOLERANCE` of that bound (indices into the task's rows).
             Empty before the first tick. The tick writes the slacks and the active rows to a
             discrete state (one product ``J q̇`` per task of the stack); the
             tuple is built only when the port is evaluated. Without ``report=True`` none of it
@@ -192,7 +193,7 @@ class StackOfTasks(LeafSystem):
         stack: the initial active tasks, highest priority first.
         name: the system's name.
         solver: ``"svd"`` (:func:`~drake_sot.hierarchy.solve_strict`) or ``"hqp"``
-            (:func:`~drake_sot.hierarchy.solve_hqp`, equalities and inequalities).
+            (:func:`~drake_sot.hqp.solve_hqp`, equalities and inequalities).
         commands_input: declare the ``commands`` input and the ``command_results`` output.
         report: declare the ``report`` output (the per-task slacks and active rows of each tick).
 
@@ -206,9 +207,9 @@ class StackOfTasks(LeafSystem):
             RuntimeError naming the task when its signal carries another task's name,
             has the wrong sizes (e, J or ė*; or the bounds), holds NaN/Inf (NaN only, in
             bounds), has a lower bound above its upper one (naming the row), or is an
-            inequality task's signal while ``solver="svd"``; a RuntimeError of
-            :func:`~drake_sot.hierarchy.solve_hqp` (an active set that did not settle) is raised
-            again naming the system, the time, the stack and its tasks' errors (:meth:`task_errors`).
+            inequality task's signal while ``solver="svd"``. An active set of
+            :func:`~drake_sot.hqp.solve_hqp` that does not settle raises nothing: the tick
+            takes the iterate it reached (:attr:`~drake_sot.hqp.HqpResult.unsettled`).
     """
 
     def __init__(
@@ -572,16 +573,8 @@ class StackOfTasks(LeafSystem):
             levels = [signals[task_name] for task_name in active]
             # Shapes, finiteness and bounds were checked above, with the task's name.
             if self._solver == "hqp":
-                try:
-                    result = solve_hqp(
-                        levels, names=active, rank_threshold=self._rank_threshold, validate=False
-                    )
-                except RuntimeError as error:  # e.g. an active set that did not settle: say where
-                    far = ", ".join(f"{n} {v:.3g}" for n, v in self._error_norms(errors))
-                    raise RuntimeError(
-                        f"{self.get_name()!r} at t = {context.get_time():.4f} s, stack {' > '.join(active)}: "
-                        f"{error}; the errors ‖e‖ of its tasks, largest first: {far}"
-                    ) from error
+                # An active set that does not settle gives its last iterate (solve_hqp's unsettled).
+                result = solve_hqp(levels, names=active, rank_threshold=self._rank_threshold, validate=False)
             else:
                 result = solve_strict(
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False

@@ -13,7 +13,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from drake_sot.hierarchy import solve_hqp, solve_strict
+from drake_sot.hierarchy import solve_strict
+from drake_sot.hqp import solve_hqp
 from drake_sot.models.humanoid import SOLE
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
