@@ -106,7 +106,7 @@ def add_walking(
     world, and its corrected CoM is then mapped into the reference's world like the other
     references. (Fed the anchored CoM, it would read the anchor's drift, the accumulated
     difference between the two worlds, as a DCM error, and hold its CoM offset at
-    (1 + k_ξ/ω)/(k_ξ/ω) ≈ 2.3 times the drift: the random walk fell when that offset
+    (1 + k_ξ/ω)/(k_ξ/ω) ≈ 2.2 times the drift: the random walk fell when that offset
     reached 8 cm, 3.5 cm of drift after 2 minutes.)
     """
     pg, left, right = add_pattern_generator(b, limits=limits)

@@ -2,7 +2,7 @@
 the robot's. It is fed the pattern generator's CoM (not the anchored one), and its corrected
 CoM reaches the CoM task through the stance anchor, mapped into the reference's world like
 the feet. (Fed the anchored CoM, the stabilizer read the anchor's drift as a DCM error and
-its CoM offset grew with it, 2.3 times the drift: the random walk fell after 2 minutes.)
+its CoM offset grew with it, 2.2 times the drift: the random walk fell after 2 minutes.)
 
 No simulation: the diagram is built, the anchor is given a drift and the stabilizer an
 offset in their states, and the ports are read."""
