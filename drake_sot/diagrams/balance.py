@@ -49,6 +49,7 @@ def add_stabilizer(
     references: dict[str, OutputPort] | None = None,
     *,
     gains: StabilizerGains = StabilizerGains(),
+    connect: bool = True,
 ) -> BalanceStabilizer:
     """A ``BalanceStabilizer`` feeding the CoM task ``com_task`` (added before, without its own
     ``sdes`` source), logged as ``stabilizer_offset``, ``zmp_desired``, ``dcm``,
@@ -61,6 +62,9 @@ def add_stabilizer(
             ``{name: pg.GetOutputPort(name)}``); None: standing still, the references are
             the initial CoM at rest, its ground projection as the ZMP.
         gains: the stabilizer's gains.
+        connect: connect its corrected CoM (``com``, ``com_vel``) to the task's ``sdes`` and
+            ``sdes_dot``; False: the caller does (e.g. through a ``StanceAnchor``, which maps it
+            from the robot's world, where the stabilizer measures, into the reference's).
 
     Raises:
         UnknownNameError: ``com_task`` is not a task of ``b`` (lists them).
@@ -91,9 +95,10 @@ def add_stabilizer(
     builder.Connect(zmp.GetOutputPort("zmp"), stabilizer.GetInputPort("zmp"))
     builder.Connect(zmp.GetOutputPort("foot_forces"), stabilizer.GetInputPort("foot_forces"))
     builder.Connect(b.plant.get_state_output_port(b.info.model_instance), stabilizer.GetInputPort("state"))
-    feature = b.features[com_task]
-    builder.Connect(stabilizer.GetOutputPort("com"), feature.GetInputPort("sdes"))
-    builder.Connect(stabilizer.GetOutputPort("com_vel"), feature.GetInputPort("sdes_dot"))
+    if connect:
+        feature = b.features[com_task]
+        builder.Connect(stabilizer.GetOutputPort("com"), feature.GetInputPort("sdes"))
+        builder.Connect(stabilizer.GetOutputPort("com_vel"), feature.GetInputPort("sdes_dot"))
     for log, port in (
         ("stabilizer_offset", "offset"),
         ("zmp_desired", "zmp_desired"),
