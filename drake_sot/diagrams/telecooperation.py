@@ -26,7 +26,7 @@ step, four ahead, decided from the hands' error in the waist frame.
 held by both robot hands and, at its far end, by the co-operator, an impedance
 (:class:`~drake_sot.systems.partner.Hold`) to a trajectory of their own.
 
-What holds (``tests/diagrams/test_telecooperation.py``): standing interaction at 0, 140 and
+What holds (``tests/diagrams/test_telecooperation_*.py``): standing interaction at 0, 140 and
 300 ms one way stays up and bounded, the hands within 2 cm of the operator's; walking at
 140 ms with either leader, no step is decided below the threshold and each one reduces the
 error, the board stays in the hands, the hands stay within 5 cm of the operator's, the altitude
