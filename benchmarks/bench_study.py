@@ -1,9 +1,10 @@
 """Studies on Dask: the throughput of a local cluster against the same runs serially in one
 process, and the engine's cost per run.
 
-    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_study.py [--rounds 2] [--runs 12]
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_study.py [--rounds 2] [--runs 16] [--duration 6]
 
-**Throughput.** A grid of ``--runs`` runs of ``reach`` (the right hand's gain varied, 3 s each)
+**Throughput.** A grid of ``--runs`` runs of ``reach`` (the right hand's gain varied, ``--duration`` s
+each)
 is run (a) serially, each run built and simulated by ``study_runs.measure`` in this process, and
 (b) as a study by ``run_study`` on a new ``LocalCluster`` of 2 worker processes — the cluster's
 start, the workers' imports and the table included, as a user gets it. The two alternate, round
@@ -77,7 +78,8 @@ def on_cluster(chosen: Study, workers: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rounds", type=int, default=2)
-    parser.add_argument("--runs", type=int, default=12, help="runs of the throughput study (<= 16)")
+    parser.add_argument("--runs", type=int, default=16, help="runs of the throughput study (<= 16)")
+    parser.add_argument("--duration", type=float, default=6.0, help="[s] simulated per run (default 6)")
     args = parser.parse_args()
     limit_blas_threads(1)
     measure("reach", {"robot": "embedded"}, 0.02, 0)  # imports and first-build caches, outside the timing
@@ -85,11 +87,12 @@ def main() -> None:
     print(f"load average before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
 
     print(
-        "\n| round | runs x 3 s of reach | serial in one process [s] | local cluster, 2 workers [s] "
+        f"\n| round | runs x {args.duration:g} s of reach | serial in one process [s] "
+        "| local cluster, 2 workers [s] "
         "| speed-up |"
     )
     print("|---|---|---|---|---|")
-    throughput = study(args.runs, 3.0, "throughput")
+    throughput = study(args.runs, args.duration, "throughput")
     for k in range(args.rounds):
         s = serial(throughput)
         c = on_cluster(throughput, 2)
