@@ -568,6 +568,7 @@ def large_problems(draw: st.DrawFn) -> Problem:
     return Problem(levels=levels, n=n)
 
 
+@pytest.mark.slow  # large hypothesis draws: on the main Python only (make test's compat runs skip slow)
 @settings(max_examples=40, deadline=None)
 @given(large_problems())
 def test_large_hierarchies_settle_and_are_never_beaten_by_an_independent_cascade(problem):
@@ -625,6 +626,7 @@ def test_a_warm_start_gives_the_cold_answer(problem, seed, size):
         event("the guess certified: one equality solve")
 
 
+@pytest.mark.slow  # large hypothesis draws: on the main Python only (make test's compat runs skip slow)
 @settings(max_examples=30, deadline=None)
 @given(large_problems(), st.integers(0, 2**32 - 1))
 def test_a_warm_start_gives_the_cold_answer_on_large_hierarchies(problem, seed):

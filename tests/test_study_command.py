@@ -118,6 +118,7 @@ def test_the_delay_sweep_figure_has_one_curve_per_jitter_and_loss_over_increasin
     assert files["png"].stat().st_size > 1000
 
 
+@pytest.mark.slow  # Dask's 10 s connect timeout
 def test_an_unreachable_scheduler_exits_1_with_one_line_and_leaves_no_output_directory(tmp_path, capsys):
     out = tmp_path / "new" / "out"
     assert cli.main(["study", "gain_sweep", "--scheduler", "tcp://127.0.0.1:1", "--out", str(out)]) == 1
@@ -127,6 +128,7 @@ def test_an_unreachable_scheduler_exits_1_with_one_line_and_leaves_no_output_dir
     assert list(tmp_path.iterdir()) == []  # neither out nor its new parent
 
 
+@pytest.mark.slow  # Dask's 10 s connect timeout
 def test_an_unreachable_scheduler_leaves_an_existing_output_directory_as_it_was(tmp_path):
     (tmp_path / "notes.txt").write_text("mine")
     assert cli.main(["study", "gain_sweep", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 1
