@@ -445,7 +445,13 @@ def serve_run(
         if on_ready is not None:
             on_ready(network.address)
         result = simulate(
-            simulator, duration, [*first, *setup.commands], progress=hook, chunk=serving.period, guard=guard
+            simulator,
+            duration,
+            [*first, *setup.commands],
+            progress=hook,
+            chunk=serving.period,
+            guard=guard,
+            check=False,
         )
         serving.finish()
     finally:

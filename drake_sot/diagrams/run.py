@@ -23,6 +23,7 @@ from pydrake.systems.analysis import Simulator, SimulatorStatus
 from pydrake.systems.framework import Context, System
 
 from drake_sot.diagrams.log_window import LOG_WINDOW, LogWindow
+from drake_sot.errors import DrakeSotError
 from drake_sot.systems.fall_monitor import Fall, FallMonitor
 from drake_sot.systems.search import systems_of_type
 from drake_sot.systems.sot import StackOfTasks
@@ -188,6 +189,27 @@ class RunResult:
         return self.end_time / self.wall_time if self.wall_time > 0 else float("nan")
 
 
+class RunFailed(DrakeSotError, RuntimeError):
+    """A run that :func:`simulate` checked failed (an exception stopped it) or fell.
+
+    Attributes:
+        result: the run's :class:`RunResult`, as ``simulate(..., check=False)`` returns it (the
+            simulator's context still holds the logs up to ``result.end_time``).
+    """
+
+    def __init__(self, result: RunResult) -> None:
+        self.result = result
+        if result.failure is not None:
+            failure = result.failure
+            what = f"the run failed at t = {result.end_time:.3f} s: {type(failure).__name__}: {failure}"
+        else:
+            what = "; ".join(
+                [f"the robot {result.fell} (the run stopped at t = {result.end_time:.3f} s)"]
+                + fall_causes(result)
+            )
+        super().__init__(what)
+
+
 Progress = Callable[[float, float, float], None]
 """Called with (simulated time, duration, wall time) as the run advances."""
 
@@ -201,12 +223,17 @@ def simulate(
     chunk: float = 0.1,
     guard: SignalGuard | None = None,
     log_window: float | None = LOG_WINDOW,
+    check: bool = True,
 ) -> RunResult:
     """Advance ``simulator`` to ``duration`` [s], applying ``commands`` at their times.
 
-    Never raises for what happens inside the run: SIGINT (Ctrl-C) or SIGTERM sets
-    ``interrupted_by``, an exception is stored in ``failure`` and a fall (seen by a
-    ``FallMonitor`` of the diagram) in ``fell``, so the caller can save the partial logs. An
+    With ``check`` (the default), a run that failed or fell raises :class:`RunFailed` once it
+    has stopped (its ``result`` is the :class:`RunResult`), so that a script does not carry on
+    as if the run had finished. With ``check=False`` it never raises for what happens inside
+    the run, and the caller reads the :class:`RunResult`: an exception is stored in
+    ``failure`` and a fall (seen by a ``FallMonitor`` of the diagram) in ``fell``, so the
+    caller can save the partial logs. SIGINT (Ctrl-C) or SIGTERM sets ``interrupted_by``
+    either way (the run stops, nothing raises). An
     exception raised once a fall was detected is stored in ``after_fall`` instead: the run
     ended as a fall. A
     monitor that asks the simulator to stop ends the run there; another system that does
@@ -222,11 +249,14 @@ def simulate(
             of ``chunk`` (and at the commands' times).
         log_window: [s] the diagram's logs keep their last ``log_window`` seconds (up to twice
             that; see :mod:`drake_sot.diagrams.log_window`); None keeps every sample.
+        check: raise :class:`RunFailed` when the run failed or fell (else return the result).
 
     Raises:
         ValueError: ``duration`` or ``chunk`` NaN, infinite or <= 0, or ``duration`` above
             :data:`MAX_DURATION` (checked before Drake sees it: a Drake assertion ends the
             interpreter).
+        RunFailed: with ``check``, the run failed (an exception stopped it: a command naming an
+            unknown task, a controller that gave up) or the robot fell; raised from the failure.
     """
     duration = check_duration("duration", duration)
     chunk = positive("chunk", chunk, unit="s")
@@ -240,6 +270,7 @@ def simulate(
                 chunk=chunk,
                 guard=own,
                 log_window=log_window,
+                check=check,
             )
     late = [c for c in commands if c.time > duration]
     pending = sorted((c for c in commands if c.time <= duration), key=lambda c: c.time)
@@ -290,6 +321,8 @@ def simulate(
     if result.fell is not None and result.failure is not None:
         # the monitor's state holds the fall only from a completed step on: it came first
         result.after_fall, result.failure = result.failure, None
+    if check and (result.failure is not None or result.fell is not None):
+        raise RunFailed(result) from result.failure
     return result
 
 

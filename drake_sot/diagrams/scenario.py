@@ -309,7 +309,13 @@ def run_scenario(
     with SignalGuard() as guard:
         if runner is None:
             result = simulate(
-                simulator, duration, setup.commands, progress=progress, guard=guard, log_window=log_window
+                simulator,
+                duration,
+                setup.commands,
+                progress=progress,
+                guard=guard,
+                log_window=log_window,
+                check=False,
             )
         else:
             result = runner(setup, simulator, duration, progress=progress, guard=guard)

@@ -9,7 +9,7 @@ import pytest
 from pydrake.math import RigidTransform
 
 from drake_sot.diagrams import reach
-from drake_sot.diagrams.run import RunResult, TimedCommand, fall_causes, simulate
+from drake_sot.diagrams.run import RunFailed, RunResult, TimedCommand, fall_causes, simulate
 from drake_sot.systems.fall_monitor import Fall
 
 LIFT = 1.5  # [m] up, from the left foot's target (a stance foot)
@@ -25,7 +25,7 @@ def lifted():
         foot.set_desired(context, RigidTransform(X.rotation(), X.translation() + [0.0, 0.0, LIFT]))
 
     simulator = setup.built.create_simulator()
-    result = simulate(simulator, 3.0, [TimedCommand(0.5, "lift taskLF 1.5 m", lift)])
+    result = simulate(simulator, 3.0, [TimedCommand(0.5, "lift taskLF 1.5 m", lift)], check=False)
     return setup, simulator, result
 
 
@@ -70,3 +70,13 @@ def test_no_causes_without_a_fall():
     assert fall_causes(RunResult(end_time=1.0, events=[(0.5, "x")])) == []
     fell = RunResult(fell=Fall(time=0.2, pelvis_height=0.3, tilt=1.0), events=[(0.5, "after")])
     assert fall_causes(fell) == []  # a command after the fall is not its cause, no errors kept
+
+
+def test_a_checked_run_that_fell_raises_naming_the_fall_and_its_causes(lifted):
+    """What ``simulate`` (``check=True``, the default) raises for this run: the fall, when the run
+    stopped, and the causes, in one message."""
+    _, _, result = lifted
+    message = str(RunFailed(result))
+    assert message.startswith(f"the robot {result.fell} (the run stopped at t = {result.end_time:.3f} s)")
+    for line in fall_causes(result):
+        assert line in message
