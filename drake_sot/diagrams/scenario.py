@@ -305,7 +305,8 @@ def run_scenario(
     artefacts.write("svg", out / f"{scenario.name}.svg", lambda path: write_svg(built.diagram, path))
     simulator = built.create_simulator()
     if built.visualizer is not None:
-        built.visualizer.StartRecording(set_transforms_while_recording=False)
+        # the live view moves while the replay is recorded (a frozen robot at t = 0 otherwise)
+        built.visualizer.StartRecording(set_transforms_while_recording=True)
     with SignalGuard() as guard:
         if runner is None:
             result = simulate(
