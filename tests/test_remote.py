@@ -157,6 +157,22 @@ def test_a_pushed_task_gets_its_error_at_a_later_tick(server):
         assert "taskLH" not in client.run("sot.list").split()
 
 
+def test_a_read_of_the_stacked_errors_says_whose_rows_are_which(server):
+    """``read sot.errors`` answers with the layout beside the values: the rows of each task, the
+    same as ``list``'s ``error_slices`` and as each task's own error output."""
+    _, host, port = server
+    with Client(host, port) as client:
+        slices = client.list()["error_slices"]["sot"]
+        named = client.read_stacked("sot.errors")
+        assert list(named) == list(slices)
+        assert [len(named[task]) for task in slices] == [stop - start for start, stop in slices.values()]
+        for task in ("taskRH", "taskCom"):  # in the stack: its rows are its feature's error
+            feature = np.array(client.read(f"feature_{task}.error"))
+            assert np.allclose(named[task], feature, atol=0.02), task
+        with pytest.raises(ValueError, match="'dyn.com' is not a stacked signal"):
+            client.read_stacked("dyn.com")
+
+
 def _hold_the_right_hand(client):
     """Make the right hand's target where the hand is, once the scenario's own new target (t = 1 s)
     is set; its position. e = p - p* (position rows), so a written p* and the error read after it
@@ -354,15 +370,16 @@ def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
 # --- the live view's controls -------------------------------------------------------------
 
 
-def test_the_meshcat_controls_show_the_task_errors_and_the_stack():
-    from drake_sot.app.status import MeshcatStatus
+def test_the_meshcat_controls_show_the_task_errors_on_a_log_scale_per_unit_and_the_stack():
+    from drake_sot.app.status import LOG_MIN, MeshcatStatus, slider_name
     from drake_sot.diagrams.reach import build
     from drake_sot.diagrams.world import loopback_meshcat
 
     meshcat = loopback_meshcat()
     built = build(meshcat).built
     simulator = built.create_simulator()
-    status = MeshcatStatus(meshcat, built.sot, period=0.1)
+    units = {name: task.units for name, task in built.tasks.items()}
+    status = MeshcatStatus(meshcat, built.sot, period=0.1, units=units)
     context = simulator.get_mutable_context()
     built.sot.push(context, "taskLH")
     simulator.AdvanceTo(0.05)
@@ -370,18 +387,31 @@ def test_the_meshcat_controls_show_the_task_errors_and_the_stack():
     for task in ("taskRH", "taskLH"):  # the feature's own output: e of the last tick, to a tick's motion
         feature = built.features[task]
         error = feature.GetOutputPort("error").Eval(feature.GetMyContextFromRoot(context))
-        assert meshcat.GetSliderValue(f"|e| {task}") == pytest.approx(
-            min(np.linalg.norm(error), 1.0), abs=2e-3
-        )
+        # a 6D pose task: its position rows [m] and its orientation rows [rad], each on its slider
+        for unit, rows in (("m", slice(0, 3)), ("rad", slice(3, 6))):
+            expected = np.log10(max(np.linalg.norm(error[rows]), 10.0**LOG_MIN))
+            assert meshcat.GetSliderValue(slider_name(task, unit)) == pytest.approx(expected, abs=0.02)
+    with pytest.raises(RuntimeError):  # one slider per unit the task has, none for another
+        meshcat.GetSliderValue(slider_name("taskRH", "?"))
     stack = [*STACK_OF_REACH, "taskLH"]
     for i, name in enumerate(stack):
         assert meshcat.GetButtonClicks(f"stack {i + 1}: {name}") == 0  # raises if there is no such button
     built.sot.rm(context, "taskLH")
     simulator.AdvanceTo(0.2)
     status.update(context)
-    assert meshcat.GetSliderValue("|e| taskLH") == 0.0  # out of the stack: its error is NaN
+    assert meshcat.GetSliderValue(slider_name("taskLH", "m")) == LOG_MIN  # out of the stack: NaN error
     with pytest.raises(RuntimeError):
         meshcat.GetButtonClicks(f"stack {len(stack)}: taskLH")
+
+
+def test_the_log_scale_holds_its_ends_and_reads_nan_as_out_of_the_stack():
+    from drake_sot.app.status import LOG_MAX, LOG_MIN, log_norm
+
+    assert log_norm(np.array([3.0, 4.0])) == pytest.approx(np.log10(5.0))
+    assert log_norm(np.array([1e-3, 0.0])) == pytest.approx(-3.0)
+    assert log_norm(np.array([np.nan, 1.0])) == LOG_MIN
+    assert log_norm(np.zeros(3)) == LOG_MIN and log_norm(np.array([1e-9])) == LOG_MIN
+    assert log_norm(np.array([1e3])) == LOG_MAX and log_norm(np.array([np.inf])) == LOG_MAX
 
 
 def _served_logs(out, malformed):

@@ -66,6 +66,7 @@ from drake_sot.remote.protocol import Request, error, ok
 from drake_sot.script import Call, Get, Statement
 from drake_sot.stack import VERBS
 from drake_sot.systems.command_server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
+from drake_sot.systems.inequalities import InequalityTask
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.search import systems_of_type
 from drake_sot.systems.sot import StackOfTasks
@@ -134,6 +135,11 @@ class Serving:
         diagram = simulator.get_system()
         self._readable = _readable_ports(diagram)
         self._sots = {s.get_name(): s for s in systems_of_type(diagram, StackOfTasks)}
+        #: The stacked signals' layouts, sent beside their values: each solver's ``errors``, by task.
+        self._layouts = {
+            f"{name}.errors": {task: [rows.start, rows.stop] for task, rows in sot.error_slices().items()}
+            for name, sot in self._sots.items()
+        }
         commanded = [s for s in self._sots.values() if s.HasInputPort("commands")]
         if not commanded:
             raise ValueError(
@@ -208,8 +214,22 @@ class Serving:
             if request is not None:
                 self._network.send(cid, error(request.id, "the run ended before the next tick"))
 
-    def _reply(self, cid: int, request_id: Any, result: Any, message: str | None, now: float) -> None:
-        reply = error(request_id, message) if message is not None else ok(request_id, _resolve(result), now)
+    def _reply(
+        self,
+        cid: int,
+        request_id: Any,
+        result: Any,
+        message: str | None,
+        now: float,
+        *,
+        layout: dict[str, list[int]] | None = None,
+    ) -> None:
+        if message is not None:
+            reply = error(request_id, message)
+        else:
+            reply = ok(request_id, _resolve(result), now)
+            if layout is not None:  # a stacked signal: which rows are whose, beside the values
+                reply["layout"] = layout
         self._network.send(cid, reply)
 
     def _answer(self, item: TakenRequest, context: Context, tick: float, now: float) -> None:
@@ -238,7 +258,8 @@ class Serving:
             self.events.append((now, request.cmd.strip()))
             self._answers.append((cid, request.id, result, None))
         else:
-            self._reply(cid, request.id, result, None, now)
+            layout = self._layouts.get(request.signal) if request.op == "read" else None
+            self._reply(cid, request.id, result, None, now, layout=layout)
 
     def _apply(
         self, cid: int, request: Request, statement: Statement | None, context: Context
@@ -342,10 +363,7 @@ class Serving:
             "readable": {name: port.size() for name, (_, port) in self._readable.items()},
             "writable": {name: _listed(w) for name, w in self._server.writables.items()},
             "commands": self._help(),
-            "error_slices": {
-                name: {task: [rows.start, rows.stop] for task, rows in sot.error_slices().items()}
-                for name, sot in self._sots.items()
-            },
+            "error_slices": {name: self._layouts[f"{name}.errors"] for name in self._sots},
             "period": self.period,
         }
 
@@ -414,7 +432,10 @@ def serve_run(
             "the diagram has no RemoteCommandServer (build it with command_server=True: "
             "drake_sot.diagrams.scenario.build_scenario)"
         )
-    status = MeshcatStatus(built.meshcat, built.sot) if built.meshcat is not None else None
+    units = {
+        name: task.units for name, task in built.tasks.items() if isinstance(task, Task | InequalityTask)
+    }
+    status = MeshcatStatus(built.meshcat, built.sot, units=units) if built.meshcat is not None else None
     serving = Serving(
         simulator,
         built.remote,

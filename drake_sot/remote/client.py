@@ -66,6 +66,10 @@ class Client:
 
     def request(self, op: str, **fields: Any) -> Any:
         """Send one request, wait for its reply; its ``result``, or RemoteError."""
+        return self._reply(op, **fields)["result"]
+
+    def _reply(self, op: str, **fields: Any) -> dict[str, Any]:
+        """Send one request, wait for its reply; the whole reply, or RemoteError."""
         self._next_id += 1
         request_id = self._next_id
         self._sock.sendall(encode({"id": request_id, "op": op, **fields}))
@@ -80,7 +84,7 @@ class Client:
                 raise RemoteError(message["error"])
             if message.get("t") is not None:
                 self.t = message["t"]
-            return message["result"]
+            return message
 
     def batch(self, requests: Sequence[dict[str, Any]]) -> list[Any]:
         """Send several requests at once (each ``{"op": ..., fields}``), so that those that reach
@@ -112,6 +116,20 @@ class Client:
     def read(self, signal: str) -> list[float]:
         """The value of ``signal`` (``system.port``) at the last tick; NaN where not finite."""
         return decode_vector(self.request("read", signal=signal))
+
+    def read_stacked(self, signal: str) -> dict[str, list[float]]:
+        """A stacked signal's value (a solver's ``errors``) by name, at the last tick: each task's
+        rows, in the order of the signal (NaN for a task out of the stack).
+
+        Raises:
+            RemoteError: ``signal`` is refused (unknown, ...).
+            ValueError: the server sends no layout for ``signal`` (it is not stacked).
+        """
+        reply = self._reply("read", signal=signal)
+        if "layout" not in reply:
+            raise ValueError(f"{signal!r} is not a stacked signal: its reply has no layout (use read)")
+        values = decode_vector(reply["result"])
+        return {name: values[start:stop] for name, (start, stop) in reply["layout"].items()}
 
     def write(self, signal: str, value: Sequence[float]) -> None:
         """Write an allowlisted signal; applied at the next control tick."""

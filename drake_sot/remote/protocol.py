@@ -25,7 +25,11 @@ write moves it on.
 Replies::
 
     {"id": ID, "ok": true, "result": ..., "t": <simulated time [s]>}
+    {"id": ID, "ok": true, "result": [...], "t": ..., "layout": {"<task>": [start, stop], ...}}
     {"id": ID, "ok": false, "error": "<message naming the bad part>"}
+
+The second is the reply to a ``read`` of a stacked signal (a solver's ``errors``): ``layout``
+names whose rows ``result[start:stop]`` are.
 
 and stream messages of a subscription ``{"signal": ..., "t": ..., "value": [...]}``.
 Numbers that are not finite (the NaN of an inactive task's error) travel as ``null``:
