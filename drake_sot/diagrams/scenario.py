@@ -173,8 +173,9 @@ Runner = Callable[..., RunResult]
 @dataclass
 class ScenarioOutput:
     """What :func:`run_scenario` produced: how the run ended, the logs, the files written,
-    those that could not be (a full disk: file → why), and the scenario with its final context
-    (to inspect the stack or the plant)."""
+    those that could not be (a full disk: file → why), the pictures written as Graphviz source
+    for want of a renderer, and the scenario with its final context (to inspect the stack or
+    the plant)."""
 
     result: RunResult
     arrays: dict[str, np.ndarray]
@@ -182,6 +183,7 @@ class ScenarioOutput:
     setup: ScenarioSetup
     context: Context
     unwritten: dict[str, str] = field(default_factory=dict)
+    unrendered: list[Path] = field(default_factory=list)
 
 
 class ScenarioParameterError(DrakeSotError, ValueError):
@@ -251,7 +253,8 @@ def run_scenario(
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
     ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
-    before the run) into ``out_dir``.
+    before the run) into ``out_dir``. Without a Graphviz renderer the diagram is written as
+    ``.dot`` source instead and listed in the output's ``unrendered``.
 
     Artefacts are written even when the run is interrupted (SIGINT, SIGTERM), fails or the
     robot falls, covering what was simulated; ``result`` says how it ended. A file that cannot
@@ -339,4 +342,5 @@ def run_scenario(
         setup=setup,
         context=context,
         unwritten=artefacts.unwritten,
+        unrendered=artefacts.unrendered,
     )
