@@ -14,7 +14,7 @@ import pytest
 from drake_sot.app import cli
 from drake_sot.diagrams import artifacts, scenario
 
-ARTEFACTS = {"reach.svg", "reach.npz", "reach.png"}
+ARTEFACTS = {"reach.svg", "reach_drake.svg", "reach.npz", "reach.png"}
 
 
 def _disk_full(path) -> None:
@@ -23,7 +23,7 @@ def _disk_full(path) -> None:
 
 @pytest.mark.parametrize(
     ("writer", "file"),
-    [("write_svg", "reach.svg"), ("write_npz", "reach.npz")],
+    [("write_graph", "reach.svg"), ("write_svg", "reach_drake.svg"), ("write_npz", "reach.npz")],
 )
 def test_a_full_disk_costs_the_file_that_did_not_fit_and_no_other(
     writer, file, tmp_path, monkeypatch, capsys
@@ -51,7 +51,7 @@ def test_a_run_with_every_artefact_written_exits_0(tmp_path, capsys):
     assert code == 0, captured.err
     assert "could not write" not in captured.err and "not rendered" not in captured.err
     assert {p.name for p in tmp_path.iterdir()} == ARTEFACTS
-    for picture in ("reach.svg",):
+    for picture in ("reach.svg", "reach_drake.svg"):
         assert ET.parse(tmp_path / picture).getroot().tag == "{http://www.w3.org/2000/svg}svg"
 
 
@@ -81,10 +81,10 @@ def test_without_a_renderer_the_run_writes_every_artefact_and_says_so_in_one_lin
     assert code == 0, captured.err
     assert "Traceback" not in captured.err and "could not write" not in captured.err
     (line,) = [line for line in captured.err.splitlines() if "not rendered" in line]
-    assert str(out / "reach.svg") in line
+    assert str(out / "reach.svg") in line and str(out / "reach_drake.svg") in line
     assert "pip install graphviz-pure" in line
-    assert {p.name for p in out.iterdir()} == {"reach.dot", "reach.npz", "reach.png"}
-    for source in ("reach.dot",):
+    assert {p.name for p in out.iterdir()} == {"reach.dot", "reach_drake.dot", "reach.npz", "reach.png"}
+    for source in ("reach.dot", "reach_drake.dot"):
         assert (out / source).read_text().startswith("digraph")
         assert f"wrote {out / source}" in captured.out
     assert np.load(out / "reach.npz")["time"][-1] == pytest.approx(0.2, abs=0.006)

@@ -424,7 +424,7 @@ def _remote_parsers(sub: argparse._SubParsersAction, served: Mapping[str, Sequen
         "--out",
         default=None,
         metavar="DIR",
-        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg); a served "
+        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, signal graph .svg); a served "
         "script's pool.writegraph writes there too, else into a fresh temporary directory (on stderr)",
     )
     _parameter_options(serve, served)

@@ -24,6 +24,7 @@ from drake_sot.diagrams.artifacts import (
 from drake_sot.diagrams.log_window import LOG_WINDOW
 from drake_sot.diagrams.pushes import ExternalPush, check_push_times
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, check_duration, simulate
+from drake_sot.diagrams.signal_graph import write_graph
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.errors import DrakeSotError
 from drake_sot.footsteps import Footstep
@@ -252,9 +253,10 @@ def run_scenario(
     log_window: float | None = LOG_WINDOW,
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
-    ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
-    before the run) into ``out_dir``. Without a Graphviz renderer the diagram is written as
-    ``.dot`` source instead and listed in the output's ``unrendered``.
+    ``<name>.png`` (task errors), the scenario's own plots, ``<name>.svg`` (the signal graph, see
+    :mod:`~drake_sot.diagrams.signal_graph`) and ``<name>_drake.svg`` (Drake's picture of every
+    system; both written before the run) into ``out_dir``. Without a Graphviz renderer the two
+    pictures are written as ``.dot`` source instead and listed in the output's ``unrendered``.
 
     Artefacts are written even when the run is interrupted (SIGINT, SIGTERM), fails or the
     robot falls, covering what was simulated; ``result`` says how it ended. A file that cannot
@@ -305,7 +307,10 @@ def run_scenario(
     except ValueError as exc:
         raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
     artefacts = Artefacts()
-    artefacts.write("svg", out / f"{scenario.name}.svg", lambda path: write_svg(built.diagram, path))
+    artefacts.write("svg", out / f"{scenario.name}.svg", lambda path: write_graph(built.diagram, path))
+    artefacts.write(
+        "drake_svg", out / f"{scenario.name}_drake.svg", lambda path: write_svg(built.diagram, path)
+    )
     simulator = built.create_simulator()
     if built.visualizer is not None:
         built.visualizer.StartRecording(set_transforms_while_recording=False)
