@@ -52,7 +52,8 @@ class GraphvizMissing(DrakeSotError, RuntimeError):
 
 
 #: What a writer raises when its file cannot be written: the file system's errors (ENOSPC
-#: when the disk is full, EROFS, EACCES...), ``dot`` failing, or ``dot`` missing.
+#: when the disk is full, EROFS, EACCES...), the Graphviz renderer failing, or no renderer
+#: (which :meth:`Artefacts.write` takes as a picture left as source, not a failure).
 WRITE_ERRORS: tuple[type[Exception], ...] = (OSError, subprocess.CalledProcessError, GraphvizMissing)
 
 
