@@ -55,14 +55,13 @@ $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
 
 venv: $(VENV)/.installed
 
-# graphviz renders the diagram SVG.
+# graphviz-pure, a dependency, renders the diagram SVGs: no system package.
 demo: $(VENV)/.installed
-	$(call apt_need,dot:graphviz)
 	$(BIN)/drake-sot run $(SCENARIO) --out $(OUT)
 
-# chromium renders the recorded replay in a test; graphviz renders diagrams.
+# chromium renders the recorded replay in a test (graphviz-pure, a dependency, renders diagrams).
 test: $(VENV)/.installed-test
-	$(call apt_need,dot:graphviz chromium:chromium)
+	$(call apt_need,chromium:chromium)
 	$(BIN)/ruff format --check .
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -n 2 --dist loadfile

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -117,9 +116,7 @@ def test_tutorial_01_robot_stands_and_tracks(tutorial_01) -> None:
 def test_tutorial_01_writes_the_graph(tutorial_01) -> None:
     stdout, out = tutorial_01
     assert "digraph" in stdout
-    if shutil.which("dot") is None:
-        pytest.skip("Graphviz 'dot' is not installed")
-    svg = out / "tutorial_01.svg"
+    svg = out / "tutorial_01.svg"  # graphviz-pure, a dependency, renders it
     assert svg.is_file(), stdout
     text = svg.read_text()
     assert "<svg" in text and "featureTwofeet" in text and "taskCom" in text

@@ -13,7 +13,7 @@
 # | `set e.sig value`             | a constant source, a parameter, or `port.FixValue(context, v)`  |
 # | `dyn.createOpPoint rleg 6`    | `dyn.add_operational_point("rleg", "r_sole")` (a frame name)    |
 # | `sot.push taskCom`            | `sot.push(context, "taskCom")`, on a context, at run time       |
-# | `pool.writegraph file`        | `diagram.GetGraphvizString()` rendered by Graphviz's `dot`      |
+# | `pool.writegraph file`        | `write_graph(diagram, "file.svg")` (`drake_sot.diagrams`)        |
 #
 # Every line of the paper's examples is quoted in a comment right above its
 # translation. Around them we build what the paper takes for granted: the simulated
@@ -24,8 +24,6 @@
 
 # %%
 import os
-import shutil
-import subprocess
 import time
 from pathlib import Path
 
@@ -35,6 +33,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
+from drake_sot.diagrams.artifacts import GraphvizMissing
+from drake_sot.diagrams.signal_graph import signal_graph, write_graph
 from drake_sot.gains import AdaptiveGain
 from drake_sot.models import add_ground, half_sitting_configuration, load_humanoid, make_control_model
 from drake_sot.systems.device import Device
@@ -236,23 +236,24 @@ diagram.set_name("tutorial_01")
 # %% [markdown]
 # ## `pool.writegraph`: the graph of entities
 #
-# The paper's Fig. 1 is the dot graph written by `pool.writegraph`. Drake writes the
-# same for any diagram; `max_depth=1` keeps the plant a single box.
+# The paper's Fig. 1 is the dot graph written by `pool.writegraph`: the entities and the
+# signals plugged between them. `write_graph` draws the same from the diagram: each system
+# under its name, with the ports that carry a signal, grouped by family, left to right
+# (`everything=True` adds the plumbing: the scene graph, the constant sources).
+# `diagram.GetGraphvizString()` is Drake's own picture, every port of every system.
 
 # %%
-# pool.writegraph tutorial_01.dot
-graph = diagram.GetGraphvizString(max_depth=1)
+# pool.writegraph tutorial_01.svg
+graph = signal_graph(diagram)
 print("graphviz source, first lines:")
 for line in graph.splitlines()[:8]:
     print("   ", line)
-dot = shutil.which("dot")
-if dot:
-    OUT.mkdir(parents=True, exist_ok=True)
-    svg = OUT / "tutorial_01.svg"
-    subprocess.run([dot, "-Tsvg", "-o", str(svg)], input=graph.encode(), check=True)
-    print(f"diagram written: {svg}")
-else:
-    print("Graphviz 'dot' not found (apt-get install graphviz): no SVG written")
+OUT.mkdir(parents=True, exist_ok=True)
+try:
+    write_graph(diagram, OUT / "tutorial_01.svg")
+    print(f"diagram written: {OUT / 'tutorial_01.svg'}")
+except GraphvizMissing as missing:
+    print(missing)
 
 # %% [markdown]
 # ## Running the controller, and commanding the stack

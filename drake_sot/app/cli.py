@@ -37,7 +37,7 @@ from drake_sot.app.study import study_command
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import StudyScenario
-from drake_sot.diagrams.artifacts import output_directory, report_unwritten
+from drake_sot.diagrams.artifacts import output_directory, report_unrendered, report_unwritten
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
 from drake_sot.diagrams.run import (
     MAX_DURATION,
@@ -424,7 +424,7 @@ def _remote_parsers(sub: argparse._SubParsersAction, served: Mapping[str, Sequen
         "--out",
         default=None,
         metavar="DIR",
-        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, diagram .svg); a served "
+        help="write the usual artefacts in DIR (logs .npz, replay .html, plots, signal graph .svg); a served "
         "script's pool.writegraph writes there too, else into a fresh temporary directory (on stderr)",
     )
     _parameter_options(serve, served)
@@ -670,6 +670,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 for path in output.files.values():
                     print(f"wrote {path}", flush=True)
                 report_unwritten(output.unwritten)
+                report_unrendered(output.unrendered)
                 unwritten = output.unwritten
                 result = output.result
             else:
@@ -800,6 +801,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
     for path in output.files.values():
         print(f"wrote {path}")
     report_unwritten(output.unwritten)
+    report_unrendered(output.unrendered)
     print(
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"

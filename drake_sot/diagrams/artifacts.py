@@ -14,6 +14,7 @@ import secrets
 import shutil
 import subprocess
 import sys
+import sysconfig
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -29,13 +30,30 @@ from drake_sot.diagrams.run import RunResult
 from drake_sot.diagrams.world import BuiltHumanoid
 from drake_sot.errors import DrakeSotError
 
+#: The programs that render Graphviz source, in the order tried: ``graphviz-pure`` (a dependency,
+#: pip-installed: the same SVG on every platform), then Graphviz's own ``dot``.
+RENDERERS = ("graphviz-pure", "dot")
+
+#: How to get a renderer, for the messages that say a picture was not rendered.
+RENDERER_HINT = "pip install graphviz-pure, or apt-get install graphviz"
+
 
 class GraphvizMissing(DrakeSotError, RuntimeError):
-    """Graphviz's ``dot`` is not installed: the diagram was written as ``.dot`` source instead."""
+    """No Graphviz renderer (:data:`RENDERERS`) is installed: the picture was written as
+    Graphviz source (``.dot``) instead.
+
+    Attributes:
+        source: the ``.dot`` file written in place of the picture.
+    """
+
+    def __init__(self, picture: Path, source: Path) -> None:
+        super().__init__(f"no Graphviz renderer to draw {picture} ({RENDERER_HINT}): wrote {source}")
+        self.source = source
 
 
 #: What a writer raises when its file cannot be written: the file system's errors (ENOSPC
-#: when the disk is full, EROFS, EACCES...), ``dot`` failing, or ``dot`` missing.
+#: when the disk is full, EROFS, EACCES...), the Graphviz renderer failing, or no renderer
+#: (which :meth:`Artefacts.write` takes as a picture left as source, not a failure).
 WRITE_ERRORS: tuple[type[Exception], ...] = (OSError, subprocess.CalledProcessError, GraphvizMissing)
 
 
@@ -45,18 +63,28 @@ class Artefacts:
     written (see :data:`WRITE_ERRORS`) is recorded in ``unwritten`` and the next is still
     attempted, so that a full disk costs the files that no longer fit and no others.
 
+    A picture that no renderer could draw (:class:`GraphvizMissing`) is no failure: its Graphviz
+    source takes its place in ``files`` and the picture is listed in ``unrendered``.
+
     Attributes:
         files: key (``npz``, ``png``...) → the file written.
         unwritten: the file (or files) that could not be written → why, in a few words.
+        unrendered: the pictures written as Graphviz source instead, for want of a renderer.
     """
 
     files: dict[str, Path] = field(default_factory=dict)
     unwritten: dict[str, str] = field(default_factory=dict)
+    unrendered: list[Path] = field(default_factory=list)
 
     def write(self, key: str, path: Path, writer: Callable[[Path], object]) -> None:
-        """``writer(path)``; on success ``files[key] = path``, else ``unwritten[path]`` says why."""
+        """``writer(path)``; on success ``files[key] = path``, else ``unwritten[path]`` says why
+        (or, for a picture without a renderer, ``files[key]`` is its source and ``unrendered``
+        names it)."""
         try:
             writer(path)
+        except GraphvizMissing as exc:
+            self.files[key] = exc.source
+            self.unrendered.append(path)
         except WRITE_ERRORS as exc:
             self.unwritten[str(path)] = _reason(exc)
         else:
@@ -77,6 +105,17 @@ def report_unwritten(unwritten: Mapping[str, str]) -> None:
     if unwritten:
         files = "; ".join(f"{path} ({reason})" for path, reason in unwritten.items())
         print(f"could not write: {files}", file=sys.stderr)
+
+
+def report_unrendered(unrendered: list[Path]) -> None:
+    """One line on stderr naming the pictures written as Graphviz source for want of a renderer
+    (``Artefacts.unrendered``), and how to get one; nothing when there are none."""
+    if unrendered:
+        pictures = ", ".join(str(path) for path in unrendered)
+        print(
+            f"not rendered, no Graphviz ({RENDERER_HINT}): {pictures}; wrote their .dot source",
+            file=sys.stderr,
+        )
 
 
 def _reason(error: Exception) -> str:
@@ -131,24 +170,41 @@ def write_figure(figure: Figure, path: str | Path) -> None:
         figure.savefig(temporary)
 
 
-def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None:
-    """Render ``diagram.GetGraphvizString`` to SVG with Graphviz's ``dot``.
+def graphviz_renderer() -> str | None:
+    """The first of :data:`RENDERERS` found in this interpreter's scripts directory (where pip
+    installs ``graphviz-pure``, on PATH or not) or on PATH; None when there is none."""
+    path = os.pathsep.join((sysconfig.get_path("scripts"), os.environ.get("PATH", os.defpath)))
+    for name in RENDERERS:
+        found = shutil.which(name, path=path)
+        if found is not None:
+            return found
+    return None
 
-    Raises GraphvizMissing (a RuntimeError) saying what to install when ``dot`` is missing (the
-    ``.dot`` source is written beside the SVG path first, so nothing is lost).
+
+def render_svg(source: str, path: str | Path) -> None:
+    """Render Graphviz ``source`` to the SVG file ``path`` with :func:`graphviz_renderer`.
+
+    Raises:
+        GraphvizMissing: no renderer is installed; ``source`` was written beside ``path`` as
+            ``.dot`` instead, so nothing is lost.
+        subprocess.CalledProcessError: the renderer failed.
+        OSError: ``path`` (or the ``.dot``) cannot be written.
     """
     path = Path(path)
-    source = diagram.GetGraphvizString(max_depth=max_depth)
-    dot = shutil.which("dot")
-    if dot is None:
-        with atomic_path(path.with_suffix(".dot")) as temporary:
+    renderer = graphviz_renderer()
+    if renderer is None:
+        dot = path.with_suffix(".dot")
+        with atomic_path(dot) as temporary:
             temporary.write_text(source, encoding="utf-8")
-        raise GraphvizMissing(
-            f"Graphviz 'dot' not found: wrote {path.with_suffix('.dot')} instead of {path}; "
-            "install it with 'apt-get install graphviz'"
-        )
+        raise GraphvizMissing(path, dot)
     with atomic_path(path) as temporary:
-        subprocess.run([dot, "-Tsvg", "-o", str(temporary)], input=source.encode(), check=True)
+        subprocess.run([renderer, "-Tsvg", "-o", str(temporary)], input=source.encode(), check=True)
+
+
+def write_svg(diagram: Diagram, path: str | Path, *, max_depth: int = 1) -> None:
+    """Render Drake's own picture of ``diagram`` (``GetGraphvizString``: every system and
+    port) to SVG; raises as :func:`render_svg`."""
+    render_svg(diagram.GetGraphvizString(max_depth=max_depth), path)
 
 
 def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -> dict[str, np.ndarray]:

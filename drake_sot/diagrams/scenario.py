@@ -24,6 +24,7 @@ from drake_sot.diagrams.artifacts import (
 from drake_sot.diagrams.log_window import LOG_WINDOW
 from drake_sot.diagrams.pushes import ExternalPush, check_push_times
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, check_duration, simulate
+from drake_sot.diagrams.signal_graph import write_graph
 from drake_sot.diagrams.world import BuiltHumanoid, loopback_meshcat
 from drake_sot.errors import DrakeSotError
 from drake_sot.footsteps import Footstep
@@ -173,8 +174,9 @@ Runner = Callable[..., RunResult]
 @dataclass
 class ScenarioOutput:
     """What :func:`run_scenario` produced: how the run ended, the logs, the files written,
-    those that could not be (a full disk: file → why), and the scenario with its final context
-    (to inspect the stack or the plant)."""
+    those that could not be (a full disk: file → why), the pictures written as Graphviz source
+    for want of a renderer, and the scenario with its final context (to inspect the stack or
+    the plant)."""
 
     result: RunResult
     arrays: dict[str, np.ndarray]
@@ -182,6 +184,7 @@ class ScenarioOutput:
     setup: ScenarioSetup
     context: Context
     unwritten: dict[str, str] = field(default_factory=dict)
+    unrendered: list[Path] = field(default_factory=list)
 
 
 class ScenarioParameterError(DrakeSotError, ValueError):
@@ -250,8 +253,10 @@ def run_scenario(
     log_window: float | None = LOG_WINDOW,
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
-    ``<name>.png`` (task errors), the scenario's own plots and ``<name>.svg`` (diagram, written
-    before the run) into ``out_dir``.
+    ``<name>.png`` (task errors), the scenario's own plots, ``<name>.svg`` (the signal graph, see
+    :mod:`~drake_sot.diagrams.signal_graph`) and ``<name>_drake.svg`` (Drake's picture of every
+    system; both written before the run) into ``out_dir``. Without a Graphviz renderer the two
+    pictures are written as ``.dot`` source instead and listed in the output's ``unrendered``.
 
     Artefacts are written even when the run is interrupted (SIGINT, SIGTERM), fails or the
     robot falls, covering what was simulated; ``result`` says how it ended. A file that cannot
@@ -302,7 +307,10 @@ def run_scenario(
     except ValueError as exc:
         raise ScenarioParameterError(f"{scenario.name}: {exc}") from exc
     artefacts = Artefacts()
-    artefacts.write("svg", out / f"{scenario.name}.svg", lambda path: write_svg(built.diagram, path))
+    artefacts.write("svg", out / f"{scenario.name}.svg", lambda path: write_graph(built.diagram, path))
+    artefacts.write(
+        "drake_svg", out / f"{scenario.name}_drake.svg", lambda path: write_svg(built.diagram, path)
+    )
     simulator = built.create_simulator()
     if built.visualizer is not None:
         # the live view moves while the replay is recorded (a frozen robot at t = 0 otherwise)
@@ -346,4 +354,5 @@ def run_scenario(
         setup=setup,
         context=context,
         unwritten=artefacts.unwritten,
+        unrendered=artefacts.unrendered,
     )

@@ -20,7 +20,8 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import Context, InputPort, OutputPort, System
 
 from drake_sot import validation
-from drake_sot.diagrams.artifacts import WRITE_ERRORS, atomic_path, write_svg
+from drake_sot.diagrams.artifacts import WRITE_ERRORS
+from drake_sot.diagrams.signal_graph import write_graph
 from drake_sot.diagrams.walking import add_pattern_generator
 from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.gains import AdaptiveGain, Gain, validate_gain
@@ -468,18 +469,14 @@ class PoolEntity(Entity):
     @_command(
         Phase.RUN,
         "writegraph FILE",
-        "the diagram's graph (Graphviz source, SVG for *.svg) as FILE, a plain name, in the output directory",
+        "the signal graph of the entities (Graphviz source, SVG for *.svg) as FILE, a plain name, in the "
+        "output directory",
     )
     def writegraph(self, args: tuple[Value, ...], context: Context | None) -> str:
         _arity(args, "writegraph FILE", 1)
         path = self.session.claim_output(_text(args[0], "the file name"))
-        diagram = self.session.built.diagram
         try:
-            if path.suffix == ".svg":
-                write_svg(diagram, path)
-            else:
-                with atomic_path(path) as temporary:
-                    temporary.write_text(diagram.GetGraphvizString(max_depth=1), encoding="utf-8")
+            write_graph(self.session.built.diagram, path)
         except WRITE_ERRORS as exc:
             raise SessionError(f"pool.writegraph: cannot write {str(path)!r}: {exc}") from None
         return f"wrote {path}"
