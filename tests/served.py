@@ -14,7 +14,7 @@ DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
 
 def start(*args, target="reach", env=None):
     """``drake-sot serve TARGET ARGS`` running: ``(process, host, port)``; the live view's address
-    line is ``process.view``."""
+    line is ``process.view``, the live plot's ``process.plot``."""
     proc = subprocess.Popen(
         [*DRAKE_SOT, "serve", target, *args],
         stdout=subprocess.PIPE,
@@ -29,6 +29,7 @@ def start(*args, target="reach", env=None):
         proc.kill()
         pytest.fail(f"first line {first!r}; stderr: {proc.stderr.read()}")
     proc.view = proc.stdout.readline()  # the live view's address, second
+    proc.plot = proc.stdout.readline()  # the live plot's, third
     return proc, match.group(1), int(match.group(2))
 
 

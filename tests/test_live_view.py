@@ -1,10 +1,11 @@
 """The live view moves while a served run records its replay: ``drake-sot serve reach --out`` shows
 the robot as it is simulated at the printed Meshcat address (its ``/download`` page is the live
-scene), and still writes the whole replay."""
+scene), and still writes the whole replay; its live plot shows the task errors as logged."""
 
 from __future__ import annotations
 
 import base64
+import json
 import urllib.request
 
 import numpy as np
@@ -39,6 +40,9 @@ def test_a_served_run_that_records_moves_in_the_live_view_and_writes_the_whole_r
             while client.t < 2.2:  # ~1.2 s after the target moved (gain 2.5: ~95 % of the way)
                 client.read("dyn.com")
             after = _live_hand(view)
+            stack = client.run("sot.list").split()
+            plot_url = proc.plot.rsplit(" ", 1)[1].strip()
+            plotted = json.loads(urllib.request.urlopen(plot_url + "data", timeout=30).read())
         stdout, stderr = proc.communicate(timeout=300)
     finally:
         stop(proc)
@@ -53,3 +57,13 @@ def test_a_served_run_that_records_moves_in_the_live_view_and_writes_the_whole_r
     assert times[-1] == pytest.approx(DURATION, abs=2.0 / track["fps"])  # the replay covers the run
     drawn = np.array(position["keys"][-1]["value"])
     assert np.linalg.norm(drawn - after) < 0.05  # where the live view showed it, give or take 0.3 s
+
+    # the live plot: the stack, and the right hand's position error per sample as the run logged it
+    assert plotted["stack"] == stack and "log10 |e| taskRH [m]" in plotted["names"]
+    times = np.array(plotted["t"])
+    assert times[-1] > 2.0 and np.allclose(np.diff(times), 0.1, atol=0.006)
+    with np.load(tmp_path / "reach.npz") as npz:
+        logged_t, logged = npz["time"], npz["error/taskRH"][:, :3]
+    k = np.searchsorted(logged_t, times - 1e-9)  # the logged sample of each plotted tick
+    expected = np.log10(np.maximum(np.linalg.norm(logged[k], axis=1), 1e-6))
+    np.testing.assert_allclose(plotted["series"]["log10 |e| taskRH [m]"], expected, atol=0.02)

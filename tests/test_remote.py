@@ -371,7 +371,7 @@ def test_with_a_token_an_unauthenticated_client_gets_nothing_but_errors():
 
 
 def test_the_meshcat_controls_show_the_task_errors_on_a_log_scale_per_unit_and_the_stack():
-    from drake_sot.app.status import LOG_MIN, MeshcatStatus, slider_name
+    from drake_sot.app.status import LOG_MIN, MeshcatStatus, TaskErrorSampler, slider_name
     from drake_sot.diagrams.reach import build
     from drake_sot.diagrams.world import loopback_meshcat
 
@@ -379,11 +379,12 @@ def test_the_meshcat_controls_show_the_task_errors_on_a_log_scale_per_unit_and_t
     built = build(meshcat).built
     simulator = built.create_simulator()
     units = {name: task.units for name, task in built.tasks.items()}
-    status = MeshcatStatus(meshcat, built.sot, period=0.1, units=units)
+    sampler = TaskErrorSampler(built.sot, period=0.1, units=units)
+    status = MeshcatStatus(meshcat, sampler.names)
     context = simulator.get_mutable_context()
     built.sot.push(context, "taskLH")
     simulator.AdvanceTo(0.05)
-    status.update(context)
+    status.show(sampler.sample(context))
     for task in ("taskRH", "taskLH"):  # the feature's own output: e of the last tick, to a tick's motion
         feature = built.features[task]
         error = feature.GetOutputPort("error").Eval(feature.GetMyContextFromRoot(context))
@@ -397,8 +398,10 @@ def test_the_meshcat_controls_show_the_task_errors_on_a_log_scale_per_unit_and_t
     for i, name in enumerate(stack):
         assert meshcat.GetButtonClicks(f"stack {i + 1}: {name}") == 0  # raises if there is no such button
     built.sot.rm(context, "taskLH")
+    simulator.AdvanceTo(0.14)
+    assert sampler.sample(context) is None  # 0.1 s apart: not due at 0.14 s
     simulator.AdvanceTo(0.2)
-    status.update(context)
+    status.show(sampler.sample(context))
     assert meshcat.GetSliderValue(slider_name("taskLH", "m")) == LOG_MIN  # out of the stack: NaN error
     with pytest.raises(RuntimeError):
         meshcat.GetButtonClicks(f"stack {len(stack)}: taskLH")

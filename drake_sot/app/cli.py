@@ -29,6 +29,7 @@ from typing import Any, NoReturn, TextIO
 
 from pydrake.systems.analysis import Simulator
 
+from drake_sot.app.live_plot import LivePlot
 from drake_sot.app.serving import decision_runner, serve_run
 from drake_sot.app.study import EPILOG as STUDY_EPILOG
 from drake_sot.app.study import add_arguments as study_arguments
@@ -640,19 +641,32 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     scenario = served if isinstance(served, Scenario) else _served_script(served, args.out, args.robot)
 
     def runner(setup: ScenarioSetup, simulator: Simulator, duration: float, **kwargs) -> RunResult:
+        plot = LivePlot()
+
         def ready(address: tuple[str, int]) -> None:
             print(f"serving on {address[0]}:{address[1]}", flush=True)
             view = setup.built.meshcat.web_url()
             print(f"live view (stack and task errors in the controls): {view}", flush=True)
+            print(f"live plot (task errors over time, the stack): {plot.url}", flush=True)
             # --- two-process mode: one half of a run starts with its peer ---
             if setup.extras.wait_for_client:
                 print("waiting for the first client before the run starts", flush=True)
                 network.connected.wait()
             # --- end two-process mode ---
 
-        result = serve_run(
-            setup, simulator, network, duration, realtime=args.realtime, on_ready=ready, **kwargs
-        )
+        try:
+            result = serve_run(
+                setup,
+                simulator,
+                network,
+                duration,
+                realtime=args.realtime,
+                on_ready=ready,
+                live_plot=plot,
+                **kwargs,
+            )
+        finally:
+            plot.close()
         print(f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True)
         return result
 

@@ -54,7 +54,8 @@ from typing import Any
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, LeafSystem, PortDataType, System
 
-from drake_sot.app.status import MeshcatStatus
+from drake_sot.app.live_plot import LivePlot
+from drake_sot.app.status import MeshcatStatus, TaskErrorSampler
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, simulate
 from drake_sot.diagrams.scenario import NotServable, Runner, ScenarioSetup
@@ -418,10 +419,12 @@ def serve_run(
     progress: Progress | None = None,
     guard: SignalGuard | None = None,
     on_ready: Callable[[tuple[str, int]], None] | None = None,
+    live_plot: LivePlot | None = None,
 ) -> RunResult:
     """Simulate ``setup`` to ``duration`` [s] while serving through ``network`` (started here,
     closed at the end); ``on_ready(address)`` is called once it listens. When the scenario was
-    built with a Meshcat, its controls show the stack and the task errors. The requests that
+    built with a Meshcat, its controls show the stack and the task errors; so does ``live_plot``
+    (the caller's, which it serves and closes), over time. The requests that
     changed the context are in the result's ``events`` with the timed commands. A scenario whose
     ``extras.paced_by_client`` is true is paced by its client (module docstring): the run
     starts when the client's first horizon is beyond its first tick."""
@@ -435,13 +438,23 @@ def serve_run(
     units = {
         name: task.units for name, task in built.tasks.items() if isinstance(task, Task | InequalityTask)
     }
-    status = MeshcatStatus(built.meshcat, built.sot, units=units) if built.meshcat is not None else None
+    sampler = TaskErrorSampler(built.sot, units=units)
+    views: list[MeshcatStatus | LivePlot] = [] if live_plot is None else [live_plot]
+    if built.meshcat is not None:
+        views.append(MeshcatStatus(built.meshcat, sampler.names))
+
+    def show(context: Context) -> None:
+        sample = sampler.sample(context)
+        if sample is not None:
+            for view in views:
+                view.show(sample)
+
     serving = Serving(
         simulator,
         built.remote,
         network,
         realtime=realtime,
-        on_tick=status.update if status is not None else None,
+        on_tick=show if views else None,
         session=setup.extras.session,
         paced=setup.extras.paced_by_client,
     )
