@@ -108,6 +108,36 @@ def test_requests_beyond_the_rate_are_refused_and_not_queued(network):
         assert [r.id for _, r in _queued(network)] == [2]
 
 
+def test_a_read_of_a_published_signal_is_answered_at_once_unless_the_connection_waits(network):
+    """The socket thread answers a read from the values the serving loop published after the last
+    tick, without queueing it, once per tick and connection (a second read of the same value waits
+    for the next tick: a polling loop is paced by the ticks); a connection with a request still
+    unanswered queues its read behind it (its order kept); a signal not published is queued."""
+    network.publish(
+        {"dyn.com": (1.25, [0.1, float("nan"), 0.6], None), "sot.errors": (1.25, [1.0, 2.0], {"a": [0, 2]})}
+    )
+    with Client(*network.address) as client:
+        com = client.read("dyn.com")
+        assert com[0] == 0.1 and math.isnan(com[1]) and client.t == 1.25
+        assert client.read_stacked("sot.errors") == {"a": [1.0, 2.0]}
+        assert _queued(network, wait=0.2) == []  # none reached the serving loop
+        network.publish({"sot.errors": (1.255, [3.0, 4.0], {"a": [0, 2]})})  # the next tick
+        assert client.read_stacked("sot.errors") == {"a": [3.0, 4.0]} and client.t == 1.255
+        client.send_raw(b'{"id": 0, "op": "read", "signal": "sot.errors"}\n')
+        assert [r.id for _, r in _queued(network)] == [0]  # the same tick's value again: waits a tick
+    network.publish({"dyn.com": (1.26, [0.2, 0.0, 0.6], None)})
+    with Client(*network.address) as client:
+        client.send_raw(b'{"id": 1, "op": "list"}\n{"id": 2, "op": "read", "signal": "dyn.com"}\n')
+        assert [r.id for _, r in _queued(network)] == [1, 2]  # the list waits: the read queues after it
+    with Client(*network.address) as client:
+        client.send_raw(b'{"id": 3, "op": "read", "signal": "dyn.q"}\n')
+        assert [r.id for _, r in _queued(network)] == [3]  # not published: the loop answers it
+    network.publish({})
+    with Client(*network.address) as client:
+        client.send_raw(b'{"id": 4, "op": "read", "signal": "dyn.com"}\n')
+        assert [r.id for _, r in _queued(network)] == [4]  # nothing published: queued
+
+
 def test_a_non_loopback_address_needs_a_token():
     with pytest.raises(ValueError, match="0.0.0.0"):
         NetworkThread("0.0.0.0", 0)

@@ -20,10 +20,15 @@ STEP = np.array([0.0, 0.0, 0.10])  # [m] the written target: 10 cm above the hel
 
 
 class FakeNetwork:
-    """What ``Serving`` uses of the network thread: the queue it drains, and the replies sent."""
+    """What ``Serving`` uses of the network thread: the queue it drains, the replies sent, and the
+    values published for reads answered at once (kept, not served)."""
 
     def __init__(self):
-        self.queued, self.sent = [], []
+        self.queued, self.sent, self.published, self.order = [], [], {}, []
+
+    def publish(self, snapshot):
+        self.published = snapshot
+        self.order.append("publish")
 
     def put(self, *requests):
         self.queued += [(0, r) for r in requests]
@@ -34,6 +39,7 @@ class FakeNetwork:
 
     def send(self, connection, message):
         self.sent.append(message)
+        self.order.append("send")
 
     def reply(self, request_id):
         return next(m for m in self.sent if m.get("id") == request_id)
@@ -179,3 +185,26 @@ def test_a_timed_target_acts_at_its_time_and_the_hosts_own_target_keeps_working(
     assert built.features["taskRH"].desired(context).IsExactlyEqualTo(before)
     with pytest.raises(ValueError, match="desired position"):
         built.set_desired(context, "taskRH", RigidTransform(before.rotation(), [20.0, 0.0, 0.0]))
+
+
+def test_a_signal_read_is_published_after_each_tick_before_the_replies(served):
+    """Once read, a signal's value at each tick is published for the socket thread (which answers
+    later reads of it at once) before that tick's replies go out, with its layout when stacked."""
+    built, simulator, serving, network = served
+    _ticks(simulator, serving, 2)
+    assert network.published == {}  # nothing read yet: nothing published
+    network.put(Request("read", 1, signal="dyn.com"), Request("read", 2, signal="sot.errors"))
+    _ticks(simulator, serving, 2)  # taken at the first tick, answered after it; published after both
+    assert network.reply(1)["ok"] and network.reply(2)["layout"] == {
+        task: [rows.start, rows.stop] for task, rows in built.sot.error_slices().items()
+    }
+    context = simulator.get_context()
+    t, values, layout = network.published["dyn.com"]
+    dyn = built.dyn
+    assert t == context.get_time() and layout is None
+    np.testing.assert_array_equal(values, dyn.GetOutputPort("com").Eval(dyn.GetMyContextFromRoot(context)))
+    assert network.published["sot.errors"][2] == network.reply(2)["layout"]
+    network.order.clear()
+    network.put(Request("list", 3))
+    _ticks(simulator, serving, 1)
+    assert network.order[0] == "publish" and "send" in network.order  # published, then answered

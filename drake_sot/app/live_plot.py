@@ -36,12 +36,12 @@ _PAGE = """<!doctype html>
 <div><b>stack</b> (highest first)<ol id="stack"></ol><div id="legend"></div></div></div>
 <script>
 const colors = ["#1f77b4","#ff7f0e","#2ca02c","#d62728","#9467bd","#8c564b","#e377c2",
-                "#7f7f7f","#bcbd22","#17becf"];
+                "#7f7f7f","#bcbd22","#17becf","#393b79","#ad494a","#637939","#7b4173"];
 function draw(d) {
   const c = document.getElementById("plot"), g = c.getContext("2d");
-  const W = c.width, H = c.height, L = 50, B = 25;
+  const W = c.width, H = c.height, L = 50, B = 25, T = 10;
   g.clearRect(0, 0, W, H); g.strokeStyle = "#ccc"; g.fillStyle = "black"; g.font = "11px sans-serif";
-  const y = v => (H - B) * (1 - (v - d.log_min) / (d.log_max - d.log_min));
+  const y = v => T + (H - B - T) * (1 - (v - d.log_min) / (d.log_max - d.log_min));
   for (let k = Math.ceil(d.log_min); k <= d.log_max; k++) {
     g.beginPath(); g.moveTo(L, y(k)); g.lineTo(W, y(k)); g.stroke(); g.fillText("1e" + k, 2, y(k) + 4);
   }
@@ -52,7 +52,7 @@ function draw(d) {
   const legend = document.getElementById("legend"); legend.innerHTML = "";
   d.names.forEach((name, i) => {
     const color = colors[i % colors.length], v = d.series[name];
-    g.strokeStyle = color; g.beginPath();
+    g.strokeStyle = color; g.setLineDash(i < colors.length ? [] : [6, 3]); g.beginPath();
     let on = false;
     v.forEach((value, k) => {
       if (value === null) { on = false; return; }

@@ -22,7 +22,10 @@ is served, all its run-time lines through
 :meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too), each as the server
 parsed it. Those act at the next tick and are answered after it (the server holds what came after
 them until then, so that the changes act in arrival order). Then it sleeps to hold ``realtime`` ×
-real time.
+real time. Before it answers, it publishes the values of the :data:`WATCHED` signals read last to
+the socket thread, which answers a later ``read`` of one of them at once with that value of the
+last tick — the same value the next tick's answer would carry, without waiting a control period
+for it — unless that connection still waits for a reply (then the read queues behind it, in order).
 
 A written value must be of the declared size, finite and within the declared bounds (one check,
 :meth:`~drake_sot.systems.command_server.Writable.check`, of one
@@ -76,6 +79,9 @@ from drake_sot.validation import positive
 
 #: Subscriptions a connection may hold at once.
 MAX_SUBSCRIPTIONS = 16
+#: How many signals, the ones read last, are published after each tick for the network thread to
+#: answer a ``read`` at once (one port evaluation each per tick).
+WATCHED = 32
 #: [s] of wall time a run paced by its client waits for the client's horizon before it fails.
 CLIENT_TIMEOUT = 60.0
 #: Times within this of a tick count as that tick [s].
@@ -150,6 +156,7 @@ class Serving:
         self._entities = {} if session is not None else _scenario_entities(diagram)
         self._subscriptions: dict[int, dict[str, _Subscription]] = {}
         self._answers: list[tuple[int, Any, Any, str | None]] = []
+        self._watched: dict[str, None] = {}  # the signals read last, oldest first
         self._seen = server.taken(simulator.get_context()).serial
         self.events: list[tuple[float, str]] = []  # the requests that changed the context
         server.attach(network.drain)
@@ -162,6 +169,10 @@ class Serving:
         """The ``progress`` hook of ``simulate`` (simulated time, duration, wall time since the start)."""
         context = self.context
         now = context.get_time()
+        # the signals read lately, for the network thread to answer at once (before the replies)
+        self._network.publish(
+            {signal: (now, self._read(signal), self._layouts.get(signal)) for signal in self._watched}
+        )
         for cid, request_id, result, message in self._answers:
             self._reply(cid, request_id, result, message, now)
         self._answers = []
@@ -208,6 +219,7 @@ class Serving:
         """Answer the requests the run ended before applying in a tick: an error saying so; and
         detach the server from the network."""
         self._server.attach(None)
+        self._network.publish({})  # no value of this run is answered after it
         for cid, request_id, _, _ in self._answers:
             self._network.send(cid, error(request_id, "the run ended before the next tick"))
         self._answers = []
@@ -270,6 +282,7 @@ class Serving:
         ``run`` line as the server parsed it."""
         if request.op == "read":
             self._port(request.signal)
+            self._watch(request.signal)
             return self._read(request.signal), False
         if request.op == "run":
             return self._run(request.cmd, statement, context)
@@ -292,6 +305,13 @@ class Serving:
             del self._subscriptions[cid][request.signal]
             return request.signal, False
         raise ValueError(f"op = {request.op!r}: not served")
+
+    def _watch(self, signal: str) -> None:
+        """Keep ``signal`` among the :data:`WATCHED` read last, published after each tick."""
+        self._watched.pop(signal, None)
+        self._watched[signal] = None
+        while len(self._watched) > WATCHED:
+            del self._watched[next(iter(self._watched))]
 
     def _port(self, signal: str):
         if signal not in self._readable:

@@ -64,6 +64,7 @@ class _Connection:
     skipping: bool = False  # inside a line over the limit: drop up to its newline
     ended: bool = False  # the client half-closed (sent EOF): closed once its replies are sent
     unanswered: int = 0  # requests queued for the serving loop and not answered yet
+    answered: dict = field(default_factory=dict)  # signal -> the tick whose value it was sent at once
     watched: int = selectors.EVENT_READ  # the events the selector watches (0: unregistered)
     allowance: float = 0.0
     last: float = field(default_factory=time.monotonic)
@@ -114,6 +115,8 @@ class NetworkThread:
         self._horizons: dict[int, float] = {}  # connection -> the largest horizon it wrote [s]
         self._pacer_left: int | None = None  # a connection that wrote a horizon, then closed
         self._resting_until: float | None = None  # accept failed: the listener is back at this time
+        #: signal -> (t, values, layout) at the last tick, answered here (see :meth:`publish`)
+        self._snapshot: dict[str, tuple[float, list, dict | None]] = {}
 
     def start(self) -> None:
         self._selector.register(self._listener, selectors.EVENT_READ, "listen")
@@ -131,6 +134,17 @@ class NetworkThread:
         self._listener.close()
         self._wake_r.close()
         self._wake_w.close()
+
+    def publish(self, snapshot: dict[str, tuple[float, list, dict | None]]) -> None:
+        """Replace the values this thread answers a ``read`` with, without the serving loop: signal
+        → ``(t, values, layout)`` at the last tick (``layout``: a stacked signal's rows, or None).
+        A read of a signal in it, from a connection with no request waiting for the loop, is
+        answered at once (the same value as after the next tick's wait, a tick earlier; a
+        connection that waits for a reply keeps its order: its read queues behind), once per
+        tick and connection (the next read of that value waits for the next tick). The loop
+        publishes before it sends the replies of a tick, so that a client that got a reply reads
+        its effect."""
+        self._snapshot = snapshot  # one reference: atomic under the GIL
 
     def send(self, connection: int, message: dict[str, Any]) -> None:
         """Queue ``message`` (the reply of a request the connection sent, or a stream message) for
@@ -303,6 +317,18 @@ class NetworkThread:
         if not conn.authed:
             self._reply(cid, error(None, 'not authenticated: send {"op": "auth", "token": ...} first'))
             return
+        if request.op == "read" and conn.unanswered == 0:
+            held = self._snapshot.get(request.signal)
+            # once per tick: a second read of the same value waits for the next tick, so that a
+            # client polling in a loop is paced by the ticks (not stopped by the rate limit)
+            if held is not None and conn.answered.get(request.signal) != held[0]:
+                t, values, layout = held
+                conn.answered[request.signal] = t
+                reply = ok(request.id, values, t)
+                if layout is not None:
+                    reply["layout"] = layout
+                self._reply(cid, reply)
+                return
         conn.unanswered += 1
         self.requests.put((cid, request))
         if request.horizon is not None:
