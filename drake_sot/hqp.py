@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -32,6 +32,7 @@ __all__ = [
     "HqpResult",
     "LevelReport",
     "TOLERANCE",
+    "bound_sides",
     "level_report",
     "solve_hqp",
 ]
@@ -190,7 +191,7 @@ def solve_hqp(
     rank_threshold: float = 1e-6,
     tolerance: float = TOLERANCE,
     validate: bool = True,
-    warm_start: HqpResult | None = None,
+    warm_start: HqpResult | Mapping[str, np.ndarray] | None = None,
 ) -> HqpResult:
     """Solve a strict hierarchy of equalities and inequalities (Escande, Mansard, Wieber 2014).
 
@@ -260,7 +261,9 @@ def solve_hqp(
             right and the problem has the shortcut's form (below), the answer is one equality
             solve with those rows at their bounds, certified by the signs of their multipliers
             (:func:`_inequalities_idle`); otherwise the active set runs as without it. Only a
-            guess: the result is the same either way (to rounding).
+            guess: the result is the same either way (to rounding). Or, for a caller that keeps
+            only the sides (a control system holding them in its state), a mapping from a level's
+            name to its rows' sides at a bound (:func:`bound_sides`: +1 upper, -1 lower, 0 free).
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
@@ -329,8 +332,17 @@ def solve_hqp(
     )
 
 
+def bound_sides(report: LevelReport, rows: int) -> np.ndarray:
+    """The sides of a level's ``rows`` rows at a bound in ``report``: (rows,) int8, +1 at the upper
+    bound, -1 at the lower one, 0 free (a warm start of :func:`solve_hqp`)."""
+    side = np.zeros(rows, dtype=np.int8)
+    side[list(report.active_lower)] = -1
+    side[list(report.active_upper)] = 1
+    return side
+
+
 def _binding(
-    previous: HqpResult,
+    previous: HqpResult | Mapping[str, np.ndarray],
     levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
     names: tuple[str, ...],
 ) -> dict[int, tuple[np.ndarray, np.ndarray]] | None:
@@ -338,15 +350,20 @@ def _binding(
     an inequality level of ``levels`` whose name ``previous`` knows, ``(rows, sides)`` (side +1 at
     the upper bound, -1 at the lower one; rows that this level does not have are left out).
     None when no row was at a bound."""
-    known = {report.name: report for report in previous.levels}
+    if isinstance(previous, HqpResult):
+        known = {
+            report.name: bound_sides(report, level[0].shape[0])
+            for report, level in zip(previous.levels, previous.problem, strict=True)
+            if report.active_lower or report.active_upper
+        }
+    else:
+        known = previous
     binding: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for index, (name, (J, lower, upper)) in enumerate(zip(names, levels, strict=True)):
-        report = known.get(name)
-        if report is None or lower is upper or not (report.active_lower or report.active_upper):
+        side = known.get(name)
+        if side is None or lower is upper:
             continue
-        side = np.zeros(J.shape[0], dtype=np.int8)
-        side[[i for i in report.active_lower if i < side.size]] = -1
-        side[[i for i in report.active_upper if i < side.size]] = 1
+        side = side[: J.shape[0]]
         rows = np.flatnonzero(side)
         if rows.size:
             binding[index] = (rows, side[rows].astype(float))
