@@ -350,11 +350,13 @@ def _binding(
     an inequality level of ``levels`` whose name ``previous`` knows, ``(rows, sides)`` (side +1 at
     the upper bound, -1 at the lower one; rows that this level does not have are left out).
     None when no row was at a bound."""
-    if isinstance(previous, HqpResult):
+    if isinstance(previous, HqpResult):  # the reports of its inequality levels only (one J q̇ each)
         known = {
-            report.name: bound_sides(report, level[0].shape[0])
-            for report, level in zip(previous.levels, previous.problem, strict=True)
-            if report.active_lower or report.active_upper
+            name: bound_sides(
+                level_report(name, J, lower, upper, previous.qdot, previous.tolerance), J.shape[0]
+            )
+            for name, (J, lower, upper) in zip(previous.names, previous.problem, strict=True)
+            if lower is not upper and not (lower == upper).all()
         }
     else:
         known = previous
