@@ -26,6 +26,7 @@ import pytest
 import scipy.linalg
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
+from random_hierarchies import Level3, random_hierarchy
 from test_hierarchy import stacks
 
 from drake_sot import hqp
@@ -33,7 +34,6 @@ from drake_sot.hierarchy import solve_strict
 from drake_sot.hqp import _inequalities_idle, solve_hqp
 
 SETTINGS = settings(max_examples=120, deadline=None)
-Level3 = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 # --- the independent reference ----------------------------------------------------------
@@ -531,41 +531,12 @@ def polished(levels: list[Level3], x: np.ndarray, n: int) -> np.ndarray:
 
 @st.composite
 def large_problems(draw: st.DrawFn) -> Problem:
-    """6-10 levels of 2-13 rows on 38-50 joints; a level is all equalities or mixes one-sided,
-    two-sided and equality rows. Degenerate if drawn: rows repeated from a level above (the same
-    row, its opposite or its double, with its bounds or others: parallel and contradictory rows),
-    rank-deficient levels (a row the sum of two others), bounds through 0 (rows at their bound
-    where q̇ starts, with zero multipliers)."""
+    """6-10 levels of 2-13 rows on 38-50 joints, degenerate if drawn
+    (:func:`random_hierarchies.random_hierarchy` says how; the benchmark draws the same)."""
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     degenerate = draw(st.booleans())
     n = draw(st.integers(38, 50))
-    levels: list[Level3] = []
-    for _ in range(draw(st.integers(6, 10))):
-        m = int(rng.integers(2, 14))
-        J = rng.normal(size=(m, n))
-        lo, hi = np.empty(m), np.empty(m)
-        equalities = rng.random() < 0.35
-        for i in range(m):
-            centre, width = rng.normal(), rng.uniform(0.0, 1.0)
-            if degenerate and rng.random() < 0.4:
-                centre, width = 0.0, float(rng.choice([0.0, 1.0]))
-            kind = "equality" if equalities or rng.random() < 0.2 else rng.choice(["box", "above", "below"])
-            lo[i], hi[i] = {
-                "equality": (centre, centre),
-                "box": (centre - width, centre + width),
-                "above": (centre - width, np.inf),
-                "below": (-np.inf, centre + width),
-            }[kind]
-            if degenerate and levels and rng.random() < 0.3:
-                J_src, lo_src, hi_src = levels[rng.integers(len(levels))]
-                k = rng.integers(J_src.shape[0])
-                J[i] = J_src[k] * rng.choice([1.0, -1.0, 2.0])
-                if rng.random() < 0.5:
-                    lo[i], hi[i] = lo_src[k], hi_src[k]
-        if degenerate and m >= 3 and rng.random() < 0.3:
-            J[2] = J[0] + J[1]
-        levels.append((J, lo, hi))
-    return Problem(levels=levels, n=n)
+    return Problem(levels=random_hierarchy(rng, degenerate, n, draw(st.integers(6, 10))), n=n)
 
 
 @pytest.mark.slow  # large hypothesis draws: on the main Python only (make test's compat runs skip slow)
