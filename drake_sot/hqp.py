@@ -145,13 +145,32 @@ def level_report(
     """The :class:`LevelReport` of the level ``lower <= J q̇ <= upper`` (``lower is upper``, or equal,
     for equalities) at ``qdot``: its slack, and its inequality rows within ``tolerance`` of a bound."""
     value = J @ qdot
-    inequality = lower < upper
+    at_lower, at_upper = _at_bounds(lower, upper, value, tolerance)
     return LevelReport(
         name=name,
         slack=value - np.clip(value, lower, upper),
-        active_lower=tuple(np.flatnonzero(inequality & (value <= lower + tolerance)).tolist()),
-        active_upper=tuple(np.flatnonzero(inequality & (value >= upper - tolerance)).tolist()),
+        active_lower=tuple(np.flatnonzero(at_lower).tolist()),
+        active_upper=tuple(np.flatnonzero(at_upper).tolist()),
     )
+
+
+def _at_bounds(
+    lower: np.ndarray, upper: np.ndarray, value: np.ndarray, tolerance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The inequality rows (``lower < upper``) whose ``value`` is within ``tolerance`` of (or past)
+    their lower bound, and those at their upper bound: two boolean masks."""
+    inequality = lower < upper
+    return inequality & (value <= lower + tolerance), inequality & (value >= upper - tolerance)
+
+
+def bound_sides(
+    J: np.ndarray, lower: np.ndarray, upper: np.ndarray, qdot: np.ndarray, tolerance: float = TOLERANCE
+) -> np.ndarray:
+    """The sides of the rows of ``lower <= J q̇ <= upper`` at ``qdot``, as :func:`solve_hqp`'s
+    ``warm_start`` takes them: (m,) int8, +1 for a row at its upper bound (within ``tolerance``;
+    :func:`level_report`'s ``active_upper``), -1 at its lower one only, 0 otherwise."""
+    at_lower, at_upper = _at_bounds(lower, upper, J @ qdot, tolerance)
+    return np.where(at_upper, 1, np.where(at_lower, -1, 0)).astype(np.int8)
 
 
 def _validate_hqp(
@@ -231,8 +250,10 @@ def solve_hqp(
     Shortcut: when every inequality row holds at the solution of the equality levels alone,
     that solution is the answer and no active set runs (:func:`_inequalities_idle` says why
     and when it applies: a control tick whose limits do not bind). Without ``warm_start``, the
-    rows that do not hold there are tried once as the rows at a bound (the same function and
-    its certificate: one more QR); with it, its rows are tried instead, first.
+    rows that do not hold there are tried as the rows at a bound (the same function and its
+    certificate: one more QR); with it, its rows are tried instead, first. A refused guess gives
+    the next (:func:`_guessed`: the rows found outside added, those pulled inward dropped), up to
+    :data:`GUESSES` equality solves before the active set.
 
     Why not DAQP's hierarchical mode: it is faster, but it makes each level soft with a fixed
     penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), so its q̇ can be
@@ -260,10 +281,11 @@ def solve_hqp(
             rows by index) are the first guess of the rows at a bound. When the guess is still
             right and the problem has the shortcut's form (below), the answer is one equality
             solve with those rows at their bounds, certified by the signs of their multipliers
-            (:func:`_inequalities_idle`); otherwise the active set runs as without it. Only a
-            guess: the result is the same either way (to rounding). Or, for a caller that keeps
-            only the sides (a control system holding them in its state), a mapping from a level's
-            name to its rows' sides at a bound (:func:`bound_sides`: +1 upper, -1 lower, 0 free).
+            (:func:`_inequalities_idle`); otherwise the next guesses are tried, then the active
+            set runs, as without it. Only a guess: the result is the same either way (to
+            rounding). Or, for a caller that keeps only the sides (a control system holding them in
+            its state), a mapping from a level's name to its rows' sides at a bound
+            (:func:`bound_sides`: +1 upper, -1 lower, 0 free).
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
@@ -288,13 +310,12 @@ def solve_hqp(
         level_names = tuple(names) if names is not None else tuple(str(i) for i in range(len(checked)))
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
-    binding = None if warm_start is None else _binding(warm_start, checked, level_names)
-    violated: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    fast = _inequalities_idle(
-        checked, rank_threshold, tolerance, binding, violated if binding is None else None
+    fast = _guessed(
+        checked,
+        rank_threshold,
+        tolerance,
+        None if warm_start is None else _binding(warm_start, checked, level_names),
     )
-    if fast is None and violated:  # the rows that the equality levels' solution crosses, as a guess
-        fast = _inequalities_idle(checked, rank_threshold, tolerance, violated)
     if fast is not None:
         qdot, free_dims = fast
         return HqpResult(
@@ -332,15 +353,6 @@ def solve_hqp(
     )
 
 
-def bound_sides(report: LevelReport, rows: int) -> np.ndarray:
-    """The sides of a level's ``rows`` rows at a bound in ``report``: (rows,) int8, +1 at the upper
-    bound, -1 at the lower one, 0 free (a warm start of :func:`solve_hqp`)."""
-    side = np.zeros(rows, dtype=np.int8)
-    side[list(report.active_lower)] = -1
-    side[list(report.active_upper)] = 1
-    return side
-
-
 def _binding(
     previous: HqpResult | Mapping[str, np.ndarray],
     levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
@@ -350,11 +362,9 @@ def _binding(
     an inequality level of ``levels`` whose name ``previous`` knows, ``(rows, sides)`` (side +1 at
     the upper bound, -1 at the lower one; rows that this level does not have are left out).
     None when no row was at a bound."""
-    if isinstance(previous, HqpResult):  # the reports of its inequality levels only (one J q̇ each)
+    if isinstance(previous, HqpResult):  # its inequality levels only (one J q̇ each)
         known = {
-            name: bound_sides(
-                level_report(name, J, lower, upper, previous.qdot, previous.tolerance), J.shape[0]
-            )
+            name: bound_sides(J, lower, upper, previous.qdot, previous.tolerance)
             for name, (J, lower, upper) in zip(previous.names, previous.problem, strict=True)
             if lower is not upper and not (lower == upper).all()
         }
@@ -372,12 +382,45 @@ def _binding(
     return binding or None
 
 
+#: How many guesses of the rows at a bound :func:`_guessed` tries before the active set.
+GUESSES = 6
+
+
+def _guessed(
+    levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    rank_threshold: float,
+    tolerance: float,
+    binding: dict[int, tuple[np.ndarray, np.ndarray]] | None,
+) -> tuple[np.ndarray, tuple[int, ...]] | None:
+    """:func:`_inequalities_idle` from the guess ``binding`` (None: no row at a bound), then from
+    the guess each failure gives (the rows it found outside their bounds added, those whose
+    multiplier has the wrong sign dropped), up to :data:`GUESSES` guesses: each try is one equality
+    solve, certified or refused, so a wrong guess costs time, never the answer. None when no guess
+    was certified (or a guess came back: the guesses cycle), for the active set."""
+    seen: set[tuple] = set()
+    for _ in range(GUESSES):
+        key = (
+            ()
+            if binding is None
+            else tuple((i, r.tobytes(), s.tobytes()) for i, (r, s) in sorted(binding.items()))
+        )
+        if key in seen:
+            return None
+        seen.add(key)
+        following: list[dict[int, tuple[np.ndarray, np.ndarray]]] = []
+        fast = _inequalities_idle(levels, rank_threshold, tolerance, binding, following)
+        if fast is not None or not following:
+            return fast
+        binding = following[0] or None
+    return None
+
+
 def _inequalities_idle(
     levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
     rank_threshold: float,
     tolerance: float = TOLERANCE,
     binding: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
-    violated: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
+    following: list[dict[int, tuple[np.ndarray, np.ndarray]]] | None = None,
 ) -> tuple[np.ndarray, tuple[int, ...]] | None:
     """q̇ and the free dimensions of :func:`solve_hqp` when its inequalities change nothing, else None.
 
@@ -423,15 +466,19 @@ def _inequalities_idle(
     (those a tall last level leaves are counted by one more QR and SVD: the rank of its rows in what
     the equality rows above leave).
 
-    ``violated``: when given (a dict) and the answer is None because inequality rows do not hold
-    at q̇*, it receives them as a ``binding`` guess (the rows of each inequality level without a
-    guessed row that q̇* leaves, with the side it leaves by): at a limit met for the first time,
-    the rows that the unlimited q̇ would cross are often those that bind.
+    ``following``: when given (a list) and the answer is None because rows outside their bounds or
+    guessed rows with a wrong multiplier refuse q̇* (not for a rank in doubt or another form), it
+    receives the next guess (a ``binding``, maybe empty): per inequality level, its guessed rows whose
+    multiplier has the right sign and the rows q̇* leaves, with the side each leaves by. At a limit
+    met for the first time, the rows that the unlimited q̇ would cross are often those that bind.
     """
     n = levels[0][0].shape[1]
     equalities: list[tuple[np.ndarray, np.ndarray]] = []  # (J, target)
-    inequalities: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []  # (level, J, lower, upper)
-    guessed: list[tuple[int, np.ndarray]] = []  # (first row in the stack, sides) of each binding block
+    # (level, J, lower, upper, the rows of the level they are: None for all)
+    inequalities: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = []
+    guessed: list[
+        tuple[int, int, np.ndarray, np.ndarray]
+    ] = []  # (first row in the stack, level, rows, sides)
     free_dims: list[int] = []  # certified below: each equality row takes one dimension
     total, fixed = 0, 0  # rows stacked (binding ones included), equality rows
     fixed_rows: list[np.ndarray] = []  # the equality levels' J
@@ -440,18 +487,18 @@ def _inequalities_idle(
         if lower is not upper and (lower < upper).all():
             bound = None if binding is None else binding.get(index)
             if bound is None:
-                inequalities.append((index, J, lower, upper))
+                inequalities.append((index, J, lower, upper, None))
             else:
                 rows, sides = bound
                 at = np.where(sides > 0, upper[rows], lower[rows])
                 if not np.isfinite(at).all():
                     return None
                 equalities.append((J[rows], at))
-                guessed.append((total, sides))
+                guessed.append((total, index, rows, sides))
                 total += rows.size
                 rest = np.ones(J.shape[0], dtype=bool)
                 rest[rows] = False
-                inequalities.append((-1, J[rest], lower[rest], upper[rest]))
+                inequalities.append((index, J[rest], lower[rest], upper[rest], np.flatnonzero(rest)))
                 last_is_equality = False
         elif lower is upper or (lower == upper).all():
             if J.shape[0]:
@@ -503,17 +550,17 @@ def _inequalities_idle(
         if u is None:
             return None
         x = x + (u if Z is None else Z.dot(u))
-    outside = False
-    for index, J, lower, upper in inequalities:
+    added: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # per level, the rows q̇* leaves, their sides
+    for index, J, lower, upper, of_level in inequalities:
         value = J.dot(x)
         above, below = value > upper, value < lower
         if above.any() or below.any():
-            outside = True
-            if violated is None:
+            if following is None:
                 return None
-            rows = np.flatnonzero(above | below)
-            violated[index] = (rows, np.where(above[rows], 1.0, -1.0))
-    if outside:
+            out = np.flatnonzero(above | below)
+            added[index] = (out if of_level is None else of_level[out], np.where(above[out], 1.0, -1.0))
+    if added and not guessed:
+        following.append(added)
         return None
     if guessed:
         if last is None:
@@ -525,9 +572,28 @@ def _inequalities_idle(
             # A zero multiplier would leave its row free to move in the last level's optimal set,
             # where the least norm decides: only rows that the last level strictly holds on.
             wrong = -tolerance
-        for start, sides in guessed:
-            if (sides * nu[start : start + sides.size] >= wrong).any():
-                return None
+        kept: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # per level, the guessed rows that hold on
+        dropped = False
+        for start, index, block, sides in guessed:
+            right = sides * nu[start : start + sides.size] < wrong
+            if not right.all():
+                if following is None:
+                    return None
+                dropped = True
+            if right.any():
+                kept[index] = (block[right], sides[right])
+        if added or dropped:
+            for index, (block, sides) in added.items():
+                if index in kept:
+                    block, sides = (
+                        np.concatenate((kept[index][0], block)),
+                        np.concatenate((kept[index][1], sides)),
+                    )
+                    order = np.argsort(block)
+                    block, sides = block[order], sides[order]
+                kept[index] = (block, sides)
+            following.append(kept)
+            return None
         if last is not None:
             # The last level fixes its rows in what the equality rows above it leave (the guessed
             # rows hold, they fix nothing): that space is wider than Z, its rank there is counted.

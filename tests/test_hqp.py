@@ -640,16 +640,15 @@ def test_a_tick_whose_rows_at_a_bound_do_not_change_is_one_equality_solve(bound_
     np.testing.assert_allclose(cold.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
 
 
-@pytest.mark.parametrize(
-    ("bound_rows", "guessed"), [(1, True), (4, True), (6, True), (8, False), (16, False)]
-)
+@pytest.mark.parametrize(("bound_rows", "guessed"), [(1, True), (4, True), (6, True), (8, True), (16, False)])
 def test_limits_met_for_the_first_time_are_guessed_from_the_rows_the_free_solution_crosses(
     bound_rows, guessed
 ):
     """Without a warm start, the rows that the equality levels' own solution crosses are tried as
-    the rows at a bound: right here for 1, 4 and 6 tightened limits (one equality solve more, no
-    active set), wrong for 8 and 16 (7 and 13 of them bind: the active set runs). Either way the
-    independent cascade's answer."""
+    the rows at a bound, then the guesses each refused one gives: right here for 1, 4, 6 and 8
+    tightened limits (equality solves, no active set; for 8, of which 7 bind, the first guess is
+    wrong), not for 16 (13 bind: with the tasks' 18 rows, more than the 30 joints, not the
+    shortcut's form: the active set runs). Either way the independent cascade's answer."""
     levels = limits_and_tasks(bound_rows)
     result = solve_hqp(levels)
     assert (result.iterations == len(levels)) == guessed

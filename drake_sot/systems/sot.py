@@ -593,8 +593,7 @@ class StackOfTasks(LeafSystem):
                 )
                 for task_name in bounded:
                     J, lower, upper = signals[task_name]
-                    report = level_report(task_name, J, lower, upper, result.qdot)
-                    sides[self._slices[task_name]] = bound_sides(report, J.shape[0])
+                    sides[self._slices[task_name]] = bound_sides(J, lower, upper, result.qdot)
             else:
                 result = solve_strict(
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
