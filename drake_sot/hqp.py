@@ -382,8 +382,34 @@ def _binding(
     return binding or None
 
 
+#: A refused guess of :func:`_inequalities_idle`: per level the guessed rows whose multipliers
+#: have the right sign, ``(rows, sides)``; the rows found outside, ``(-excess, level, row, side)``;
+#: and how many rows a guess may hold (the equality rows above a tall last level must leave it a
+#: dimension).
+_Refusal = tuple[dict[int, tuple[np.ndarray, np.ndarray]], list[tuple[float, int, int, float]], int]
+
+
+def _next_guess(refusal: _Refusal, count: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """The guess after a refused one: per level, its kept rows and sides, and the ``count``
+    farthest out of the rows found outside, as many of them as fit beside the kept ones."""
+    kept, added, room = refusal
+    guess = {index: (rows.tolist(), sides.tolist()) for index, (rows, sides) in kept.items()}
+    space = min(count, room - sum(len(rows) for rows, _ in guess.values()))
+    for _, index, row, side in sorted(added)[: max(space, 0)]:
+        rows, sides = guess.setdefault(index, ([], []))
+        rows.append(row)
+        sides.append(side)
+    out = {}
+    for index, (rows, sides) in guess.items():
+        order = np.argsort(rows)
+        out[index] = (np.asarray(rows, dtype=np.intp)[order], np.asarray(sides, dtype=float)[order])
+    return out
+
+
 #: How many guesses of the rows at a bound :func:`_guessed` tries before the active set.
-GUESSES = 6
+GUESSES = 16
+#: How many of them add all the rows the refused guess's q̇ leaves (then one at a time).
+ALL_AT_ONCE = 3
 
 
 def _guessed(
@@ -393,11 +419,16 @@ def _guessed(
     binding: dict[int, tuple[np.ndarray, np.ndarray]] | None,
 ) -> tuple[np.ndarray, tuple[int, ...]] | None:
     """:func:`_inequalities_idle` from the guess ``binding`` (None: no row at a bound), then from
-    the guess each failure gives (the rows it found outside their bounds added, those whose
-    multiplier has the wrong sign dropped), up to :data:`GUESSES` guesses: each try is one equality
-    solve, certified or refused, so a wrong guess costs time, never the answer. None when no guess
-    was certified (or a guess came back: the guesses cycle), for the active set."""
+    the guesses each refusal gives, up to :data:`GUESSES` guesses; each try is one equality solve,
+    certified or refused, so a wrong guess costs time, never the answer. After a refusal the guess
+    is its kept rows and all the rows found outside (at a limit met for the first time, the rows
+    that the unlimited q̇ would cross are often those that bind), :data:`ALL_AT_ONCE` times; when
+    those are refused too (rows crossed by the unlimited q̇ that a few others' binding brings back
+    inside), the guesses go on from the first refusal, adding the farthest row out of each refused
+    guess's q̇, one at a time (the active set's one row per iteration, at one equality solve each). None when
+    no guess was certified or a guess came back (the guesses cycle), for the active set."""
     seen: set[tuple] = set()
+    first: _Refusal | None = None
     for _ in range(GUESSES):
         key = (
             ()
@@ -407,11 +438,18 @@ def _guessed(
         if key in seen:
             return None
         seen.add(key)
-        following: list[dict[int, tuple[np.ndarray, np.ndarray]]] = []
+        following: list[_Refusal] = []
         fast = _inequalities_idle(levels, rank_threshold, tolerance, binding, following)
         if fast is not None or not following:
             return fast
-        binding = following[0] or None
+        first = first or following[0]
+        if len(seen) < ALL_AT_ONCE:
+            binding = _next_guess(following[0], len(following[0][1]))
+        elif len(seen) == ALL_AT_ONCE:  # the rows found outside, all at once, were refused: one at a time
+            binding = _next_guess(first, 1)
+        else:
+            binding = _next_guess(following[0], 1)
+        binding = binding or None
     return None
 
 
@@ -420,7 +458,7 @@ def _inequalities_idle(
     rank_threshold: float,
     tolerance: float = TOLERANCE,
     binding: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
-    following: list[dict[int, tuple[np.ndarray, np.ndarray]]] | None = None,
+    following: list[_Refusal] | None = None,
 ) -> tuple[np.ndarray, tuple[int, ...]] | None:
     """q̇ and the free dimensions of :func:`solve_hqp` when its inequalities change nothing, else None.
 
@@ -468,9 +506,9 @@ def _inequalities_idle(
 
     ``following``: when given (a list) and the answer is None because rows outside their bounds or
     guessed rows with a wrong multiplier refuse q̇* (not for a rank in doubt or another form), it
-    receives the next guess (a ``binding``, maybe empty): per inequality level, its guessed rows whose
-    multiplier has the right sign and the rows q̇* leaves, with the side each leaves by. At a limit
-    met for the first time, the rows that the unlimited q̇ would cross are often those that bind.
+    receives what :func:`_guessed` makes the next guess of (a :data:`_Refusal`): per inequality
+    level, its guessed rows whose multiplier has the right sign, and the rows q̇* leaves, with the
+    side each leaves by and how far.
     """
     n = levels[0][0].shape[1]
     equalities: list[tuple[np.ndarray, np.ndarray]] = []  # (J, target)
@@ -482,7 +520,7 @@ def _inequalities_idle(
     free_dims: list[int] = []  # certified below: each equality row takes one dimension
     total, fixed = 0, 0  # rows stacked (binding ones included), equality rows
     fixed_rows: list[np.ndarray] = []  # the equality levels' J
-    last_is_equality, last_index = False, 0
+    last_is_equality, last_index, last_rows = False, 0, 0
     for index, (J, lower, upper) in enumerate(levels):
         if lower is not upper and (lower < upper).all():
             bound = None if binding is None else binding.get(index)
@@ -506,7 +544,7 @@ def _inequalities_idle(
                 fixed_rows.append(J)
                 total += J.shape[0]
                 fixed += J.shape[0]
-                last_is_equality, last_index = True, index
+                last_is_equality, last_index, last_rows = True, index, J.shape[0]
         else:
             return None
         free_dims.append(max(n - fixed, 0))
@@ -550,18 +588,19 @@ def _inequalities_idle(
         if u is None:
             return None
         x = x + (u if Z is None else Z.dot(u))
-    added: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # per level, the rows q̇* leaves, their sides
+    added: list[tuple[float, int, int, float]] = []  # (-excess, level, row, side) of the rows q̇* leaves
     for index, J, lower, upper, of_level in inequalities:
         value = J.dot(x)
         above, below = value > upper, value < lower
         if above.any() or below.any():
             if following is None:
                 return None
-            out = np.flatnonzero(above | below)
-            added[index] = (out if of_level is None else of_level[out], np.where(above[out], 1.0, -1.0))
-    if added and not guessed:
-        following.append(added)
-        return None
+            for k in np.flatnonzero(above | below).tolist():
+                excess = float(value[k] - upper[k] if above[k] else lower[k] - value[k])
+                row = k if of_level is None else int(of_level[k])
+                added.append((-excess, index, row, 1.0 if above[k] else -1.0))
+    kept: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # per level, the guessed rows that hold on
+    dropped = False
     if guessed:
         if last is None:
             nu = R_inv.dot(y)  # q̇* = Q₁ y = Aᵀ ν with R ν = y
@@ -572,8 +611,6 @@ def _inequalities_idle(
             # A zero multiplier would leave its row free to move in the last level's optimal set,
             # where the least norm decides: only rows that the last level strictly holds on.
             wrong = -tolerance
-        kept: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # per level, the guessed rows that hold on
-        dropped = False
         for start, index, block, sides in guessed:
             right = sides * nu[start : start + sides.size] < wrong
             if not right.all():
@@ -582,18 +619,10 @@ def _inequalities_idle(
                 dropped = True
             if right.any():
                 kept[index] = (block[right], sides[right])
-        if added or dropped:
-            for index, (block, sides) in added.items():
-                if index in kept:
-                    block, sides = (
-                        np.concatenate((kept[index][0], block)),
-                        np.concatenate((kept[index][1], sides)),
-                    )
-                    order = np.argsort(block)
-                    block, sides = block[order], sides[order]
-                kept[index] = (block, sides)
-            following.append(kept)
-            return None
+    if added or dropped:
+        following.append((kept, added, n - 1 - (fixed - last_rows)))
+        return None
+    if guessed:
         if last is not None:
             # The last level fixes its rows in what the equality rows above it leave (the guessed
             # rows hold, they fix nothing): that space is wider than Z, its rank there is counted.
