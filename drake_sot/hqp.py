@@ -409,7 +409,7 @@ def _next_guess(refusal: _Refusal, count: int) -> dict[int, tuple[np.ndarray, np
 #: How many guesses of the rows at a bound :func:`_guessed` tries before the active set.
 GUESSES = 16
 #: How many of them add all the rows the refused guess's q̇ leaves (then one at a time).
-ALL_AT_ONCE = 3
+ALL_AT_ONCE = 4
 
 
 def _guessed(
