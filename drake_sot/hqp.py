@@ -424,11 +424,13 @@ def _guessed(
     is its kept rows and all the rows found outside (at a limit met for the first time, the rows
     that the unlimited q̇ would cross are often those that bind), :data:`ALL_AT_ONCE` times; when
     those are refused too (rows crossed by the unlimited q̇ that a few others' binding brings back
-    inside), the guesses go on from the first refusal, adding the farthest row out of each refused
+    inside), or when the first refusal's rows do not all fit beside the equality rows (a sign of
+    that), the guesses go on from the first refusal, adding the farthest row out of each refused
     guess's q̇, one at a time (the active set's one row per iteration, at one equality solve each). None when
     no guess was certified or a guess came back (the guesses cycle), for the active set."""
     seen: set[tuple] = set()
     first: _Refusal | None = None
+    all_at_once = ALL_AT_ONCE
     for _ in range(GUESSES):
         key = (
             ()
@@ -442,10 +444,14 @@ def _guessed(
         fast = _inequalities_idle(levels, rank_threshold, tolerance, binding, following)
         if fast is not None or not following:
             return fast
-        first = first or following[0]
-        if len(seen) < ALL_AT_ONCE:
+        if first is None:
+            first = following[0]
+            kept, added, room = first
+            if len(added) + sum(rows.size for rows, _ in kept.values()) > room:
+                all_at_once = 0  # too many rows outside to fit beside the equality rows: one at a time
+        if len(seen) < all_at_once:
             binding = _next_guess(following[0], len(following[0][1]))
-        elif len(seen) == ALL_AT_ONCE:  # the rows found outside, all at once, were refused: one at a time
+        elif len(seen) == max(all_at_once, 1):  # from the first refusal, one row at a time
             binding = _next_guess(first, 1)
         else:
             binding = _next_guess(following[0], 1)
