@@ -609,6 +609,28 @@ def test_a_warm_start_gives_the_cold_answer_on_large_hierarchies(problem, seed):
     assert warm.free_dims == cold.free_dims
 
 
+@settings(max_examples=100, deadline=None)
+@given(problems(), st.integers(0, 2**32 - 1))
+def test_a_warm_start_given_as_sides_by_level_name_is_the_result_s_rows_at_a_bound(problem, seed):
+    """``bound_sides`` of each inequality level (a control system keeps only these): +1 on the
+    report's ``active_upper`` rows, -1 on its other ``active_lower`` rows; as a warm start they give
+    the cold answer, as the result they come from does."""
+    previous = solve_hqp(problem.levels)
+    sides = {}
+    for report, (J, lo, hi) in zip(previous.levels, problem.levels, strict=True):
+        side = hqp.bound_sides(J, lo, hi, previous.qdot)
+        expected = np.zeros(J.shape[0])
+        expected[list(report.active_lower)] = -1.0
+        expected[list(report.active_upper)] = 1.0
+        np.testing.assert_array_equal(side, expected)
+        sides[report.name] = side
+    levels = moved(problem.levels, np.random.default_rng(seed), 0.01)
+    cold = solve_hqp(levels)
+    warm = solve_hqp(levels, warm_start=sides)
+    np.testing.assert_allclose(warm.qdot, cold.qdot, rtol=0.0, atol=1e-9 * scale(cold.qdot))
+    assert warm.free_dims == cold.free_dims
+
+
 def limits_and_tasks(bound_rows: int, n: int = 30) -> list[Level3]:
     """Joint-velocity limits on top, three tasks of 6 rows and a posture below: the limits are
     tightened to half the unconstrained q̇ on its ``bound_rows`` largest joints."""
