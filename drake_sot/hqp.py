@@ -520,12 +520,13 @@ def _inequalities_idle(
     equalities: list[tuple[np.ndarray, np.ndarray]] = []  # (J, target)
     # (level, J, lower, upper, the rows of the level they are: None for all)
     inequalities: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = []
-    guessed: list[
-        tuple[int, int, np.ndarray, np.ndarray]
-    ] = []  # (first row in the stack, level, rows, sides)
+    # (first row among the guessed rows, level, rows, sides); the guessed rows are stacked after the
+    # equality levels above a tall last level (the order of full-rank rows that are all met changes
+    # neither q̇* nor the certificate), so that those levels' rows span the first columns of Q
+    guessed: list[tuple[int, int, np.ndarray, np.ndarray]] = []
+    guessed_rows: list[tuple[np.ndarray, np.ndarray]] = []  # (J, bound)
     free_dims: list[int] = []  # certified below: each equality row takes one dimension
     total, fixed = 0, 0  # rows stacked (binding ones included), equality rows
-    fixed_rows: list[np.ndarray] = []  # the equality levels' J
     last_is_equality, last_index, last_rows = False, 0, 0
     for index, (J, lower, upper) in enumerate(levels):
         if lower is not upper and (lower < upper).all():
@@ -537,8 +538,8 @@ def _inequalities_idle(
                 at = np.where(sides > 0, upper[rows], lower[rows])
                 if not np.isfinite(at).all():
                     return None
-                equalities.append((J[rows], at))
-                guessed.append((total, index, rows, sides))
+                guessed_rows.append((J[rows], at))
+                guessed.append((total - fixed, index, rows, sides))
                 total += rows.size
                 rest = np.ones(J.shape[0], dtype=bool)
                 rest[rows] = False
@@ -547,7 +548,6 @@ def _inequalities_idle(
         elif lower is upper or (lower == upper).all():
             if J.shape[0]:
                 equalities.append((J, upper))
-                fixed_rows.append(J)
                 total += J.shape[0]
                 fixed += J.shape[0]
                 last_is_equality, last_index, last_rows = True, index, J.shape[0]
@@ -557,8 +557,9 @@ def _inequalities_idle(
     if total > n and not last_is_equality:
         return None  # a tall block of guessed rows: not this form
     last = equalities.pop() if total > n else None  # a tall last level
-    if last is not None:
-        fixed_rows.pop()
+    head = fixed - (0 if last is None else last_rows)  # the equality rows stacked before the guessed
+    guessed = [(head + start, index, block, sides) for start, index, block, sides in guessed]
+    equalities += guessed_rows
     rows = total - (0 if last is None else last[0].shape[0])
     if rows >= n and last is not None:
         return None
@@ -632,16 +633,9 @@ def _inequalities_idle(
         if last is not None:
             # The last level fixes its rows in what the equality rows above it leave (the guessed
             # rows hold, they fix nothing): that space is wider than Z, its rank there is counted.
-            J = last[0]
-            F = np.concatenate(fixed_rows) if fixed_rows else np.zeros((0, n))
-            if F.shape[0]:
-                qr_f, tau_f, _, info = _GEQRF(F.T)
-                padded = np.zeros((n, n), order="F")
-                padded[:, : F.shape[0]] = qr_f
-                Q_f, _, info_q = _ORGQR(padded, tau_f)
-                if info or info_q:
-                    return None
-                J = J.dot(Q_f[:, F.shape[0] :])
+            # Those rows come first in the stack: the first columns of Q span them, the rest of Q
+            # is a basis of what they leave.
+            J = last[0].dot(Q[:, head:])
             left = J.shape[1] - SvdSplit.of(J, rank_threshold).rank
             free_dims[last_index:] = [left] * (len(free_dims) - last_index)
     return x, tuple(free_dims)
