@@ -678,6 +678,27 @@ def test_limits_met_for_the_first_time_are_guessed_from_the_rows_the_free_soluti
     np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
 
 
+@pytest.mark.parametrize(("tightened", "certified"), [(12, True), (20, False)])
+def test_limits_crossed_by_more_rows_than_fit_are_guessed_one_at_a_time(tightened, certified):
+    """Limits at 0.95 of the free q̇ on its ``tightened`` largest joints: the free q̇ crosses them
+    all, more than fit beside the tasks' 18 rows in 30 joints, and fewer bind (9 of 12; 13 of 20).
+    The guesses add the rows one at a time: for 12, certified with no active set (one iteration
+    per level); for 20 the guesses run out and the active set runs. Either way the independent
+    cascade's answer."""
+    n = 30
+    levels = limits_and_tasks(0, n)
+    limit = levels[0][2].copy()
+    free = solve_strict([(J, t) for J, t, _ in levels[1:]]).qdot
+    largest = np.argsort(-np.abs(free))[:tightened]
+    limit[largest] = 0.95 * np.abs(free[largest])
+    levels[0] = (np.eye(n), -limit, limit)
+    result = solve_hqp(levels)
+    assert (result.iterations == len(levels)) == certified
+    assert ((np.abs(free) > limit) & ~np.isclose(np.abs(result.qdot), limit, rtol=0.0, atol=1e-9)).any()
+    reference = polished(levels, daqp_guess(levels, n), n)
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+
+
 def test_a_guess_whose_row_the_tall_last_level_does_not_hold_on_is_declined():
     """Six joints (a problem drawn by the warm-start test); the last level (3 rows) is tall in
     what the rows above leave once row 1 of each inequality level is guessed at its upper bound
