@@ -18,6 +18,7 @@ from drake_sot.hqp import solve_hqp
 from drake_sot.models.humanoid import SOLE
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
+from drake_sot.systems import sot as sot_module
 from drake_sot.systems.device import Device
 from drake_sot.systems.features import FeaturePosture
 from drake_sot.systems.inequalities import (
@@ -411,8 +412,6 @@ def test_hqp_stack_warm_starts_each_tick_from_the_last_and_gives_the_cold_answer
     """A tick sequence whose rows at a limit come and go (a reach task turning around, beyond the
     limits |q̇_i| <= 1 half of the time): each tick's solve is warm-started from the rows that were
     at a bound at the last tick's q̇, and its q̇ is the cold solve's of the same levels (1e-9)."""
-    import drake_sot.systems.sot as sot_module
-
     warm_starts = []
 
     def spy(levels, **kwargs):
