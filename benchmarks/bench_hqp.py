@@ -37,6 +37,9 @@ from drake_sot.hierarchy import solve_strict
 from drake_sot.hqp import solve_hqp
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))  # the tests' random hierarchies: the same problems here
+
+from random_hierarchies import random_hierarchy  # noqa: E402
 
 
 def load_baseline(commit: str):
@@ -70,39 +73,6 @@ def limits_and_tasks(bound_rows: int, shift: float = 0.0, n: int = 40) -> list[t
     for J, t in (*tasks, posture):
         target = t + shift
         levels.append((J, target, target))
-    return levels
-
-
-def random_hierarchy(rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """As in the module docstring (the tests' ``large_problems``, drawn from ``rng``)."""
-    degenerate = bool(rng.random() < 0.5)
-    n = int(rng.integers(38, 51))
-    levels: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    for _ in range(int(rng.integers(6, 11))):
-        m = int(rng.integers(2, 14))
-        J = rng.normal(size=(m, n))
-        lo, hi = np.empty(m), np.empty(m)
-        equalities = rng.random() < 0.35
-        for i in range(m):
-            centre, width = rng.normal(), rng.uniform(0.0, 1.0)
-            if degenerate and rng.random() < 0.4:
-                centre, width = 0.0, float(rng.choice([0.0, 1.0]))
-            kind = "equality" if equalities or rng.random() < 0.2 else rng.choice(["box", "above", "below"])
-            lo[i], hi[i] = {
-                "equality": (centre, centre),
-                "box": (centre - width, centre + width),
-                "above": (centre - width, np.inf),
-                "below": (-np.inf, centre + width),
-            }[kind]
-            if degenerate and levels and rng.random() < 0.3:
-                J_src, lo_src, hi_src = levels[rng.integers(len(levels))]
-                k = rng.integers(J_src.shape[0])
-                J[i] = J_src[k] * rng.choice([1.0, -1.0, 2.0])
-                if rng.random() < 0.5:
-                    lo[i], hi[i] = lo_src[k], hi_src[k]
-        if degenerate and m >= 3 and rng.random() < 0.3:
-            J[2] = J[0] + J[1]
-        levels.append((J, lo, hi))
     return levels
 
 
@@ -147,7 +117,9 @@ def random_table(baseline, problems: int) -> None:
     rng = np.random.default_rng(2026)
     ratios, raised, unsettled = [], 0, 0
     for _ in range(problems):
-        levels = random_hierarchy(rng)
+        levels = random_hierarchy(
+            rng, bool(rng.random() < 0.5), int(rng.integers(38, 51)), int(rng.integers(6, 11))
+        )
         new = min(_time(lambda levels=levels: solve_hqp(levels)) for _ in range(3))
         result = solve_hqp(levels)
         unsettled += bool(result.unsettled)

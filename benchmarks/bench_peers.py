@@ -26,7 +26,8 @@ the head turns 0.4 rad. Each side integrates its own q.
   Drake kinematics would make the comparison also measure two kinematics libraries), each level
   ``J q̇ = e / dt``,
   under a top level of the 30 joint-limit rows ``velocity_bounds(q, q_min, q_max, 1/dt, ±v_max)``,
-  solved by ``solve_hqp`` (strict priorities). Timed separately: "kinematics" (Pinocchio's
+  solved by ``solve_hqp`` (strict priorities), warm-started from the last step's result (as
+  ``StackOfTasks`` does from tick to tick). Timed separately: "kinematics" (Pinocchio's
   Jacobians, frame placements, CoM Jacobian, errors, and the integration of q) and "solve".
 - **PlaCo**: the same tasks in one weighted QP (PlaCo has no strict hierarchy): feet "hard"
   (equality constraints), the others "soft" (:data:`PLACO_WEIGHTED`), joint and velocity limits
@@ -34,9 +35,9 @@ the head turns 0.4 rad. Each side integrates its own q.
   ``solver.solve(True)`` (each task's Jacobian and error, the QP, the integration). The two sides
   do not cut kinematics and solve at the same place, so the whole steps are the comparison.
 
-Beside them on the same levels at the same state: ``solve_hqp`` without the limit level and
-``solve_strict``. The ratios are medians of per-step ratios (both timed in the same step, their
-order alternating from step to step).
+Beside them on the same levels at the same state: ``solve_hqp`` cold (no warm start), without the
+limit level, and ``solve_strict``. The ratios are medians of per-step ratios (both timed in the
+same step, their order alternating from step to step).
 
 Agreement printed: (1) the task matrices and errors of the two sides at the start; (2) with the
 six upper task levels "hard" in PlaCo and the posture "soft" (no limits), PlaCo's step equals
@@ -227,8 +228,9 @@ def stack_levels(
     limits: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
 ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """The levels of ``solve_hqp`` in velocity units: ``J q̇ = e / dt`` per task (each task closes its
-    error in one period, PlaCo's unit gain), under ``limits`` when given."""
-    levels = [(J, e / DT, e / DT) for J, e in tasks]
+    error in one period, PlaCo's unit gain), under ``limits`` when given; each as ``StackOfTasks``
+    passes an equality task, ``(J, target, target)`` with the same array twice."""
+    levels = [(J, target, target) for J, target in ((J, e / DT) for J, e in tasks)]
     return levels if limits is None else [limits, *levels]
 
 
@@ -313,11 +315,13 @@ class Step:
     q_next: np.ndarray
 
 
-def drake_sot_step(pin, talos: Talos, q: np.ndarray, target: Targets) -> Step:
+def drake_sot_step(pin, talos: Talos, q: np.ndarray, target: Targets, previous: HqpResult | None) -> Step:
+    """One step of the drake_sot controller, warm-started from its last step's result ``previous``
+    (None at the first step), as ``StackOfTasks`` does from tick to tick."""
     t_kin, tasks = _time(talos.tasks, q, target)
     t_lim, limits = _time(talos.limit_level, q)
     levels = stack_levels(tasks, limits)
-    t_hqp, result = _time(partial(solve_hqp, validate=False), levels)
+    t_hqp, result = _time(partial(solve_hqp, validate=False, warm_start=previous), levels)
     t_int, q_next = _time(pin.integrate, talos.model, q, result.qdot * DT)
     return Step(t_kin + t_lim + t_int, t_hqp, tasks, levels, result, q_next)
 
@@ -351,25 +355,27 @@ def run(passes: int) -> dict:
         for (J, e), (A, b) in zip(talos.tasks(talos.q0, targets[0]), peer.matrices(), strict=True)
     )
 
-    names = ("placo_kin", "placo_solve", "kin", "hqp", "hqp_free", "strict")
+    names = ("placo_kin", "placo_solve", "kin", "hqp", "hqp_cold", "hqp_free", "strict")
     times: dict[str, list[float]] = {name: [] for name in names}
     errors = {"hqp": np.zeros((steps, len(STACK))), "placo": np.zeros((steps, len(STACK)))}
     excess = {"hqp": 0.0, "placo": 0.0}
     limit_steps = binding_steps = 0
     q_gap = 0.0
     iterations: list[int] = []
+    cold_iterations: list[int] = []
     limited_joints: set[str] = set()
-    strict_gap = hqp_gap = 0.0
+    strict_gap = hqp_gap = warm_gap = 0.0
     for p in range(passes):
         q = talos.q0.copy()
         peer.robot.state.q = talos.q0.copy()
+        last: HqpResult | None = None  # the controller's last result: its warm start
         for k, target in enumerate(targets):
             peer.set_targets(target)
             if k % 2:  # alternate which side runs first
                 placo_kin, placo_solve = placo_step(peer)
-                ours = drake_sot_step(pin, talos, q, target)
+                ours = drake_sot_step(pin, talos, q, target, last)
             else:
-                ours = drake_sot_step(pin, talos, q, target)
+                ours = drake_sot_step(pin, talos, q, target, last)
                 placo_kin, placo_solve = placo_step(peer)
             free = ours.levels[1:]
             pairs = [(J, e) for J, e, _ in free]
@@ -378,6 +384,7 @@ def run(passes: int) -> dict:
                 placo_solve,
                 ours.kinematics,
                 ours.solve,
+                _time(partial(solve_hqp, validate=False), ours.levels)[0],
                 _time(partial(solve_hqp, validate=False), free)[0],
                 _time(partial(solve_strict, validate=False), pairs)[0],
             )
@@ -391,6 +398,9 @@ def run(passes: int) -> dict:
                 limit_steps += bool(active)
                 limited_joints.update(talos.joint_names[i] for i in active)
                 iterations.append(ours.result.iterations)
+                cold = solve_hqp(ours.levels)
+                cold_iterations.append(cold.iterations)
+                warm_gap = max(warm_gap, np.abs(ours.result.qdot - cold.qdot).max())
                 # a limit binds when q̇ differs from the same levels' solution without limits
                 binding_steps += bool(np.abs(ours.result.qdot - solve_hqp(free).qdot).max() > 1e-9)
                 if k % 20 == 0:  # (2) PlaCo with hard upper levels equals solve_strict
@@ -400,7 +410,7 @@ def run(passes: int) -> dict:
                     strict = solve_strict(pairs).qdot
                     strict_gap = max(strict_gap, np.abs(checker.solver.solve(False) - strict * DT).max())
                     hqp_gap = max(hqp_gap, np.abs(solve_hqp(free).qdot - strict).max())
-            q = ours.q_next
+            q, last = ours.q_next, ours.result
             if p == 0:
                 q_gap = max(q_gap, np.abs(q - peer.robot.state.q).max())
             for side, qs in (("hqp", q), ("placo", peer.robot.state.q)):
@@ -417,6 +427,8 @@ def run(passes: int) -> dict:
         "strict_gap": strict_gap,
         "hqp_gap": hqp_gap,
         "iterations": iterations,
+        "cold_iterations": cold_iterations,
+        "warm_gap": warm_gap,
         "limited_joints": limited_joints,
         "steps": steps,
         "passes": passes,
@@ -458,12 +470,14 @@ def report(out: dict) -> str:
         f"| - solve(True) (task Jacobians, errors, QP, integration) | {us['placo_solve']:.0f} µs | - | 1 |",
         row("drake_sot step: kinematics + solve_hqp with limits", ours, None),
         row("- kinematics (Pinocchio, task errors, limit bounds, integration)", t["kin"], t["placo_kin"]),
-        row(f"- solve_hqp, {actuated} limit rows above the 7 levels", t["hqp"], t["placo_solve"]),
+        row(f"- solve_hqp, {actuated} limit rows above the 7 levels, warm", t["hqp"], t["placo_solve"]),
+        row(f"solve_hqp, {actuated} limit rows above the 7 levels, cold", t["hqp_cold"], t["placo_solve"]),
         row("solve_hqp, the 7 levels without limits", t["hqp_free"], t["placo_solve"]),
         row("solve_strict, the 7 levels", t["strict"], t["placo_solve"]),
         "",
         f"solve_hqp with limits: {statistics.median(iterations):.0f} active-set iterations per step "
-        f"(median; max {max(iterations)}); a joint is at a limit in {out['limit_steps']} of "
+        f"warm (median; max {max(iterations)}), {statistics.median(out['cold_iterations']):.0f} cold "
+        f"(max {max(out['cold_iterations'])}); a joint is at a limit in {out['limit_steps']} of "
         f"{out['steps']} steps ({', '.join(sorted(out['limited_joints']))}), and the limits change q̇ "
         f"in {out['binding_steps']} of them.",
         "",
@@ -473,6 +487,8 @@ def report(out: dict) -> str:
         f"- PlaCo with the six upper tasks hard and the posture soft, no limits, vs solve_strict "
         f"(q̇ dt) at every 20th state of the run: max |Δq diff| {out['strict_gap']:.1e} rad; "
         f"solve_hqp without limits vs solve_strict there: max |q̇ diff| {out['hqp_gap']:.1e} rad/s",
+        f"- solve_hqp with limits, warm-started vs cold, every step: max |q̇ diff| "
+        f"{out['warm_gap']:.1e} rad/s",
         f"- joint limits: largest excursion past a position limit, drake_sot {out['excess']['hqp']:.1e} rad, "
         f"PlaCo {out['excess']['placo']:.1e} rad; largest gap between the two runs' joint positions "
         f"{out['q_gap']:.1e} rad",

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -32,6 +32,7 @@ __all__ = [
     "HqpResult",
     "LevelReport",
     "TOLERANCE",
+    "bound_sides",
     "level_report",
     "solve_hqp",
 ]
@@ -144,13 +145,32 @@ def level_report(
     """The :class:`LevelReport` of the level ``lower <= J q̇ <= upper`` (``lower is upper``, or equal,
     for equalities) at ``qdot``: its slack, and its inequality rows within ``tolerance`` of a bound."""
     value = J @ qdot
-    inequality = lower < upper
+    at_lower, at_upper = _at_bounds(lower, upper, value, tolerance)
     return LevelReport(
         name=name,
         slack=value - np.clip(value, lower, upper),
-        active_lower=tuple(np.flatnonzero(inequality & (value <= lower + tolerance)).tolist()),
-        active_upper=tuple(np.flatnonzero(inequality & (value >= upper - tolerance)).tolist()),
+        active_lower=tuple(np.flatnonzero(at_lower).tolist()),
+        active_upper=tuple(np.flatnonzero(at_upper).tolist()),
     )
+
+
+def _at_bounds(
+    lower: np.ndarray, upper: np.ndarray, value: np.ndarray, tolerance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The inequality rows (``lower < upper``) whose ``value`` is within ``tolerance`` of (or past)
+    their lower bound, and those at their upper bound: two boolean masks."""
+    inequality = lower < upper
+    return inequality & (value <= lower + tolerance), inequality & (value >= upper - tolerance)
+
+
+def bound_sides(
+    J: np.ndarray, lower: np.ndarray, upper: np.ndarray, qdot: np.ndarray, tolerance: float = TOLERANCE
+) -> np.ndarray:
+    """The sides of the rows of ``lower <= J q̇ <= upper`` at ``qdot``, as :func:`solve_hqp`'s
+    ``warm_start`` takes them: (m,) int8, +1 for a row at its upper bound (within ``tolerance``;
+    :func:`level_report`'s ``active_upper``), -1 at its lower one only, 0 otherwise."""
+    at_lower, at_upper = _at_bounds(lower, upper, J @ qdot, tolerance)
+    return np.where(at_upper, 1, np.where(at_lower, -1, 0)).astype(np.int8)
 
 
 def _validate_hqp(
@@ -190,7 +210,7 @@ def solve_hqp(
     rank_threshold: float = 1e-6,
     tolerance: float = TOLERANCE,
     validate: bool = True,
-    warm_start: HqpResult | None = None,
+    warm_start: HqpResult | Mapping[str, np.ndarray] | None = None,
 ) -> HqpResult:
     """Solve a strict hierarchy of equalities and inequalities (Escande, Mansard, Wieber 2014).
 
@@ -230,8 +250,10 @@ def solve_hqp(
     Shortcut: when every inequality row holds at the solution of the equality levels alone,
     that solution is the answer and no active set runs (:func:`_inequalities_idle` says why
     and when it applies: a control tick whose limits do not bind). Without ``warm_start``, the
-    rows that do not hold there are tried once as the rows at a bound (the same function and
-    its certificate: one more QR); with it, its rows are tried instead, first.
+    rows that do not hold there are tried as the rows at a bound (the same function and its
+    certificate: one more QR); with it, its rows are tried instead, first. A refused guess gives
+    the next (:func:`_guessed`: the rows found outside added, those pulled inward dropped), up to
+    :data:`GUESSES` equality solves before the active set.
 
     Why not DAQP's hierarchical mode: it is faster, but it makes each level soft with a fixed
     penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), so its q̇ can be
@@ -259,8 +281,11 @@ def solve_hqp(
             rows by index) are the first guess of the rows at a bound. When the guess is still
             right and the problem has the shortcut's form (below), the answer is one equality
             solve with those rows at their bounds, certified by the signs of their multipliers
-            (:func:`_inequalities_idle`); otherwise the active set runs as without it. Only a
-            guess: the result is the same either way (to rounding).
+            (:func:`_inequalities_idle`); otherwise the next guesses are tried, then the active
+            set runs, as without it. Only a guess: the result is the same either way (to
+            rounding). Or, for a caller that keeps only the sides (a control system holding them in
+            its state), a mapping from a level's name to its rows' sides at a bound
+            (:func:`bound_sides`: +1 upper, -1 lower, 0 free).
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
@@ -285,13 +310,12 @@ def solve_hqp(
         level_names = tuple(names) if names is not None else tuple(str(i) for i in range(len(checked)))
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
-    binding = None if warm_start is None else _binding(warm_start, checked, level_names)
-    violated: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    fast = _inequalities_idle(
-        checked, rank_threshold, tolerance, binding, violated if binding is None else None
+    fast = _guessed(
+        checked,
+        rank_threshold,
+        tolerance,
+        None if warm_start is None else _binding(warm_start, checked, level_names),
     )
-    if fast is None and violated:  # the rows that the equality levels' solution crosses, as a guess
-        fast = _inequalities_idle(checked, rank_threshold, tolerance, violated)
     if fast is not None:
         qdot, free_dims = fast
         return HqpResult(
@@ -330,7 +354,7 @@ def solve_hqp(
 
 
 def _binding(
-    previous: HqpResult,
+    previous: HqpResult | Mapping[str, np.ndarray],
     levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
     names: tuple[str, ...],
 ) -> dict[int, tuple[np.ndarray, np.ndarray]] | None:
@@ -338,19 +362,101 @@ def _binding(
     an inequality level of ``levels`` whose name ``previous`` knows, ``(rows, sides)`` (side +1 at
     the upper bound, -1 at the lower one; rows that this level does not have are left out).
     None when no row was at a bound."""
-    known = {report.name: report for report in previous.levels}
+    if isinstance(previous, HqpResult):  # its inequality levels only (one J q̇ each)
+        known = {
+            name: bound_sides(J, lower, upper, previous.qdot, previous.tolerance)
+            for name, (J, lower, upper) in zip(previous.names, previous.problem, strict=True)
+            if lower is not upper and not (lower == upper).all()
+        }
+    else:
+        known = previous
     binding: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for index, (name, (J, lower, upper)) in enumerate(zip(names, levels, strict=True)):
-        report = known.get(name)
-        if report is None or lower is upper or not (report.active_lower or report.active_upper):
+        side = known.get(name)
+        if side is None or lower is upper:
             continue
-        side = np.zeros(J.shape[0], dtype=np.int8)
-        side[[i for i in report.active_lower if i < side.size]] = -1
-        side[[i for i in report.active_upper if i < side.size]] = 1
+        side = side[: J.shape[0]]
         rows = np.flatnonzero(side)
         if rows.size:
             binding[index] = (rows, side[rows].astype(float))
     return binding or None
+
+
+#: A refused guess of :func:`_inequalities_idle`: per level the guessed rows whose multipliers
+#: have the right sign, ``(rows, sides)``; the rows found outside, ``(-excess, level, row, side)``;
+#: and how many rows a guess may hold (the equality rows above a tall last level must leave it a
+#: dimension).
+_Refusal = tuple[dict[int, tuple[np.ndarray, np.ndarray]], list[tuple[float, int, int, float]], int]
+
+
+def _next_guess(refusal: _Refusal, count: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """The guess after a refused one: per level, its kept rows and sides, and the ``count``
+    farthest out of the rows found outside, as many of them as fit beside the kept ones."""
+    kept, added, room = refusal
+    guess = {index: (rows.tolist(), sides.tolist()) for index, (rows, sides) in kept.items()}
+    space = min(count, room - sum(len(rows) for rows, _ in guess.values()))
+    for _, index, row, side in sorted(added)[: max(space, 0)]:
+        rows, sides = guess.setdefault(index, ([], []))
+        rows.append(row)
+        sides.append(side)
+    out = {}
+    for index, (rows, sides) in guess.items():
+        order = np.argsort(rows)
+        out[index] = (np.asarray(rows, dtype=np.intp)[order], np.asarray(sides, dtype=float)[order])
+    return out
+
+
+#: How many guesses of the rows at a bound :func:`_guessed` tries before the active set.
+GUESSES = 16
+#: How many of them add all the rows the refused guess's q̇ leaves (then one at a time).
+ALL_AT_ONCE = 4
+
+
+def _guessed(
+    levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    rank_threshold: float,
+    tolerance: float,
+    binding: dict[int, tuple[np.ndarray, np.ndarray]] | None,
+) -> tuple[np.ndarray, tuple[int, ...]] | None:
+    """:func:`_inequalities_idle` from the guess ``binding`` (None: no row at a bound), then from
+    the guesses each refusal gives, up to :data:`GUESSES` guesses; each try is one equality solve,
+    certified or refused, so a wrong guess costs time, never the answer. After a refusal the guess
+    is its kept rows and all the rows found outside (at a limit met for the first time, the rows
+    that the unlimited q̇ would cross are often those that bind), :data:`ALL_AT_ONCE` times; when
+    those are refused too (rows crossed by the unlimited q̇ that a few others' binding brings back
+    inside), or when the first refusal's rows do not all fit beside the equality rows (a sign of
+    that), the guesses go on from the first refusal, adding the farthest row out of each refused
+    guess's q̇, one at a time (the active set's one row per iteration, at one equality solve each). None when
+    no guess was certified or a guess came back (the guesses cycle), for the active set."""
+    seen: set[tuple] = set()
+    first: _Refusal | None = None
+    all_at_once = ALL_AT_ONCE
+    for _ in range(GUESSES):
+        key = (
+            ()
+            if binding is None
+            else tuple((i, r.tobytes(), s.tobytes()) for i, (r, s) in sorted(binding.items()))
+        )
+        if key in seen:
+            return None
+        seen.add(key)
+        following: list[_Refusal] = []
+        fast = _inequalities_idle(levels, rank_threshold, tolerance, binding, following)
+        if fast is not None or not following:
+            return fast
+        if first is None:
+            first = following[0]
+            kept, added, room = first
+            if len(added) + sum(rows.size for rows, _ in kept.values()) > room:
+                all_at_once = 0  # too many rows outside to fit beside the equality rows: one at a time
+        if len(seen) < all_at_once:
+            binding = _next_guess(following[0], len(following[0][1]))
+        elif len(seen) == max(all_at_once, 1):  # from the first refusal, one row at a time
+            binding = _next_guess(first, 1)
+        else:
+            binding = _next_guess(following[0], 1)
+        binding = binding or None
+    return None
 
 
 def _inequalities_idle(
@@ -358,7 +464,7 @@ def _inequalities_idle(
     rank_threshold: float,
     tolerance: float = TOLERANCE,
     binding: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
-    violated: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
+    following: list[_Refusal] | None = None,
 ) -> tuple[np.ndarray, tuple[int, ...]] | None:
     """q̇ and the free dimensions of :func:`solve_hqp` when its inequalities change nothing, else None.
 
@@ -404,51 +510,56 @@ def _inequalities_idle(
     (those a tall last level leaves are counted by one more QR and SVD: the rank of its rows in what
     the equality rows above leave).
 
-    ``violated``: when given (a dict) and the answer is None because inequality rows do not hold
-    at q̇*, it receives them as a ``binding`` guess (the rows of each inequality level without a
-    guessed row that q̇* leaves, with the side it leaves by): at a limit met for the first time,
-    the rows that the unlimited q̇ would cross are often those that bind.
+    ``following``: when given (a list) and the answer is None because rows outside their bounds or
+    guessed rows with a wrong multiplier refuse q̇* (not for a rank in doubt or another form), it
+    receives what :func:`_guessed` makes the next guess of (a :data:`_Refusal`): per inequality
+    level, its guessed rows whose multiplier has the right sign, and the rows q̇* leaves, with the
+    side each leaves by and how far.
     """
     n = levels[0][0].shape[1]
     equalities: list[tuple[np.ndarray, np.ndarray]] = []  # (J, target)
-    inequalities: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []  # (level, J, lower, upper)
-    guessed: list[tuple[int, np.ndarray]] = []  # (first row in the stack, sides) of each binding block
+    # (level, J, lower, upper, the rows of the level they are: None for all)
+    inequalities: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = []
+    # (first row among the guessed rows, level, rows, sides); the guessed rows are stacked after the
+    # equality levels above a tall last level (the order of full-rank rows that are all met changes
+    # neither q̇* nor the certificate), so that those levels' rows span the first columns of Q
+    guessed: list[tuple[int, int, np.ndarray, np.ndarray]] = []
+    guessed_rows: list[tuple[np.ndarray, np.ndarray]] = []  # (J, bound)
     free_dims: list[int] = []  # certified below: each equality row takes one dimension
     total, fixed = 0, 0  # rows stacked (binding ones included), equality rows
-    fixed_rows: list[np.ndarray] = []  # the equality levels' J
-    last_is_equality, last_index = False, 0
+    last_is_equality, last_index, last_rows = False, 0, 0
     for index, (J, lower, upper) in enumerate(levels):
         if lower is not upper and (lower < upper).all():
             bound = None if binding is None else binding.get(index)
             if bound is None:
-                inequalities.append((index, J, lower, upper))
+                inequalities.append((index, J, lower, upper, None))
             else:
                 rows, sides = bound
                 at = np.where(sides > 0, upper[rows], lower[rows])
                 if not np.isfinite(at).all():
                     return None
-                equalities.append((J[rows], at))
-                guessed.append((total, sides))
+                guessed_rows.append((J[rows], at))
+                guessed.append((total - fixed, index, rows, sides))
                 total += rows.size
                 rest = np.ones(J.shape[0], dtype=bool)
                 rest[rows] = False
-                inequalities.append((-1, J[rest], lower[rest], upper[rest]))
+                inequalities.append((index, J[rest], lower[rest], upper[rest], np.flatnonzero(rest)))
                 last_is_equality = False
         elif lower is upper or (lower == upper).all():
             if J.shape[0]:
                 equalities.append((J, upper))
-                fixed_rows.append(J)
                 total += J.shape[0]
                 fixed += J.shape[0]
-                last_is_equality, last_index = True, index
+                last_is_equality, last_index, last_rows = True, index, J.shape[0]
         else:
             return None
         free_dims.append(max(n - fixed, 0))
     if total > n and not last_is_equality:
         return None  # a tall block of guessed rows: not this form
     last = equalities.pop() if total > n else None  # a tall last level
-    if last is not None:
-        fixed_rows.pop()
+    head = fixed - (0 if last is None else last_rows)  # the equality rows stacked before the guessed
+    guessed = [(head + start, index, block, sides) for start, index, block, sides in guessed]
+    equalities += guessed_rows
     rows = total - (0 if last is None else last[0].shape[0])
     if rows >= n and last is not None:
         return None
@@ -484,18 +595,19 @@ def _inequalities_idle(
         if u is None:
             return None
         x = x + (u if Z is None else Z.dot(u))
-    outside = False
-    for index, J, lower, upper in inequalities:
+    added: list[tuple[float, int, int, float]] = []  # (-excess, level, row, side) of the rows q̇* leaves
+    for index, J, lower, upper, of_level in inequalities:
         value = J.dot(x)
         above, below = value > upper, value < lower
         if above.any() or below.any():
-            outside = True
-            if violated is None:
+            if following is None:
                 return None
-            rows = np.flatnonzero(above | below)
-            violated[index] = (rows, np.where(above[rows], 1.0, -1.0))
-    if outside:
-        return None
+            for k in np.flatnonzero(above | below).tolist():
+                excess = float(value[k] - upper[k] if above[k] else lower[k] - value[k])
+                row = k if of_level is None else int(of_level[k])
+                added.append((-excess, index, row, 1.0 if above[k] else -1.0))
+    kept: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # per level, the guessed rows that hold on
+    dropped = False
     if guessed:
         if last is None:
             nu = R_inv.dot(y)  # q̇* = Q₁ y = Aᵀ ν with R ν = y
@@ -506,22 +618,24 @@ def _inequalities_idle(
             # A zero multiplier would leave its row free to move in the last level's optimal set,
             # where the least norm decides: only rows that the last level strictly holds on.
             wrong = -tolerance
-        for start, sides in guessed:
-            if (sides * nu[start : start + sides.size] >= wrong).any():
-                return None
+        for start, index, block, sides in guessed:
+            right = sides * nu[start : start + sides.size] < wrong
+            if not right.all():
+                if following is None:
+                    return None
+                dropped = True
+            if right.any():
+                kept[index] = (block[right], sides[right])
+    if added or dropped:
+        following.append((kept, added, n - 1 - (fixed - last_rows)))
+        return None
+    if guessed:
         if last is not None:
             # The last level fixes its rows in what the equality rows above it leave (the guessed
             # rows hold, they fix nothing): that space is wider than Z, its rank there is counted.
-            J = last[0]
-            F = np.concatenate(fixed_rows) if fixed_rows else np.zeros((0, n))
-            if F.shape[0]:
-                qr_f, tau_f, _, info = _GEQRF(F.T)
-                padded = np.zeros((n, n), order="F")
-                padded[:, : F.shape[0]] = qr_f
-                Q_f, _, info_q = _ORGQR(padded, tau_f)
-                if info or info_q:
-                    return None
-                J = J.dot(Q_f[:, F.shape[0] :])
+            # Those rows come first in the stack: the first columns of Q span them, the rest of Q
+            # is a basis of what they leave.
+            J = last[0].dot(Q[:, head:])
             left = J.shape[1] - SvdSplit.of(J, rank_threshold).rank
             free_dims[last_index:] = [left] * (len(free_dims) - last_index)
     return x, tuple(free_dims)

@@ -26,6 +26,7 @@ import pytest
 import scipy.linalg
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
+from random_hierarchies import Level3, random_hierarchy
 from test_hierarchy import stacks
 
 from drake_sot import hqp
@@ -33,7 +34,6 @@ from drake_sot.hierarchy import solve_strict
 from drake_sot.hqp import _inequalities_idle, solve_hqp
 
 SETTINGS = settings(max_examples=120, deadline=None)
-Level3 = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 # --- the independent reference ----------------------------------------------------------
@@ -531,41 +531,12 @@ def polished(levels: list[Level3], x: np.ndarray, n: int) -> np.ndarray:
 
 @st.composite
 def large_problems(draw: st.DrawFn) -> Problem:
-    """6-10 levels of 2-13 rows on 38-50 joints; a level is all equalities or mixes one-sided,
-    two-sided and equality rows. Degenerate if drawn: rows repeated from a level above (the same
-    row, its opposite or its double, with its bounds or others: parallel and contradictory rows),
-    rank-deficient levels (a row the sum of two others), bounds through 0 (rows at their bound
-    where q̇ starts, with zero multipliers)."""
+    """6-10 levels of 2-13 rows on 38-50 joints, degenerate if drawn
+    (:func:`random_hierarchies.random_hierarchy` says how; the benchmark draws the same)."""
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     degenerate = draw(st.booleans())
     n = draw(st.integers(38, 50))
-    levels: list[Level3] = []
-    for _ in range(draw(st.integers(6, 10))):
-        m = int(rng.integers(2, 14))
-        J = rng.normal(size=(m, n))
-        lo, hi = np.empty(m), np.empty(m)
-        equalities = rng.random() < 0.35
-        for i in range(m):
-            centre, width = rng.normal(), rng.uniform(0.0, 1.0)
-            if degenerate and rng.random() < 0.4:
-                centre, width = 0.0, float(rng.choice([0.0, 1.0]))
-            kind = "equality" if equalities or rng.random() < 0.2 else rng.choice(["box", "above", "below"])
-            lo[i], hi[i] = {
-                "equality": (centre, centre),
-                "box": (centre - width, centre + width),
-                "above": (centre - width, np.inf),
-                "below": (-np.inf, centre + width),
-            }[kind]
-            if degenerate and levels and rng.random() < 0.3:
-                J_src, lo_src, hi_src = levels[rng.integers(len(levels))]
-                k = rng.integers(J_src.shape[0])
-                J[i] = J_src[k] * rng.choice([1.0, -1.0, 2.0])
-                if rng.random() < 0.5:
-                    lo[i], hi[i] = lo_src[k], hi_src[k]
-        if degenerate and m >= 3 and rng.random() < 0.3:
-            J[2] = J[0] + J[1]
-        levels.append((J, lo, hi))
-    return Problem(levels=levels, n=n)
+    return Problem(levels=random_hierarchy(rng, degenerate, n, draw(st.integers(6, 10))), n=n)
 
 
 @pytest.mark.slow  # large hypothesis draws: on the main Python only (make test's compat runs skip slow)
@@ -638,6 +609,28 @@ def test_a_warm_start_gives_the_cold_answer_on_large_hierarchies(problem, seed):
     assert warm.free_dims == cold.free_dims
 
 
+@settings(max_examples=100, deadline=None)
+@given(problems(), st.integers(0, 2**32 - 1))
+def test_a_warm_start_given_as_sides_by_level_name_is_the_result_s_rows_at_a_bound(problem, seed):
+    """``bound_sides`` of each inequality level (a control system keeps only these): +1 on the
+    report's ``active_upper`` rows, -1 on its other ``active_lower`` rows; as a warm start they give
+    the cold answer, as the result they come from does."""
+    previous = solve_hqp(problem.levels)
+    sides = {}
+    for report, (J, lo, hi) in zip(previous.levels, problem.levels, strict=True):
+        side = hqp.bound_sides(J, lo, hi, previous.qdot)
+        expected = np.zeros(J.shape[0])
+        expected[list(report.active_lower)] = -1.0
+        expected[list(report.active_upper)] = 1.0
+        np.testing.assert_array_equal(side, expected)
+        sides[report.name] = side
+    levels = moved(problem.levels, np.random.default_rng(seed), 0.01)
+    cold = solve_hqp(levels)
+    warm = solve_hqp(levels, warm_start=sides)
+    np.testing.assert_allclose(warm.qdot, cold.qdot, rtol=0.0, atol=1e-9 * scale(cold.qdot))
+    assert warm.free_dims == cold.free_dims
+
+
 def limits_and_tasks(bound_rows: int, n: int = 30) -> list[Level3]:
     """Joint-velocity limits on top, three tasks of 6 rows and a posture below: the limits are
     tightened to half the unconstrained q̇ on its ``bound_rows`` largest joints."""
@@ -669,20 +662,40 @@ def test_a_tick_whose_rows_at_a_bound_do_not_change_is_one_equality_solve(bound_
     np.testing.assert_allclose(cold.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
 
 
-@pytest.mark.parametrize(
-    ("bound_rows", "guessed"), [(1, True), (4, True), (6, True), (8, False), (16, False)]
-)
+@pytest.mark.parametrize(("bound_rows", "guessed"), [(1, True), (4, True), (6, True), (8, True), (16, False)])
 def test_limits_met_for_the_first_time_are_guessed_from_the_rows_the_free_solution_crosses(
     bound_rows, guessed
 ):
     """Without a warm start, the rows that the equality levels' own solution crosses are tried as
-    the rows at a bound: right here for 1, 4 and 6 tightened limits (one equality solve more, no
-    active set), wrong for 8 and 16 (7 and 13 of them bind: the active set runs). Either way the
-    independent cascade's answer."""
+    the rows at a bound, then the guesses each refused one gives: right here for 1, 4, 6 and 8
+    tightened limits (equality solves, no active set; for 8, of which 7 bind, the first guess is
+    wrong), not for 16 (13 bind: with the tasks' 18 rows, more than the 30 joints, not the
+    shortcut's form: the active set runs). Either way the independent cascade's answer."""
     levels = limits_and_tasks(bound_rows)
     result = solve_hqp(levels)
     assert (result.iterations == len(levels)) == guessed
     reference = polished(levels, daqp_guess(levels, 30), 30)
+    np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
+
+
+@pytest.mark.parametrize(("tightened", "certified"), [(12, True), (20, False)])
+def test_limits_crossed_by_more_rows_than_fit_are_guessed_one_at_a_time(tightened, certified):
+    """Limits at 0.95 of the free q̇ on its ``tightened`` largest joints: the free q̇ crosses them
+    all, more than fit beside the tasks' 18 rows in 30 joints, and fewer bind (9 of 12; 13 of 20).
+    The guesses add the rows one at a time: for 12, certified with no active set (one iteration
+    per level); for 20 the guesses run out and the active set runs. Either way the independent
+    cascade's answer."""
+    n = 30
+    levels = limits_and_tasks(0, n)
+    limit = levels[0][2].copy()
+    free = solve_strict([(J, t) for J, t, _ in levels[1:]]).qdot
+    largest = np.argsort(-np.abs(free))[:tightened]
+    limit[largest] = 0.95 * np.abs(free[largest])
+    levels[0] = (np.eye(n), -limit, limit)
+    result = solve_hqp(levels)
+    assert (result.iterations == len(levels)) == certified
+    assert ((np.abs(free) > limit) & ~np.isclose(np.abs(result.qdot), limit, rtol=0.0, atol=1e-9)).any()
+    reference = polished(levels, daqp_guess(levels, n), n)
     np.testing.assert_allclose(result.qdot, reference, rtol=0.0, atol=1e-9 * scale(reference))
 
 

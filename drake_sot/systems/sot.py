@@ -15,7 +15,7 @@ from pydrake.systems.framework import State as DrakeState
 from drake_sot import validation
 from drake_sot.errors import prefixed
 from drake_sot.hierarchy import solve_strict
-from drake_sot.hqp import LevelReport, level_report, solve_hqp
+from drake_sot.hqp import LevelReport, bound_sides, level_report, solve_hqp
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 from drake_sot.systems._context import own_context, settable_context
@@ -86,6 +86,10 @@ class StackOfTasks(LeafSystem):
     inequality tasks, :class:`~drake_sot.systems.inequalities.InequalityTask`, at any
     level; with equality tasks only both give the same q̇); outputs are held in state
     between ticks, so physics steps in between do not run any of the controller's Python.
+    With ``solver="hqp"`` the tick keeps, in a discrete state, which rows of its inequality
+    tasks were at a bound at its q̇, and the next tick's solve is warm-started from them
+    (``solve_hqp``'s ``warm_start``: while the same rows bind, one equality solve instead of
+    the active set; the q̇ is the same either way).
 
     Smooth changes (``transition=T`` on a command, T > 0 [s]): q̇ moves continuously,
     over T, from the solution of the stack before the command to that of the stack
@@ -294,6 +298,9 @@ class StackOfTasks(LeafSystem):
         self._qdot = self.DeclareDiscreteState(nv)
         self._errors = self.DeclareDiscreteState(np.full(start, np.nan))
         self._errors_size = start
+        #: solver="hqp": per declared row (as ``errors``), its side at the last tick's q̇ (+1 at its
+        #: upper bound, -1 at its lower one, 0 otherwise): the next tick's warm start.
+        self._sides = self.DeclareDiscreteState(np.zeros(start)) if solver == "hqp" else None
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
         self.DeclareStateOutputPort("qdot", self._qdot)
         self.DeclareStateOutputPort("errors", self._errors)
@@ -567,14 +574,26 @@ class StackOfTasks(LeafSystem):
             for task_name, signal in evaluated.items():
                 signals[task_name] = self._level(task_name, signal, context, errors)
         qdot = None
+        if self._sides is not None:
+            previous = context.get_discrete_state(self._sides).get_value()
+            sides = np.zeros(self._errors_size)
         for active, weight in blend:
             if not active:
                 continue
             levels = [signals[task_name] for task_name in active]
             # Shapes, finiteness and bounds were checked above, with the task's name.
-            if self._solver == "hqp":
+            if self._sides is not None:
+                bounded = [
+                    task_name for task_name in active if signals[task_name][1] is not signals[task_name][2]
+                ]
+                warm = {task_name: previous[self._slices[task_name]] for task_name in bounded}
                 # An active set that does not settle gives its last iterate (solve_hqp's unsettled).
-                result = solve_hqp(levels, names=active, rank_threshold=self._rank_threshold, validate=False)
+                result = solve_hqp(
+                    levels, names=active, rank_threshold=self._rank_threshold, validate=False, warm_start=warm
+                )
+                for task_name in bounded:
+                    J, lower, upper = signals[task_name]
+                    sides[self._slices[task_name]] = bound_sides(J, lower, upper, result.qdot)
             else:
                 result = solve_strict(
                     levels, rank_threshold=self._rank_threshold, damping=self._damping, validate=False
@@ -583,6 +602,8 @@ class StackOfTasks(LeafSystem):
         qdot = np.zeros(self._nv) if qdot is None else qdot
         discrete_state.set_value(self._qdot, qdot)  # one binding call
         discrete_state.set_value(self._errors, errors)
+        if self._sides is not None:
+            discrete_state.set_value(self._sides, sides)
         if self._report is not None:
             discrete_state.set_value(self._report, self._report_state(stack.active, signals, qdot))
 

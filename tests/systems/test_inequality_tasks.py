@@ -18,6 +18,7 @@ from drake_sot.hqp import solve_hqp
 from drake_sot.models.humanoid import SOLE
 from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.support import signed_distance_inside, sole_corners, support_polygon
+from drake_sot.systems import sot as sot_module
 from drake_sot.systems.device import Device
 from drake_sot.systems.features import FeaturePosture
 from drake_sot.systems.inequalities import (
@@ -405,3 +406,46 @@ def test_a_pose_task_above_a_plane_stops_at_the_table():
         position = position + PERIOD * (J @ qdot)
         assert position[2] >= -0.05 - 1e-12
     assert position[2] == pytest.approx(-0.05, abs=1e-9)
+
+
+def test_hqp_stack_warm_starts_each_tick_from_the_last_and_gives_the_cold_answer(monkeypatch):
+    """A tick sequence whose rows at a limit come and go (a reach task turning around, beyond the
+    limits |q̇_i| <= 1 half of the time): each tick's solve is warm-started from the rows that were
+    at a bound at the last tick's q̇, and its q̇ is the cold solve's of the same levels (1e-9)."""
+    warm_starts = []
+
+    def spy(levels, **kwargs):
+        warm = kwargs.get("warm_start")  # copied: its arrays may be views of the context's state
+        warm_starts.append(None if warm is None else {name: np.array(side) for name, side in warm.items()})
+        return solve_hqp(levels, **kwargs)
+
+    monkeypatch.setattr(sot_module, "solve_hqp", spy)
+    rng = np.random.default_rng(5)
+    J = rng.normal(size=(3, NV))
+    sot = StackOfTasks(
+        NV, {"limits": NV, "reach": 3, "posture": NV}, stack=("limits", "reach", "posture"), solver="hqp"
+    )
+    context = sot.CreateDefaultContext()
+    limits = BoundedTaskSignal("limits", np.zeros(NV), np.eye(NV), -np.ones(NV), np.ones(NV))
+    posture = TaskSignal("posture", np.zeros(NV), np.eye(NV), np.full(NV, 0.2))
+    sot.GetInputPort("limits").FixValue(context, limits)
+    sot.GetInputPort("posture").FixValue(context, posture)
+    previous = None
+    binding_ticks, changes = 0, 0
+    for k in range(40):
+        edot = 4.0 * np.array([np.cos(0.3 * k), np.sin(0.3 * k), np.cos(0.7 * k)])
+        sot.GetInputPort("reach").FixValue(context, TaskSignal("reach", np.zeros(3), J, edot))
+        qdot, _ = _tick(sot, context)
+        cold = solve_hqp([(np.eye(NV), -np.ones(NV), np.ones(NV)), (J, edot), (np.eye(NV), np.full(NV, 0.2))])
+        np.testing.assert_allclose(qdot, cold.qdot, rtol=0.0, atol=1e-9)
+        # The warm start: the sides of the limit rows at the last tick's q̇ (all free at the first).
+        at_upper = cold.qdot >= 1.0 - 1e-9
+        at_lower = cold.qdot <= -1.0 + 1e-9
+        sides = at_upper.astype(float) - at_lower
+        expected = np.zeros(NV) if previous is None else previous
+        np.testing.assert_array_equal(warm_starts[-1]["limits"], expected)
+        assert set(warm_starts[-1]) == {"limits"}  # the inequality task only
+        binding_ticks += bool(sides.any())
+        changes += previous is not None and not np.array_equal(sides, previous)
+        previous = sides
+    assert binding_ticks >= 10 and changes >= 5  # right and wrong guesses both met
