@@ -15,7 +15,7 @@ on the joints of the chain that moves the point, zero elsewhere. The projectors 
 the generalized projectors of the paper's hierarchy (CoM strictly above all, posture
 below all, hand orientations, back and head below the hand position and force tasks,
 right hand force halfway through a transition over the right hand position task,
-contacts never projected) from ``drake_sot.hierarchy.generalized_projectors``.
+contacts never projected) from ``drake_sot.generalized.generalized_projectors``.
 
 A control trajectory of ``--ticks`` ticks is solved: the Jacobians, gravity and targets
 vary smoothly tick to tick (as in a controller, where active-set solvers can warm-start),
@@ -322,7 +322,7 @@ def candidates(verbose: bool = False) -> dict[str, object]:
 
 # --------------------------------------------------------------------------- benchmark
 def run(ticks: int) -> None:
-    from drake_sot.hierarchy import generalized_projectors
+    from drake_sot.generalized import generalized_projectors
 
     robot = Humanoid()
     tasks0, _ = robot.tasks(0)
