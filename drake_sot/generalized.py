@@ -35,6 +35,7 @@ __all__ = [
     "generalized_projectors",
     "inertia_weighted",
     "priority_matrix",
+    "ProjectedJacobians",
     "projected_jacobians",
     "relative_shortfall",
     "task_inertia",
@@ -150,6 +151,22 @@ def _unit_rows(jacobians: Sequence[np.ndarray], stacked: np.ndarray) -> list[np.
     return blocks
 
 
+def _order(sizes: Sequence[int], alpha: list[float]) -> tuple[list[int], list[tuple[int, float]]]:
+    """``(order, groups)``: the tasks with alpha > 0 and at least one row (``sizes[j]`` rows), by
+    decreasing alpha (stable), and the ``(end, alpha)`` of each run of equal alpha in their stacked
+    rows: rows ``[previous end, end)`` have priority ``alpha``."""
+    order = sorted((j for j, a in enumerate(alpha) if a > 0.0 and sizes[j]), key=lambda j: -alpha[j])
+    groups: list[tuple[int, float]] = []
+    end = 0
+    for j in order:
+        end += sizes[j]
+        if groups and groups[-1][1] == alpha[j]:
+            groups[-1] = (end, alpha[j])
+        else:
+            groups.append((end, alpha[j]))
+    return order, groups
+
+
 def _sorted_rows(
     jacobians: Sequence[np.ndarray], alpha: list[float], normalise: bool
 ) -> tuple[np.ndarray | None, list[tuple[int, float]]]:
@@ -157,22 +174,11 @@ def _sorted_rows(
 
     Returns ``(rows, groups)``: ``rows`` (m, nv) with unit rows (normalised
     here if ``normalise``, exactly-zero rows removed) or None when no row is
-    left, and ``groups`` the ``(end, alpha)`` of each run of equal alpha:
-    rows ``[previous end, end)`` have priority ``alpha``.
+    left, and ``groups`` as :func:`_order` makes them.
     """
-    order = sorted(
-        (j for j, a in enumerate(alpha) if a > 0.0 and jacobians[j].shape[0]), key=lambda j: -alpha[j]
-    )
+    order, groups = _order([J.shape[0] for J in jacobians], alpha)
     if not order:
         return None, []
-    groups: list[tuple[int, float]] = []
-    end = 0
-    for j in order:
-        end += jacobians[j].shape[0]
-        if groups and groups[-1][1] == alpha[j]:
-            groups[-1] = (end, alpha[j])
-        else:
-            groups.append((end, alpha[j]))
     rows = jacobians[order[0]] if len(order) == 1 else np.concatenate([jacobians[j] for j in order])
     if normalise:
         rows, nonzero = _unit(rows)
@@ -328,8 +334,8 @@ def generalized_projector(
 
 def _batch(
     jacobians: Sequence[np.ndarray], alpha: np.ndarray, validate: bool
-) -> tuple[Sequence[np.ndarray], list[np.ndarray], np.ndarray]:
-    """``(jacobians, unit rows per task, alpha)`` for the batch functions, checked if ``validate``
+) -> tuple[Sequence[np.ndarray], np.ndarray, np.ndarray]:
+    """``(jacobians, their vertical stack, alpha)`` for the batch functions, checked if ``validate``
     (ValueError as :func:`generalized_projectors`)."""
     n = len(jacobians)
     if validate:
@@ -340,7 +346,7 @@ def _batch(
         _alphas(a, name="alpha", ndim=2)
     else:
         stacked, a = np.concatenate(jacobians), alpha
-    return jacobians, _unit_rows(jacobians, stacked), a
+    return jacobians, stacked, a
 
 
 def generalized_projectors(
@@ -371,7 +377,8 @@ def generalized_projectors(
         ValueError: as :func:`generalized_projector`, or ``alpha`` not (n, n).
     """
     tol = nonnegative("rank_threshold", rank_threshold)
-    jacobians, blocks, a = _batch(jacobians, alpha, validate)
+    jacobians, stacked, a = _batch(jacobians, alpha, validate)
+    blocks = _unit_rows(jacobians, stacked)
     n, nv = len(jacobians), jacobians[0].shape[1]
     # Tasks with the same α row have the same projector (e.g. both hands' orientation
     # tasks in a symmetric hierarchy): compute each distinct row once.
@@ -383,6 +390,61 @@ def generalized_projectors(
             distinct[key] = _projector(*_sorted_rows(blocks, a[i].tolist(), normalise=False), nv, tol)
         out[i] = distinct[key]
     return out
+
+
+def _rows_of(ranges: list[tuple[int, int]]) -> slice | np.ndarray:
+    """The rows ``[begin, end)`` of each range in turn: a slice when they follow each other (a view,
+    no copy), else an index array."""
+    if all(ranges[k][1] == ranges[k + 1][0] for k in range(len(ranges) - 1)):
+        return slice(ranges[0][0], ranges[-1][1])
+    every = np.arange(max(e for _, e in ranges))
+    return np.concatenate([every[b:e] for b, e in ranges])
+
+
+#: One set of tasks sharing an α row: the unit rows its basis is built from (sorted by decreasing
+#: alpha), their groups of equal alpha (:func:`_order`), and the rows of those tasks in the stack.
+_Share = tuple[slice | np.ndarray, list[tuple[int, float]], slice | np.ndarray]
+
+
+def _plan(alpha: np.ndarray, starts: np.ndarray, kept: np.ndarray) -> list[_Share]:
+    """What eq. 8 needs of the (n, n) ``alpha`` for :func:`_project`: one :data:`_Share` per distinct
+    α row with some positive alpha on a row that is not zero. Task j's rows in the stack are
+    ``[starts[j], starts[j + 1])``, its unit rows ``[kept[j], kept[j + 1])`` (:func:`_kept`)."""
+    n = alpha.shape[0]
+    sharing: dict[bytes, list[int]] = {}
+    for i in range(n):
+        sharing.setdefault(alpha[i].tobytes(), []).append(i)
+    units = [(int(kept[j]), int(kept[j + 1])) for j in range(n)]
+    plan: list[_Share] = []
+    for tasks in sharing.values():
+        order, groups = _order([e - b for b, e in units], alpha[tasks[0]].tolist())
+        if order:  # else P = I
+            rows = [(int(starts[i]), int(starts[i + 1])) for i in tasks if starts[i + 1] > starts[i]]
+            if rows:
+                plan.append((_rows_of([units[j] for j in order]), groups, _rows_of(rows)))
+    return plan
+
+
+def _project(stacked: np.ndarray, unit: np.ndarray, plan: list[_Share], tol: float, out: np.ndarray) -> None:
+    """``out = J_i P_i`` for every task (``stacked`` (Σ m_i, nv) the tasks' Jacobians, ``unit`` its
+    rows that are not zero scaled to unit length): with ``P_i = I - B diag(w) Bᵀ`` (:func:`_basis`),
+    ``J_i P_i = J_i - ((J_i B) diag(w)) Bᵀ`` once for all the tasks that share an α row; the
+    others' projector is the identity."""
+    out[:] = stacked
+    for index, groups, rows in plan:
+        B, w = _basis(unit[index], groups, stacked.shape[1], tol)
+        J = stacked[rows]
+        out[rows] = J - ((J @ B) * w) @ B.T
+
+
+def _starts(dims: Sequence[int]) -> np.ndarray:
+    return np.concatenate([[0], np.cumsum(dims, dtype=int)])
+
+
+def _kept(starts: np.ndarray, nonzero: np.ndarray) -> np.ndarray:
+    """Where each task's unit rows begin (and the last one's end) once the zero rows of the stack
+    (``nonzero`` False) are removed, from where its rows begin in the stack (``starts``)."""
+    return starts if nonzero.all() else np.concatenate([[0], np.cumsum(nonzero)])[starts]
 
 
 def projected_jacobians(
@@ -400,31 +462,65 @@ def projected_jacobians(
     alpha))]`` up to rounding: with ``P_i = I - B diag(w) Bᵀ`` (:func:`generalized_projector`'s
     basis of the rows sorted by decreasing alpha), ``J_i P_i = J_i - ((J_i B) diag(w)) Bᵀ``,
     computed once for all the tasks that share an α row. A task whose projector is the identity
-    (no positive alpha in its row) gets its own Jacobian, not a copy.
+    (no positive alpha in its row) gets its own Jacobian, not a copy. :class:`ProjectedJacobians`
+    does the same tick after tick for a fixed set of tasks.
 
     Args, Raises: as :func:`generalized_projectors`.
     """
     tol = nonnegative("rank_threshold", rank_threshold)
-    jacobians, blocks, a = _batch(jacobians, alpha, validate)
-    n, nv = len(jacobians), jacobians[0].shape[1]
-    # The tasks of each distinct α row (e.g. all the tasks below the same upper ones).
-    sharing: dict[bytes, list[int]] = {}
-    for i in range(n):
-        sharing.setdefault(a[i].tobytes(), []).append(i)
-    out: list[np.ndarray] = list(jacobians)
-    for tasks in sharing.values():
-        rows, groups = _sorted_rows(blocks, a[tasks[0]].tolist(), normalise=False)
-        if rows is None:
-            continue  # P = I
-        B, w = _basis(rows, groups, nv, tol)
-        J = jacobians[tasks[0]] if len(tasks) == 1 else np.concatenate([jacobians[i] for i in tasks])
-        JP = J - ((J @ B) * w) @ B.T
-        begin = 0
-        for i in tasks:
-            end = begin + jacobians[i].shape[0]
-            out[i] = JP[begin:end]
-            begin = end
-    return out
+    jacobians, stacked, a = _batch(jacobians, alpha, validate)
+    unit, nonzero = _unit(stacked)
+    starts = _starts([J.shape[0] for J in jacobians])
+    plan = _plan(a, starts, _kept(starts, nonzero))
+    projected = np.empty_like(stacked)
+    _project(stacked, unit, plan, tol, projected)
+    moved = np.zeros(stacked.shape[0], dtype=bool)
+    for _, _, rows in plan:
+        moved[rows] = True
+    return [
+        projected[b:e] if moved[b:e].any() else J
+        for J, b, e in zip(jacobians, starts[:-1], starts[1:], strict=True)
+    ]
+
+
+class ProjectedJacobians:
+    """:func:`projected_jacobians` of a fixed list of tasks, tick after tick, stacked in and out:
+    what a controller calls every tick. Which rows eq. 8 takes, in which order and in which groups
+    of equal alpha depends on α (and on which rows are exactly zero) only: it is worked out again
+    only when one of them changed since the last call (α stays put between transitions).
+
+    Args:
+        dims: (n,) the tasks' row counts m_i (>= 0).
+        rank_threshold: as in :func:`generalized_projector` (>= 0).
+
+    Raises:
+        ValueError: a negative or non-integer dimension, or a negative ``rank_threshold``.
+    """
+
+    def __init__(self, dims: Sequence[int], rank_threshold: float = 1e-9) -> None:
+        sizes = [positive_int(f"dims[{j}] (a task dimension)", m, minimum=0) for j, m in enumerate(dims)]
+        self._starts = _starts(sizes)
+        self._tol = nonnegative("rank_threshold", rank_threshold)
+        self._key: bytes | None = None
+        self._plan: list[_Share] = []
+
+    def __call__(self, stacked: np.ndarray, alpha: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """Write ``J_i P_i(A_i)`` of every task into ``out`` and return it.
+
+        Args:
+            stacked: (Σ m_i, nv) the tasks' Jacobians stacked in task order, finite (not checked:
+                the quasi-static QP checks what it is given).
+            alpha: (n, n) the priority parameters, each in [0, 1] (not checked), as in
+                :func:`generalized_projectors`.
+            out: (Σ m_i, nv) where the projected rows go (not ``stacked``).
+        """
+        unit, nonzero = _unit(stacked)
+        key = alpha.tobytes() + (b"" if nonzero.all() else nonzero.tobytes())
+        if key != self._key:
+            self._plan = _plan(alpha, self._starts, _kept(self._starts, nonzero))
+            self._key = key
+        _project(stacked, unit, self._plan, self._tol, out)
+        return out
 
 
 # --------------------------------------------------------------------------------------

@@ -53,7 +53,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
-from drake_sot.generalized import fallback_torques, inertia_weighted, projected_jacobians, relative_shortfall
+from drake_sot.generalized import ProjectedJacobians, fallback_torques, inertia_weighted, relative_shortfall
 from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, SolveStatus, static_capacity
 from drake_sot.signals import TaskSignal
 from drake_sot.systems.kinematics import momentum_rows
@@ -396,6 +396,8 @@ class GeneralizedHierarchyController(LeafSystem):
         self._motion_slices = list(self._slices.values())[: len(self._motion)]
         self._motion_rows = sum(motion_dims)
         self._motion_blocks = scipy.linalg.block_diag(*[np.ones((m, m)) for m in motion_dims]) > 0.0
+        self._jacobians = np.empty((sum(self._dims), nv))  # the goal tasks' J_i, stacked, every tick
+        self._projected = ProjectedJacobians(self._dims)
         self._contacts = list(contacts)
         self._contact_frames = []
         for c in self._contacts:
@@ -570,13 +572,13 @@ class GeneralizedHierarchyController(LeafSystem):
             g = weight @ M[momentum]
         alpha = self._alpha(context)
         signals = [port.Eval(context) for port in self._task_ports]
-        jacobians = [s.jacobian for s in signals]
+        jacobians = np.concatenate([s.jacobian for s in signals], out=self._jacobians)
         errors = np.concatenate([s.error for s in signals])
         desired = np.empty(errors.size)
         if self._motion:
             # eq. 2 with K_P = k_p Λ, K_D = k_d Λ: w^d = Λ pd_wrench(e, J v), all motion tasks at once.
-            J_motion = np.concatenate(jacobians[: len(self._motion)])
             rows = self._motion_rows
+            J_motion = jacobians[:rows]
             a = pd_wrench(errors[:rows], J_motion @ v, self._kp_rows, self._kd_rows, validate=False)
             if M is None:
                 M = plant.CalcMassMatrix(pc)
@@ -608,11 +610,12 @@ class GeneralizedHierarchyController(LeafSystem):
         # Each goal task enters the QP through J_i P_i (eq. 9-10: P_i J_iᵀ w_i, P_i symmetric), formed
         # without the (nv, nv) projectors, then the contact points' rows. The QP checks every row for
         # NaN and names the task: no second check here.
-        if not self._weighted:
-            jacobians = projected_jacobians(jacobians, alpha, validate=False)
         rows = self._stacked.rows
         goal_rows = desired.size
-        np.concatenate(jacobians, out=rows[:goal_rows])
+        if self._weighted:
+            rows[:goal_rows] = jacobians
+        else:
+            self._projected(jacobians, alpha, rows[:goal_rows])
         contact_jacobians = self._contact_jacobians()
         rows[goal_rows:] = contact_jacobians
         solution = self._stacked.solve(rows, desired, g)
