@@ -434,7 +434,13 @@ def _project(stacked: np.ndarray, unit: np.ndarray, plan: list[_Share], tol: flo
     for index, groups, rows in plan:
         B, w = _basis(unit[index], groups, stacked.shape[1], tol)
         J = stacked[rows]
-        out[rows] = J - ((J @ B) * w) @ B.T
+        JB = J @ B
+        if groups[0][1] != 1.0 or len(groups) > 1:  # else every weight is 1
+            JB *= w
+        if isinstance(rows, slice):  # out[rows] is a view: write in place
+            np.subtract(J, JB @ B.T, out=out[rows])
+        else:
+            out[rows] = J - JB @ B.T
 
 
 def _starts(dims: Sequence[int]) -> np.ndarray:
