@@ -8,7 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drake_sot.generalized import fallback_torques, inertia_weighted, relative_shortfall, task_inertia
+from drake_sot.generalized import (
+    ProjectedJacobians,
+    fallback_torques,
+    generalized_projector,
+    inertia_weighted,
+    relative_shortfall,
+    task_inertia,
+)
 
 
 def _mass_matrix(rng: np.random.Generator, nv: int) -> np.ndarray:
@@ -71,6 +78,35 @@ def test_inertia_weighted_refuses_a_mass_matrix_that_is_not_positive_definite():
     M = np.diag([1.0, -1.0, 1.0])
     with pytest.raises(RuntimeError, match="not positive definite"):
         inertia_weighted(np.eye(3), [slice(0, 3)], M, np.ones(3), np.ones((3, 3), dtype=bool), 1e-8)
+
+
+def test_projected_jacobians_tick_after_tick_follow_alpha_and_zero_rows():
+    """The cached structure of eq. 8 is rebuilt when α changes and when a row becomes zero (a
+    switched-off component), and not otherwise: every call equals J_i P_i(A_i) with each task's
+    projector built from scratch."""
+    rng = np.random.default_rng(2)
+    dims, nv = [2, 3, 1, 4], 7
+    project = ProjectedJacobians(dims)
+    strict = np.array([[0, 0, 0, 0], [1, 0, 0, 0], [1, 1, 0, 0], [1, 1, 1, 0]], dtype=float)
+    soft = strict.copy()
+    soft[2, 1], soft[1, 2] = 0.3, 0.7  # mid-transition between tasks 1 and 2
+    out = np.empty((sum(dims), nv))
+    for alpha, zero_row in (
+        (strict, None),
+        (strict, None),
+        (soft, None),
+        (soft, 3),
+        (soft, None),
+        (strict, 3),
+    ):
+        stacked = rng.normal(size=(sum(dims), nv))
+        if zero_row is not None:
+            stacked[zero_row] = 0.0
+        blocks = np.split(stacked, np.cumsum(dims)[:-1])
+        got = project(stacked, alpha, out)
+        assert got is out
+        expected = np.vstack([J @ generalized_projector(blocks, alpha[i]) for i, J in enumerate(blocks)])
+        np.testing.assert_allclose(got, expected, atol=1e-12)
 
 
 def test_relative_shortfall_per_task_with_the_floor():
