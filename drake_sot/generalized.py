@@ -444,6 +444,7 @@ def _project(stacked: np.ndarray, unit: np.ndarray, plan: list[_Share], tol: flo
 
 
 def _starts(dims: Sequence[int]) -> np.ndarray:
+    """(n + 1,) where each task's rows begin in the stack, and the stack's end."""
     return np.concatenate([[0], np.cumsum(dims, dtype=int)])
 
 
