@@ -1,7 +1,7 @@
 """Smooth priority and activation transitions alpha(t) (Liu, Lober, Padois 2016, eq. 12).
 
 A change of the task hierarchy of the generalized projector is a change of
-the priority parameters ``alpha_ij`` (:func:`drake_sot.hierarchy.generalized_projector`).
+the priority parameters ``alpha_ij`` (:func:`drake_sot.generalized.generalized_projector`).
 Done abruptly it jerks the torques; Liu, Lober and Padois move each parameter along the
 raised-cosine profile of eq. 12,
 

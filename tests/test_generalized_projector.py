@@ -1,4 +1,4 @@
-"""Tests of the generalized projector drake_sot.hierarchy.generalized_projector
+"""Tests of the generalized projector drake_sot.generalized.generalized_projector
 (Liu, Lober, Padois 2016, eq. 4, 8).
 
 The references are computed here independently:
@@ -24,7 +24,7 @@ import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drake_sot.hierarchy import (
+from drake_sot.generalized import (
     generalized_projector,
     generalized_projectors,
     priority_matrix,

@@ -53,11 +53,9 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
-from drake_sot.hierarchy import projected_jacobians
-from drake_sot.linalg import pinv
+from drake_sot.generalized import ProjectedJacobians, fallback_torques, inertia_weighted, relative_shortfall
 from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, SolveStatus, static_capacity
 from drake_sot.signals import TaskSignal
-from drake_sot.statics import contact_torques
 from drake_sot.systems.kinematics import momentum_rows
 from drake_sot.systems.task import Task
 from drake_sot.task_wrenches import pd_wrench, pi_force_wrench
@@ -79,11 +77,6 @@ VECTOR_OUTPUTS = (
 SHORTFALL_THRESHOLD = 0.1
 #: Default floor [N or N·m] of the desired wrench's norm in the relative shortfall.
 WRENCH_FLOOR = 1.0
-
-_POTRF, _POTRS = scipy.linalg.lapack.dpotrf, scipy.linalg.lapack.dpotrs  # Cholesky factor / solve
-_TRTRS = scipy.linalg.lapack.dtrtrs  # triangular solve
-#: Smallest squared relative Cholesky pivot for which a task's rows count as independent.
-_INDEPENDENT = 1e-10
 
 
 def _goal_task(what: str, task: Task) -> None:
@@ -240,57 +233,6 @@ def _gravity_rows(plant: MultibodyPlant) -> tuple[slice, np.ndarray] | None:
     ):
         return None
     return rows, -np.asarray(field.gravity_vector(), dtype=float)
-
-
-def _task_inertia(J: np.ndarray, M_inv: np.ndarray, rank_threshold: float) -> np.ndarray:
-    """Λ = (J M⁻¹ Jᵀ)⁺ (m, m) by the pseudo-inverse; rows of J that are zero (an inactive
-    joint-limit row) get zero."""
-    rows = np.flatnonzero(J.any(axis=1))
-    task_inertia = np.zeros((J.shape[0], J.shape[0]))
-    if rows.size:
-        Jr = J[rows]
-        task_inertia[np.ix_(rows, rows)] = pinv(Jr @ M_inv @ Jr.T, rank_threshold)
-    return task_inertia
-
-
-def _inertia_weighted(
-    J: np.ndarray,
-    tasks: Sequence[slice],
-    M: np.ndarray,
-    accelerations: np.ndarray,
-    blocks: np.ndarray,
-    rank_threshold: float,
-) -> np.ndarray:
-    """``Λ_i a_i`` for every task i at once, ``Λ_i = (J_i M⁻¹ J_iᵀ)⁺`` its task-space inertia.
-
-    ``J`` (Σ m_i, nv) stacks the tasks' Jacobians, task i's rows being ``J[tasks[i]]``;
-    ``M`` is the (nv, nv) mass matrix, ``accelerations`` the concatenation of the a_i
-    (Σ m_i,), ``blocks`` the (Σ m_i, Σ m_i) boolean mask of the tasks' diagonal blocks.
-    With ``M = L Lᵀ`` and ``Y = L⁻¹ Jᵀ``, ``J M⁻¹ Jᵀ = Yᵀ Y``; its block-diagonal part is
-    factorised once (Cholesky); zero rows of a J_i (an inactive joint-limit row) get zero.
-    When some task's rows are dependent or nearly so (a Cholesky pivot below
-    ``_INDEPENDENT`` relative), every task falls back to its pseudo-inverse (threshold
-    ``rank_threshold``).
-    """
-    L, info = _POTRF(M, lower=True, clean=True)
-    if info != 0:
-        raise RuntimeError(f"the mass matrix is not positive definite (LAPACK dpotrf info = {info})")
-    active = J.any(axis=1)
-    Y, _ = _TRTRS(L, J.T, lower=True)
-    A = Y.T @ Y
-    A *= blocks
-    a = np.where(active, accelerations, 0.0)
-    A.flat[:: A.shape[0] + 1] += ~active  # inactive rows: 1 on the diagonal, zero right-hand side
-    diagonal = A.diagonal().copy()
-    factor, info = _POTRF(A, lower=True, overwrite_a=True, clean=False)
-    # L_kk² / A_kk is the squared relative distance of row k to the rows before it (in the
-    # M⁻¹ metric): rounding lets Cholesky succeed on dependent rows, so test it.
-    if info == 0 and (factor.diagonal() ** 2 >= _INDEPENDENT * diagonal).all():
-        return _POTRS(factor, a, lower=True)[0]
-    M_inv = _POTRS(L, np.eye(M.shape[0]), lower=True)[0]
-    return np.concatenate(
-        [_task_inertia(J[rows], M_inv, rank_threshold) @ accelerations[rows] for rows in tasks]
-    )
 
 
 class GeneralizedHierarchyController(LeafSystem):
@@ -454,6 +396,8 @@ class GeneralizedHierarchyController(LeafSystem):
         self._motion_slices = list(self._slices.values())[: len(self._motion)]
         self._motion_rows = sum(motion_dims)
         self._motion_blocks = scipy.linalg.block_diag(*[np.ones((m, m)) for m in motion_dims]) > 0.0
+        self._jacobians = np.empty((sum(self._dims), nv))  # the goal tasks' J_i, stacked, every tick
+        self._projected = ProjectedJacobians(self._dims)
         self._contacts = list(contacts)
         self._contact_frames = []
         for c in self._contacts:
@@ -628,17 +572,17 @@ class GeneralizedHierarchyController(LeafSystem):
             g = weight @ M[momentum]
         alpha = self._alpha(context)
         signals = [port.Eval(context) for port in self._task_ports]
-        jacobians = [s.jacobian for s in signals]
+        jacobians = np.concatenate([s.jacobian for s in signals], out=self._jacobians)
         errors = np.concatenate([s.error for s in signals])
         desired = np.empty(errors.size)
         if self._motion:
             # eq. 2 with K_P = k_p Λ, K_D = k_d Λ: w^d = Λ pd_wrench(e, J v), all motion tasks at once.
-            J_motion = np.concatenate(jacobians[: len(self._motion)])
             rows = self._motion_rows
+            J_motion = jacobians[:rows]
             a = pd_wrench(errors[:rows], J_motion @ v, self._kp_rows, self._kd_rows, validate=False)
             if M is None:
                 M = plant.CalcMassMatrix(pc)
-            desired[:rows] = _inertia_weighted(
+            desired[:rows] = inertia_weighted(
                 J_motion, self._motion_slices, M, a, self._motion_blocks, self._rank_threshold
             )
         integral = context.get_discrete_state(self._x_integral).get_value().copy()
@@ -666,11 +610,12 @@ class GeneralizedHierarchyController(LeafSystem):
         # Each goal task enters the QP through J_i P_i (eq. 9-10: P_i J_iᵀ w_i, P_i symmetric), formed
         # without the (nv, nv) projectors, then the contact points' rows. The QP checks every row for
         # NaN and names the task: no second check here.
-        if not self._weighted:
-            jacobians = projected_jacobians(jacobians, alpha, validate=False)
         rows = self._stacked.rows
         goal_rows = desired.size
-        np.concatenate(jacobians, out=rows[:goal_rows])
+        if self._weighted:
+            rows[:goal_rows] = jacobians
+        else:
+            self._projected(jacobians, alpha, rows[:goal_rows])
         contact_jacobians = self._contact_jacobians()
         rows[goal_rows:] = contact_jacobians
         solution = self._stacked.solve(rows, desired, g)
@@ -686,13 +631,21 @@ class GeneralizedHierarchyController(LeafSystem):
                 if self._contacts
                 else np.zeros(0)
             )
-            gap2, need2 = np.add.reduceat(np.square([wrenches - desired, desired]), self._starts, axis=1)
-            shortfall = np.sqrt(gap2 / np.maximum(need2, self._floor**2))
+            shortfall = relative_shortfall(wrenches, desired, self._starts, self._floor)
             status = SolveStatus.SHORT if (shortfall > self._threshold).any() else SolveStatus.OPTIMAL
         else:
-            wanted = self._fallback(q, v, g, contact_jacobians)
-            tau_v = np.clip(wanted, -self._tau_v, self._tau_v)
-            saturation = (wanted - tau_v)[self._v_act - self._n_base]
+            qa, va = self._q_act, self._v_act
+            tau_v, cut = fallback_torques(
+                g,
+                contact_jacobians,
+                self._n_base,
+                va - self._n_base,
+                self._q_posture[qa] - q[qa],
+                v[va],
+                self._fallback_gains,
+                self._tau_v,
+            )
+            saturation = cut[va - self._n_base]
             wrenches = np.full(desired.size, np.nan)
             shortfall = np.full(len(self._names), np.nan)
             contact = np.zeros(3 * len(self._contact_points))
@@ -769,17 +722,3 @@ class GeneralizedHierarchyController(LeafSystem):
             for points, frame in zip(self._contact_offsets, self._contact_frames, strict=True)
         ]
         return np.vstack(blocks) if blocks else np.zeros((0, self._nv))
-
-    def _fallback(self, q: np.ndarray, v: np.ndarray, g: np.ndarray, contact_jacobians) -> np.ndarray:
-        """Gravity compensation on the contacts (equal shares) plus a posture PD, in the v
-        order, before saturation."""
-        kp, kd = self._fallback_gains
-        J = contact_jacobians
-        # contact_torques expects 6-row contacts; split the stacked point forces into 6-row blocks.
-        pad = (-J.shape[0]) % 6
-        J = np.vstack((J, np.zeros((pad, self._nv))))
-        tau_static, _ = contact_torques(g, J, self._n_base)
-        posture = np.zeros(self._na)
-        qa = self._q_act
-        posture[self._v_act - self._n_base] = kp * (self._q_posture[qa] - q[qa]) - kd * v[self._v_act]
-        return tau_static + posture

@@ -6,7 +6,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_sot.hierarchy import generalized_projectors
+from drake_sot.generalized import generalized_projectors, inertia_weighted
 from drake_sot.models import half_sitting_configuration, make_control_model, sole_corner_points
 from drake_sot.quasistatic import SolveStatus
 from drake_sot.systems.features import FeaturePoint6d, FeaturePosture
@@ -17,7 +17,6 @@ from drake_sot.systems.generalized_controller import (
     GeneralizedHierarchyController,
     MotionTask,
     _gravity_rows,
-    _inertia_weighted,
 )
 from drake_sot.systems.kinematics import RobotKinematics
 from drake_sot.systems.task import Task
@@ -416,7 +415,7 @@ def test_inertia_weighted_desired_wrenches_match_per_task_pseudo_inverses(depend
     for begin, m in ((0, 2), (2, 4), (6, 3)):
         blocks[begin : begin + m, begin : begin + m] = True
     tasks = [slice(0, 2), slice(2, 6), slice(6, 9)]
-    got = _inertia_weighted(np.concatenate(jacobians), tasks, M, a, blocks, 1e-8)
+    got = inertia_weighted(np.concatenate(jacobians), tasks, M, a, blocks, 1e-8)
     expected, begin = [], 0
     for J in jacobians:
         m = J.shape[0]
