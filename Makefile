@@ -64,7 +64,7 @@ test: $(VENV)/.installed-test
 	$(call apt_need,chromium:chromium)
 	$(BIN)/ruff format --check .
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -n 2 --dist loadfile
+	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder
 	$(MAKE) --no-print-directory test-compat
 
 # pythonX.Y on PATH, else pyenv's X.Y; the one python3 already is, skipped. Not found: an error under
@@ -80,7 +80,7 @@ test-compat:
 	    [ -z "$$CI" ] || { echo "CI tests every Python the README claims: install Python $$v"; exit 1; }; \
 	    continue; fi; \
 	  $(MAKE) --no-print-directory PYTHON=$$py VENV=.venv-$$v .venv-$$v/.installed-test || exit 1; \
-	  .venv-$$v/bin/python -m pytest -n 2 --dist loadfile -p no:cacheprovider -m "$(COMPAT_TESTS)" || exit 1; \
+	  .venv-$$v/bin/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -p no:cacheprovider -m "$(COMPAT_TESTS)" || exit 1; \
 	done
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_sot.py

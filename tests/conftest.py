@@ -3,6 +3,7 @@ sys.path, so that the shared helpers here (headless, landings) import from any t
 
 import sys
 from importlib.metadata import version
+from pathlib import Path
 
 
 def pytest_report_header(config) -> str:
@@ -17,10 +18,22 @@ def pytest_report_header(config) -> str:
 def pytest_collection_modifyitems(config, items) -> None:
     """Every test of ``tests/diagrams`` (a scenario simulated in physics, seconds to minutes) carries
     the ``scenario`` marker, so that a run on another Python can leave them out but for the
-    ``compat`` ones (``make test``: ``-m "compat or not (slow or scenario)"``)."""
+    ``compat`` ones (``make test``: ``-m "compat or not (slow or scenario)"``).
+
+    Then the files are ordered by their cost, the long ones first: the files with a ``slow`` test,
+    then those with a ``scenario`` one, then the rest, each group in collection order and each file's
+    tests in theirs. ``make test`` gives files to its two workers in this order (``--dist loadfile
+    --no-loadscope-reorder``; xdist's own order, the files with more tests first, left the long
+    simulations of two or three tests each to the end, one worker idle while the other ran them):
+    the many short files come last and fill whichever worker is free first."""
     for item in items:
         if "diagrams" in item.path.parent.parts[-1:]:
             item.add_marker("scenario")
+    rank: dict[Path, int] = {}
+    for item in items:
+        cost = 0 if item.get_closest_marker("slow") else 1 if item.get_closest_marker("scenario") else 2
+        rank[item.path] = min(rank.get(item.path, 2), cost)
+    items.sort(key=lambda item: rank[item.path])  # stable: the order within a group is kept
 
 
 def pytest_configure(config) -> None:
