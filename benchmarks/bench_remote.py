@@ -8,8 +8,11 @@ Starts ``drake-sot serve reach`` (controller at 200 Hz, paced at 1 x real time) 
 this process:
 
 1. ``read sot.errors`` one at a time: round-trip time (median, p99) against the 5 ms control
-   period. A request waits for the next tick, which applies it; the reply leaves after that
-   tick, so a round trip is expected to take up to one period plus a tick's computation.
+   period, back to back and spaced by 0-2 periods of wall time. A read of a value the socket
+   thread holds (the last tick's, of a signal read lately) is answered at once, once per tick
+   and connection; another waits for the next tick, and its reply leaves after that tick (up to
+   one period plus a tick's computation). Back to back, every other read asks again for the
+   value it just got.
 2. ``run sot.list`` pipelined (64 requests in flight): sustained commands per second applied,
    and refused by the per-connection rate limit, against the 200 ticks per second (every
    request queued before a tick is applied at that tick).
@@ -30,6 +33,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import random
 import re
 import statistics
 import subprocess
@@ -70,10 +74,16 @@ def serve_reach(tree: Path, realtime: str = "1") -> tuple[subprocess.Popen, str,
     return proc, match[1], int(match[2])
 
 
-def round_trips(client: Client, count: int) -> list[float]:
-    """``count`` round trips of ``read sot.errors``, one at a time [s]."""
+def round_trips(client: Client, count: int, spaced: bool = False) -> list[float]:
+    """``count`` round trips of ``read sot.errors``, one at a time [s]; ``spaced``: each after a
+    wait of 0 to 2 control periods of wall time (uniform, seeded), as a client that reads the
+    state about once a tick (back to back, every other read asks again for the value it just
+    got, which waits for the next tick)."""
     rtt = []
+    waits = random.Random(0)
     for _ in range(count):
+        if spaced:
+            time.sleep(waits.uniform(0.0, 2.0 * PERIOD))
         start = time.perf_counter()
         client.read("sot.errors")
         rtt.append(time.perf_counter() - start)
@@ -95,7 +105,9 @@ def stopped(proc: subprocess.Popen) -> Iterator[subprocess.Popen]:
         proc.wait()
 
 
-def against_baseline(commit: str, blocks: int, block: int, realtime: str, settle: float) -> None:
+def against_baseline(
+    commit: str, blocks: int, block: int, realtime: str, settle: float, spaced: bool = False
+) -> None:
     """The A/B of the module docstring: ``blocks`` alternations of ``block`` reads against a server
     of this tree and one of ``commit``'s tree, both paced at ``realtime`` x real time, once both
     have simulated ``settle`` seconds (the scenario's script done: both run the same stack)."""
@@ -115,7 +127,7 @@ def against_baseline(commit: str, blocks: int, block: int, realtime: str, settle
         ratios = []
         for k in range(blocks):
             order = ("baseline", "tree") if k % 2 == 0 else ("tree", "baseline")
-            got = {name: round_trips(clients[name], block) for name in order}
+            got = {name: round_trips(clients[name], block, spaced) for name in order}
             for name, rtt in got.items():
                 samples[name] += rtt
             ratios.append(statistics.median(got["tree"]) / statistics.median(got["baseline"]))
@@ -155,20 +167,25 @@ def main() -> None:
         metavar="S",
         help="A/B: measure once both servers have simulated S seconds (default 8: reach's script is done)",
     )
+    parser.add_argument(
+        "--spaced", action="store_true", help="A/B: reads spaced by 0-2 control periods (see round_trips)"
+    )
     args = parser.parse_args()
     if args.baseline:
-        against_baseline(args.baseline, args.blocks, args.block, args.realtime, args.settle)
+        against_baseline(args.baseline, args.blocks, args.block, args.realtime, args.settle, args.spaced)
         return
     proc, host, port = serve_reach(REPO)
     with stopped(proc):
         with Client(host, port) as client:
             client.read("sot.errors")
             t0, wall0 = client.t, time.perf_counter()
-            rtt = round_trips(client, 1000)
-            print(
-                f"read sot.errors round trip: median {1e3 * statistics.median(rtt):.2f} ms, "
-                f"p99 {1e3 * p99(rtt):.2f} ms; control period {1e3 * PERIOD:.1f} ms"
-            )
+            for spaced in (False, True):
+                rtt = round_trips(client, 1000 if not spaced else 400, spaced)
+                print(
+                    f"read sot.errors round trip, {'spaced by 0-2 periods' if spaced else 'back to back'}: "
+                    f"median {1e3 * statistics.median(rtt):.2f} ms, p99 {1e3 * p99(rtt):.2f} ms; "
+                    f"control period {1e3 * PERIOD:.1f} ms"
+                )
             sent = received = refused = 0
             start = time.perf_counter()
             while time.perf_counter() - start < 3.0:
