@@ -4,7 +4,11 @@
 
 Both draw in Meshcat at a publish period and pass the publish's time to Meshcat, so that while
 Meshcat records (``MeshcatVisualizer.StartRecording``) every draw is also a frame of the
-recording: the arrows and the camera move in the replay as they do in the live view.
+recording: the arrows and the camera move in the replay as they do in the live view. The time
+passed is the publish's plus half a period (:func:`recording_time`): Meshcat's frame is
+``floor(time × frames per second)``, and a publish time ``k / 30`` s computed in floating point
+falls a hair short of frame ``k`` about once in twenty (8.2 s is frame 245 at 30 frames per
+second), where it would overwrite the previous frame and leave its own empty.
 """
 
 from __future__ import annotations
@@ -35,6 +39,12 @@ ARROWS_PATH = "/forces"
 
 #: [m] an arrow shorter than this is hidden (no force, or a NaN one).
 SHORTEST_ARROW = 1e-3
+
+
+def recording_time(time: float, period: float) -> float:
+    """[s] the time to record a draw at ``time`` [s] under, for a drawer of ``period`` [s]: the
+    middle of its frame (see the module's docstring)."""
+    return time + period / 2
 
 
 @dataclass(frozen=True)
@@ -152,6 +162,7 @@ class ForceArrows(LeafSystem):
         self.groups = tuple(groups)
         radius = positive("radius", radius, unit="m")
         self._head = 10 * radius
+        self._period = positive("period", period, unit="s")
         self._poses = self.DeclareAbstractInputPort(
             "body_poses", plant.get_body_poses_output_port().Allocate()
         )
@@ -182,11 +193,11 @@ class ForceArrows(LeafSystem):
                     f"{path}/head/cone", RigidTransform(RotationMatrix.MakeXRotation(np.pi), [0, 0, 0])
                 )
                 meshcat.SetProperty(path, "visible", False)
-        self.DeclarePeriodicPublishEvent(positive("period", period, unit="s"), 0.0, self._publish)
+        self.DeclarePeriodicPublishEvent(self._period, 0.0, self._publish)
         self.DeclareForcedPublishEvent(self._publish)
 
     def _publish(self, context: Context) -> None:
-        t = context.get_time()
+        t = recording_time(context.get_time(), self._period)
         poses = self._poses.Eval(context)
         arrows = iter(self._arrows)
         for group, port in zip(self.groups, self._inputs, strict=True):
@@ -213,8 +224,8 @@ class FollowCamera(LeafSystem):
     pelvis), in the horizontal plane. The camera is first put at :data:`CAMERA_OFFSET` looking
     at :data:`CAMERA_TARGET_HEIGHT` above the world's origin; then its frame is translated by
     the body's (x, y), so the view keeps its height and direction as the robot walks. Moved at
-    ``period`` while the parameter ``follow`` is 1; :meth:`set_follow` leaves the camera where
-    it was first put.
+    ``period`` (and by ``ForcedPublish``) while the parameter ``follow`` is 1; :meth:`set_follow`
+    leaves the camera where it was first put.
 
     Input ports:
         body_poses: abstract ``list[RigidTransform]`` (the plant's ``body_poses``).
@@ -240,7 +251,9 @@ class FollowCamera(LeafSystem):
             "body_poses", plant.get_body_poses_output_port().Allocate()
         )
         self._follow = self.DeclareNumericParameter(BasicVector([1.0]))
-        self.DeclarePeriodicPublishEvent(positive("period", period, unit="s"), 0.0, self._publish)
+        self._period = positive("period", period, unit="s")
+        self.DeclarePeriodicPublishEvent(self._period, 0.0, self._publish)
+        self.DeclareForcedPublishEvent(self._publish)
 
     def set_follow(self, context: Context, follow: bool) -> None:
         """Follow the body (True, the default) or leave the camera where it is (False), in
@@ -250,4 +263,5 @@ class FollowCamera(LeafSystem):
     def _publish(self, context: Context) -> None:
         if context.get_numeric_parameter(self._follow)[0] > 0.5:
             x, y, _ = self._poses.Eval(context)[self._body].translation()
-            self._meshcat.SetTransform(CAMERA_PATH, RigidTransform([x, y, 0.0]), context.get_time())
+            time = recording_time(context.get_time(), self._period)
+            self._meshcat.SetTransform(CAMERA_PATH, RigidTransform([x, y, 0.0]), time)
