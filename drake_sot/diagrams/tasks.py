@@ -67,10 +67,10 @@ PUSH_COLOUR = Rgba(0.9, 0.1, 0.1, 1.0)
 #: [N/m] the scales of the arrows: the soles carry the robot's weight (hundreds of N), a
 #: wrist and a partner tens of N.
 SOLE_SCALE = 1000.0
-#: [m] how far from a sole's outer edge its contact force is drawn.
-SOLE_ARROW_GAP = 0.03
 HAND_SCALE = 100.0
 PUSH_SCALE = 500.0
+#: [m] how far from a sole's outer edge its contact force is drawn.
+SOLE_ARROW_GAP = 0.03
 #: The fall criteria every floating-base builder monitors by default.
 FALL_CRITERIA = FallCriteria()
 
@@ -85,7 +85,9 @@ class HumanoidTaskBuilder:
         time_step: physics step of the plant [s], finite > 0.
         meshcat: a Meshcat to draw in; None for no visualisation. Use
             :func:`~drake_sot.diagrams.world.loopback_meshcat` for a headless recorder
-            bound to localhost.
+            bound to localhost. Besides the robot it shows the forces as arrows (see
+            :meth:`draw_forces`) and, on a floating base, its camera follows the pelvis
+            (:class:`~drake_sot.systems.replay_view.FollowCamera`).
         fixed_base: weld the pelvis in the air (no ground), as the real iCub of Liu,
             Lober, Padois 2016.
         before_finalize: adds to the simulated world before it is finalized (see

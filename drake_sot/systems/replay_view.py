@@ -140,6 +140,9 @@ class ForceArrows(LeafSystem):
         radius: [m] the shaft's radius, finite and > 0 (the head is 3 times as wide and
             10 times as long).
 
+    Attributes:
+        groups: the arrow groups drawn (for a legend).
+
     Raises:
         ValueError: two groups of one name, an empty name, a ``newtons_per_metre``, ``period``
             or ``radius`` that is not finite and > 0, an arrow whose force lies outside its
