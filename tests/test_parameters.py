@@ -147,8 +147,9 @@ def test_a_parameter_added_to_a_declaration_is_an_option_without_touching_the_cl
     with pytest.raises(SystemExit) as exit_:  # another scenario does not take it
         cli.main(["run", "reach", "--gain", "1"])
     assert exit_.value.code == 2
-    assert "reach takes no --gain (it takes --duration, --out, --no-record, --push, --robot)" in (
-        capsys.readouterr().err
+    assert (
+        "reach takes no --gain (it takes --duration, --out, --no-record, --fixed-camera, --push, --robot)"
+        in (capsys.readouterr().err)
     )
 
 

@@ -244,7 +244,7 @@ def _run_peer(args: argparse.Namespace, run: argparse.ArgumentParser, parameters
 
 
 #: The options each kind of ``run`` target takes besides its parameters' (two-process mode: a peer).
-_SCENARIO_OPTIONS = ("--duration", "--out", "--no-record", "--push")
+_SCENARIO_OPTIONS = ("--duration", "--out", "--no-record", "--fixed-camera", "--push")
 _STUDY_OPTIONS = ("--duration", "--out")
 _PEER_OPTIONS = ("--connect", "--token", "--duration", "--out")
 
@@ -480,7 +480,7 @@ def _address_options(parser: argparse.ArgumentParser, host_help: str) -> None:
 
 
 def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> None:
-    """``--duration S``, ``--out DIR`` and ``--no-record``."""
+    """``--duration S``, ``--out DIR``, ``--no-record`` and ``--fixed-camera``."""
     parser.add_argument(
         "--duration",
         type=_checked(check_duration, "duration"),
@@ -492,6 +492,11 @@ def _simulation_options(parser: argparse.ArgumentParser, duration_help: str) -> 
         "--out", default="out", metavar="DIR", help="output directory, not empty (default: out/)"
     )
     parser.add_argument("--no-record", action="store_true", help="no Meshcat replay (faster)")
+    parser.add_argument(
+        "--fixed-camera",
+        action="store_true",
+        help="the replay's camera stays put instead of following the robot's pelvis",
+    )
 
 
 def exit_status(result: RunResult, unwritten: Mapping[str, str] | None = None) -> int:
@@ -800,6 +805,7 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
             args.out,
             duration=args.duration,
             record=not args.no_record,
+            fixed_camera=args.fixed_camera,
             progress=progress,
             parameters=parameters,
             pushes=getattr(args, "push", None) or (),  # `script` takes no --push

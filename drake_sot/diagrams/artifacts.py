@@ -19,6 +19,7 @@ import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from html import escape
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,8 @@ from drake_sot.diagrams.pushes import pushes_record
 from drake_sot.diagrams.run import RunResult
 from drake_sot.diagrams.world import BuiltHumanoid
 from drake_sot.errors import DrakeSotError
+from drake_sot.systems.replay_view import ArrowGroup, ForceArrows
+from drake_sot.systems.search import systems_of_type
 
 #: The programs that render Graphviz source, in the order tried: ``graphviz-pure`` (a dependency,
 #: pip-installed: the same SVG on every platform), then Graphviz's own ``dot``.
@@ -263,12 +266,48 @@ def write_npz(arrays: dict[str, np.ndarray], path: str | Path) -> None:
         np.savez_compressed(file, **arrays)
 
 
-def write_replay(built: BuiltHumanoid, path: str | Path) -> None:
-    """Publish the Meshcat recording and save the standalone HTML page."""
+def write_replay(built: BuiltHumanoid, path: str | Path, *, scenario: str) -> None:
+    """Publish the Meshcat recording and save the standalone HTML page, titled with the
+    ``scenario``'s name and the robot's, with a legend of the force arrows the diagram draws
+    (:class:`~drake_sot.systems.replay_view.ForceArrows`: what each colour is, and its scale).
+
+    Raises:
+        ValueError: the diagram was built without Meshcat (nothing to replay).
+        OSError: ``path`` cannot be written.
+    """
     if built.visualizer is None or built.meshcat is None:
         raise ValueError("this diagram was built without Meshcat: nothing to replay")
     built.visualizer.StopRecording()
     built.visualizer.PublishRecording()
     html = built.meshcat.StaticHtml()
+    title = replay_title(scenario, built.info.robot)
+    html = html.replace("<title>Drake MeshCat</title>", f"<title>{escape(title)}</title>", 1)
+    groups = [group for arrows in systems_of_type(built.diagram, ForceArrows) for group in arrows.groups]
+    html = html.replace("</body>", _legend(title, groups) + "</body>", 1)
     with atomic_path(path) as temporary:
         temporary.write_text(html, encoding="utf-8")
+
+
+def replay_title(scenario: str, robot: str) -> str:
+    """The title of a replay's page: the scenario and the robot."""
+    return f"{scenario} on {robot} (drake_sot replay)"
+
+
+def _legend(title: str, groups: list[ArrowGroup]) -> str:
+    """The replay's legend: its title, then a line per kind of arrow (colour, label, scale;
+    groups alike, e.g. the two wrists, share one)."""
+    lines = [f'<div style="font-weight: bold">{escape(title)}</div>']
+    for group in groups:
+        colour = group.rgba
+        swatch = f"rgb({colour.r() * 255:.0f}, {colour.g() * 255:.0f}, {colour.b() * 255:.0f})"
+        line = (
+            f'<div><span style="color: {swatch}">&#9632;&#9472;&#9654;</span> '
+            f"{escape(group.label)} ({group.newtons_per_metre:g} N per m)</div>"
+        )
+        if line not in lines:
+            lines.append(line)
+    style = (
+        "position: fixed; left: 8px; bottom: 8px; padding: 6px 10px; background: rgba(255, 255, 255, 0.85); "
+        "font: 13px sans-serif; border-radius: 4px; pointer-events: none"
+    )
+    return f'<div id="drake-sot-legend" style="{style}">{"".join(lines)}</div>\n'

@@ -39,6 +39,8 @@ from drake_sot.systems.master import MasterSite, Operator
 from drake_sot.systems.moving_point import MovingPoint
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.priority_schedule import PrioritySchedule
+from drake_sot.systems.replay_view import FollowCamera
+from drake_sot.systems.search import systems_of_type
 from drake_sot.systems.sequencer import TaskSequencer
 from drake_sot.systems.stack_history import stack_changes
 
@@ -251,12 +253,15 @@ def run_scenario(
     runner: Runner | None = None,
     command_server: bool = False,
     log_window: float | None = LOG_WINDOW,
+    fixed_camera: bool = False,
 ) -> ScenarioOutput:
     """Build, simulate and write ``<name>.npz`` (logs), ``<name>.html`` (replay, when ``record``),
     ``<name>.png`` (task errors), the scenario's own plots, ``<name>.svg`` (the signal graph, see
     :mod:`~drake_sot.diagrams.signal_graph`) and ``<name>_drake.svg`` (Drake's picture of every
     system; both written before the run) into ``out_dir``. Without a Graphviz renderer the two
     pictures are written as ``.dot`` source instead and listed in the output's ``unrendered``.
+    The replay draws the forces as arrows, with a legend, and its camera follows the robot's
+    pelvis (see :mod:`~drake_sot.systems.replay_view`) unless ``fixed_camera``.
 
     Artefacts are written even when the run is interrupted (SIGINT, SIGTERM), fails or the
     robot falls, covering what was simulated; ``result`` says how it ended. A file that cannot
@@ -281,6 +286,8 @@ def run_scenario(
         log_window: [s] the logs keep the run's last ``log_window`` seconds (up to twice that),
             None every sample (see :mod:`drake_sot.diagrams.log_window`); the artefacts cover
             what the logs kept. With ``runner``, the runner decides.
+        fixed_camera: the replay's camera stays where Meshcat puts it (the live view's too)
+            instead of following the pelvis.
 
     Raises:
         ValueError: a bad ``duration`` or an undeclared parameter (before anything is built);
@@ -312,6 +319,9 @@ def run_scenario(
         "drake_svg", out / f"{scenario.name}_drake.svg", lambda path: write_svg(built.diagram, path)
     )
     simulator = built.create_simulator()
+    if fixed_camera:
+        for camera in systems_of_type(built.diagram, FollowCamera):
+            camera.set_follow(camera.GetMyMutableContextFromRoot(simulator.get_mutable_context()), False)
     if built.visualizer is not None:
         # the live view moves while the replay is recorded (a frozen robot at t = 0 otherwise)
         built.visualizer.StartRecording(set_transforms_while_recording=True)
@@ -332,7 +342,11 @@ def run_scenario(
         arrays = log_arrays(built, context, result)
         artefacts.write("npz", out / f"{scenario.name}.npz", lambda path: write_npz(arrays, path))
         if record:
-            artefacts.write("html", out / f"{scenario.name}.html", lambda path: write_replay(built, path))
+            artefacts.write(
+                "html",
+                out / f"{scenario.name}.html",
+                lambda path: write_replay(built, path, scenario=scenario.name),
+            )
         errors = {k.removeprefix("error/"): v for k, v in arrays.items() if k.startswith("error/")}
         command_times = {round(t, 6) for t, _ in result.events}
         history = built.stack_history.history(context) if built.stack_history is not None else []

@@ -55,7 +55,7 @@ FAMILIES: dict[str, str] = {
 
 #: The modules of ``drake_sot.systems`` whose systems only watch or draw (left out, as Drake's
 #: systems are but the plant, the robot itself).
-OBSERVERS = frozenset({"marker", "stack_history", "fall_monitor"})
+OBSERVERS = frozenset({"marker", "replay_view", "stack_history", "fall_monitor"})
 
 #: Points of the picture's text: readable on an A4 page when the picture fits its width.
 FONT_SIZE = 9

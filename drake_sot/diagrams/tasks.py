@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from pydrake.geometry import Meshcat, MeshcatVisualizer, MeshcatVisualizerParams
+from pydrake.geometry import Meshcat, MeshcatVisualizer, MeshcatVisualizerParams, Rgba
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import ExternallyAppliedSpatialForceMultiplexer, MultibodyPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder, InputPort, OutputPort
@@ -51,13 +51,26 @@ from drake_sot.systems.inequalities import (
 )
 from drake_sot.systems.kinematics import FRAME_SUFFIX, RobotKinematics
 from drake_sot.systems.partner import ConstantForce, Partner
+from drake_sot.systems.replay_view import Arrow, ArrowGroup, FollowCamera, ForceArrows, SoleForces
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive, vector
 
 #: Names of the logs the builders write (the plant state, the kinematic SoT's reference
 #: and errors, the torque controller's outputs, the fall monitor's flag, the pushes'
-#: forces); :meth:`HumanoidTaskBuilder.log` refuses them.
-RESERVED_LOGS = ("state", "q_ref", *VECTOR_OUTPUTS, "fallen", "push_forces")
+#: forces, the contact forces at the soles); :meth:`HumanoidTaskBuilder.log` refuses them.
+RESERVED_LOGS = ("state", "q_ref", *VECTOR_OUTPUTS, "fallen", "push_forces", "sole_forces")
+#: The colours of the force arrows of a replay (see :meth:`HumanoidTaskBuilder.draw_forces`).
+SOLE_COLOUR = Rgba(0.1, 0.7, 0.2, 1.0)
+WRIST_COLOUR = Rgba(0.65, 0.1, 0.85, 1.0)
+PARTNER_COLOUR = Rgba(1.0, 0.55, 0.0, 1.0)
+PUSH_COLOUR = Rgba(0.9, 0.1, 0.1, 1.0)
+#: [N/m] the scales of the arrows: the soles carry the robot's weight (hundreds of N), a
+#: wrist and a partner tens of N.
+SOLE_SCALE = 1000.0
+HAND_SCALE = 100.0
+PUSH_SCALE = 500.0
+#: [m] how far from a sole's outer edge its contact force is drawn.
+SOLE_ARROW_GAP = 0.03
 #: The fall criteria every floating-base builder monitors by default.
 FALL_CRITERIA = FallCriteria()
 
@@ -72,7 +85,9 @@ class HumanoidTaskBuilder:
         time_step: physics step of the plant [s], finite > 0.
         meshcat: a Meshcat to draw in; None for no visualisation. Use
             :func:`~drake_sot.diagrams.world.loopback_meshcat` for a headless recorder
-            bound to localhost.
+            bound to localhost. Besides the robot it shows the forces as arrows (see
+            :meth:`draw_forces`) and, on a floating base, its camera follows the pelvis
+            (:class:`~drake_sot.systems.replay_view.FollowCamera`).
         fixed_base: weld the pelvis in the air (no ground), as the real iCub of Liu,
             Lober, Padois 2016.
         before_finalize: adds to the simulated world before it is finalized (see
@@ -130,6 +145,7 @@ class HumanoidTaskBuilder:
         self.fall_criteria = None if fixed_base else fall_criteria
         self.fall_monitor: FallMonitor | None = None  # added by _finish
         self._spatial_forces: list[OutputPort] = []
+        self._drawn_forces: list[tuple[ArrowGroup, OutputPort]] = []
         self.control_plant, self.control_info = make_robot_control_model(self.robot, fixed_base=fixed_base)
         self.q0 = (
             half_sitting_configuration(self.control_plant, self.control_info)
@@ -422,6 +438,18 @@ class HumanoidTaskBuilder:
         self.builder.Connect(sensor.GetOutputPort("wrench"), admittance.GetInputPort("wrench"))
         self.builder.Connect(self.dyn.GetOutputPort(sensor_op), admittance.GetInputPort("sensor_pose"))
         self.builder.Connect(self.dyn.GetOutputPort(hand), admittance.GetInputPort("hand_pose"))
+        body, point = self._body_point(f"{side}_hand")
+        self.draw_forces(
+            ArrowGroup(
+                name,
+                "wrist sensor: the external force on the hand",
+                WRIST_COLOUR,
+                HAND_SCALE,
+                6,
+                (Arrow(body, point, 3),),
+            ),
+            admittance.GetOutputPort("wrench_external"),
+        )
         return admittance
 
     def add_admittance_task(
@@ -620,6 +648,19 @@ class HumanoidTaskBuilder:
         such output (the plant has one input for them: the builder gathers them)."""
         self._spatial_forces.append(port)
 
+    def draw_forces(self, group: ArrowGroup, port: OutputPort) -> None:
+        """Draw the forces of the vector output ``port`` as ``group`` says (see
+        :class:`~drake_sot.systems.replay_view.ForceArrows`) in the live view and the replay; no
+        effect without Meshcat. The builder draws the contact forces at the soles, the pushes
+        and the external forces the wrist sensors of the admittance controllers measure."""
+        if self.meshcat is not None:
+            self._drawn_forces.append((group, port))
+
+    def _body_point(self, frame_key: str) -> tuple[str, tuple[float, float, float]]:
+        """The body of the simulated plant a logical frame is on, and the frame's origin in it."""
+        frame = self.plant.GetFrameByName(self.info.frames[frame_key], self.info.model_instance)
+        return frame.body().name(), tuple(frame.GetFixedPoseInBodyFrame().translation())
+
     def log(self, name: str, port: OutputPort) -> None:
         """Log a vector output port at the control period; it appears as ``name`` in the run's logs."""
         if name in self._extra_logs or name in RESERVED_LOGS:
@@ -635,6 +676,8 @@ class HumanoidTaskBuilder:
         logs = dict(logs)
         if self.pushes:
             logs["push_forces"] = self._add_pushes()
+        if not self.fixed_base:
+            logs["sole_forces"] = self._add_sole_forces()
         if self.fall_criteria is not None:
             torso = self.plant.GetFrameByName(self.info.frames["torso"], self.info.model_instance).body()
             self.fall_monitor = b.AddSystem(
@@ -674,9 +717,44 @@ class HumanoidTaskBuilder:
             visualizer = MeshcatVisualizer.AddToBuilder(
                 b, self.scene_graph, self.meshcat, MeshcatVisualizerParams(publish_period=1 / 30)
             )
+            self._add_replay_view()
         diagram = b.Build()
         diagram.set_name("drake_sot")
         return diagram, loggers, visualizer
+
+    def _add_sole_forces(self) -> OutputPort:
+        """A ``SoleForces`` on the two feet, drawn beside each sole (on its outer side, where the
+        leg does not hide it); returns its ``forces`` (right, then left)."""
+        sides = {"right": -1.0, "left": 1.0}  # the outer side, along the sole frame's y
+        points = []
+        for side, outward in sides.items():
+            frame = self.plant.GetFrameByName(self.info.frames[f"{side}_foot"], self.info.model_instance)
+            beside = [0.0, outward * (self.info.sole_size[1] / 2 + SOLE_ARROW_GAP), 0.0]
+            points.append((frame.body().name(), tuple(frame.GetFixedPoseInBodyFrame() @ beside)))
+        soles = self.builder.AddSystem(SoleForces(self.plant, [body for body, _ in points]))
+        soles.set_name("sole_forces")
+        self.builder.Connect(
+            self.plant.get_contact_results_output_port(), soles.GetInputPort("contact_results")
+        )
+        arrows = tuple(Arrow(body, point, 3 * k) for k, (body, point) in enumerate(points))
+        self.draw_forces(
+            ArrowGroup("soles", "contact force on each sole (beside it)", SOLE_COLOUR, SOLE_SCALE, 6, arrows),
+            soles.GetOutputPort("forces"),
+        )
+        return soles.GetOutputPort("forces")
+
+    def _add_replay_view(self) -> None:
+        """The force arrows of :meth:`draw_forces` and, on a floating base, a camera that
+        follows the pelvis."""
+        b, poses = self.builder, self.plant.get_body_poses_output_port()
+        if self._drawn_forces:
+            arrows = b.AddSystem(ForceArrows(self.meshcat, self.plant, [g for g, _ in self._drawn_forces]))
+            b.Connect(poses, arrows.GetInputPort("body_poses"))
+            for group, port in self._drawn_forces:
+                b.Connect(port, arrows.GetInputPort(group.name))
+        if not self.fixed_base:
+            camera = b.AddSystem(FollowCamera(self.meshcat, self.plant, self.info.base_body))
+            b.Connect(poses, camera.GetInputPort("body_poses"))
 
     def _add_pushes(self) -> OutputPort:
         """A ``Partner`` playing the pushes (one ``ConstantForce`` each, at its frame's origin);
@@ -700,4 +778,9 @@ class HumanoidTaskBuilder:
             partner.GetInputPort("body_spatial_velocities"),
         )
         self.apply_spatial_forces(partner.GetOutputPort("spatial_forces"))
+        arrows = tuple(Arrow(body, tuple(points[body]), 3 * k) for k, body in enumerate(script))
+        self.draw_forces(
+            ArrowGroup("pushes", "push", PUSH_COLOUR, PUSH_SCALE, 3 * len(script), arrows),
+            partner.GetOutputPort("forces"),
+        )
         return partner.GetOutputPort("forces")

@@ -25,6 +25,7 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
 from drake_sot.diagrams.scenario import ROBOT, RemoteDecision, Scenario, ScenarioHandles, ScenarioSetup
+from drake_sot.diagrams.tasks import HAND_SCALE, PARTNER_COLOUR
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
 from drake_sot.diagrams.walking import STABILIZER, add_walking, forward_steps
 from drake_sot.footsteps import Footstep
@@ -32,6 +33,7 @@ from drake_sot.parameters import Parameter
 from drake_sot.sequencing import Above, Below, Push, Rm, SetValue, State, Transition, Up
 from drake_sot.systems.partner import Hold, Partner
 from drake_sot.systems.pattern_generator import PatternGenerator
+from drake_sot.systems.replay_view import Arrow, ArrowGroup
 from drake_sot.systems.sequencer import TaskSequencer
 
 WALKING_TASKS = ("taskRHwaist", "taskLHwaist")
@@ -187,6 +189,17 @@ def _finish(
     b.apply_spatial_forces(partner.GetOutputPort("spatial_forces"))
 
     b.log("partner_forces", partner.GetOutputPort("forces"))
+    b.draw_forces(
+        ArrowGroup(
+            "partner",
+            "the partner's pull on the hands",
+            PARTNER_COLOUR,
+            HAND_SCALE,
+            3 * len(hands),
+            tuple(Arrow(hand, (0.0, 0.0, 0.0), 3 * k) for k, hand in enumerate(hands)),
+        ),
+        partner.GetOutputPort("forces"),
+    )
     for task_name, admittance in admittances.items():
         b.log(f"wrench/{task_name}", admittance.GetOutputPort("wrench_external"))
         b.log(f"fault/{task_name}", admittance.GetOutputPort("fault"))
