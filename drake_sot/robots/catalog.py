@@ -27,6 +27,7 @@ from drake_sot.robots.description import (
     srdf_group_state,
     urdf_joints,
 )
+from drake_sot.robots.description_file import is_robot_path, load_description
 from drake_sot.robots.urdf import AddedWeld
 
 #: Environment variable naming the ``robots`` directory of example-robot-data (overrides
@@ -350,15 +351,21 @@ ROBOTS: dict[str, Callable[[], RobotDescription]] = {
 }
 
 
-def get_robot(name: str | RobotDescription) -> RobotDescription:
-    """The description of robot ``name`` (a description passes through).
+def get_robot(name: str | Path | RobotDescription) -> RobotDescription:
+    """The description of robot ``name``: one of :data:`ROBOTS`, or a path to a description file
+    (``.toml``) or to a model file with its description beside it (see
+    :func:`~drake_sot.robots.description_file.load_description`); a description passes through.
 
     Raises :class:`~drake_sot.errors.UnknownNameError` (a ValueError and a KeyError) for an
-    unknown name (listing the known ones), RobotDataMissing when its model files are not
-    installed.
+    unknown name that is no path (listing the known names),
+    RobotDataMissing when its model files are not installed, and for a path what
+    :func:`~drake_sot.robots.description_file.load_description` raises (RobotFileMissing,
+    RobotDescriptionError, RobotFileError: each naming the file).
     """
     if isinstance(name, RobotDescription):
         return name
+    if isinstance(name, Path) or is_robot_path(name):
+        return load_description(name)
     if name not in ROBOTS:
         raise UnknownNameError("robot", name, ROBOTS)
     return ROBOTS[name]()
