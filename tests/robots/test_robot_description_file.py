@@ -1,9 +1,10 @@
-"""Your own robot without Drake: the description file (TOML) read into a RobotDescription, its
+"""Your own robot, without simulating it: the description file (TOML) read into a RobotDescription, its
 refusals (each naming the file, the key and the value), a fuzz of its reader (hypothesis), the
 draft of a description from a URDF, and ``--robot PATH`` on the command line."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import shutil
@@ -68,6 +69,14 @@ def test_the_shipped_description_is_the_embedded_robot_read_from_files():
     assert robot.sole_size == SOLE
     assert robot.frames["left_foot"].xyz == (0.0, 0.0, -SOLE_BELOW_FOOT_LINK)
     assert robot.step_timing == embedded.step_timing
+
+
+def test_the_shipped_urdf_is_what_its_script_writes_from_the_embedded_tables():
+    """The shipped model is not edited by hand: it is what ``make_urdf.py`` writes today."""
+    spec = importlib.util.spec_from_file_location("make_urdf", EXAMPLE / "make_urdf.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    assert script.urdf_text() == (EXAMPLE / "humanoid.urdf").read_text()
 
 
 def test_a_path_is_a_robot_wherever_a_name_is(robot_dir, monkeypatch):
