@@ -19,6 +19,7 @@ from pathlib import Path
 from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.footsteps import StepTiming
 from drake_sot.robots.description import (
+    OPTICAL_RPY,
     CollisionShape,
     Drive,
     FrameSpec,
@@ -103,9 +104,6 @@ def __getattr__(name: str) -> RobotDescription:
     if name == "EMBEDDED":
         return _embedded()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-_OPTICAL = (-math.pi / 2, 0.0, -math.pi / 2)  # camera axes (z forward, x right, y down) on a link (x forward)
 
 
 def _frames(
@@ -294,7 +292,7 @@ def g1() -> RobotDescription:
             pelvis="pelvis",
             torso="torso_link",
             head=FrameSpec("head_link", (0.005, 0.0, 0.43)),  # the link's origin is at the waist
-            head_camera=FrameSpec("d435_link", rpy=_OPTICAL),
+            head_camera=FrameSpec("d435_link", rpy=OPTICAL_RPY),
             foot="{side}_sole_link",
             ankle="{side}_ankle_roll_link",
             wrist="{side}_wrist_yaw_link",

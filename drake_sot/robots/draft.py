@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_sot.robots.description import FORCE_SENSORS, LOGICAL_FRAMES, xml_root
+from drake_sot.robots.description import FORCE_SENSORS, LOGICAL_FRAMES, OPTICAL_RPY, xml_root
 from drake_sot.robots.errors import RobotFileError
 
 #: The knee bend [rad] of a drafted half-sitting posture (HRP-2 bends its knees 0.87 rad).
@@ -44,8 +44,6 @@ KNEE_BEND = 0.6
 KP_PER_EFFORT = 20.0
 #: A drafted ``kd`` is ``kp`` divided by this [s^-1] (the embedded humanoid's legs: 75-85).
 KD_RATIO = 80.0
-#: Roll-pitch-yaw [rad] of a camera frame (z forward, x right, y down) on a link (x forward, z up).
-OPTICAL_RPY = (-math.pi / 2, 0.0, -math.pi / 2)
 #: Effort limit [N m] drafted for a joint whose model gives none (or zero).
 DEFAULT_EFFORT = 10.0
 #: Sole size [m] drafted when the foot has no box to read it from.

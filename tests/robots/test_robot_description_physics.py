@@ -4,12 +4,14 @@ user's robot takes (``robot=`` the description's path: the TOML reader, the URDF
 Drake's parser, not the embedded humanoid's code), stands and walks.
 
 Every outcome is measured on the simulated plant: the pelvis and the soles standing, the
-landed soles against the planned footprints walking.
+landed soles against the planned footprints walking; the same walk with the description that
+``drake-sot robot draft`` writes for the URDF, unedited.
 """
 
 from __future__ import annotations
 
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +21,7 @@ from landings import landing_errors
 from drake_sot.diagrams import walk, walking
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.scenario import run_scenario
+from drake_sot.robots.draft import draft_description
 
 pytestmark = pytest.mark.slow
 DESCRIPTION = Path(__file__).resolve().parents[2] / "examples" / "robot" / "humanoid.toml"
@@ -53,8 +56,21 @@ def test_stands_5s_with_the_pelvis_within_1cm():
         assert X.rotation().matrix()[2, 2] > math.cos(math.radians(1.0))
 
 
-def test_walk_lands_every_step_within_2cm_of_its_footprint(tmp_path):
-    output = run_scenario(walk.SCENARIO, tmp_path, record=False, parameters={"robot": str(DESCRIPTION)})
+def drafted(tmp_path: Path) -> Path:
+    """The shipped URDF with the description ``drake-sot robot draft`` writes for it, unedited."""
+    model = tmp_path / "drafted.urdf"
+    shutil.copy(DESCRIPTION.with_suffix(".urdf"), model)
+    model.with_suffix(".toml").write_text(draft_description(model).text)
+    return model
+
+
+@pytest.mark.parametrize("robot", [lambda _: DESCRIPTION, drafted], ids=["shipped", "drafted"])
+def test_walk_lands_every_step_within_2cm_of_its_footprint(tmp_path, robot):
+    """The shipped description, and the draft of its URDF as drafted (the knees bent less, the
+    gains from the effort limits): a model and a drafted description are a robot that walks."""
+    output = run_scenario(
+        walk.SCENARIO, tmp_path / "out", record=False, parameters={"robot": str(robot(tmp_path))}
+    )
     assert output.result.completed, (output.result.failure, output.result.fell)
     steps = output.setup.extras.steps
     assert len(steps) >= 6
