@@ -135,9 +135,9 @@ def load_description(path: str | Path) -> RobotDescription:
 
     Raises:
         RobotFileMissing: the file, or the model it names, does not exist.
-        RobotDescriptionError: the file is not TOML (where), a key is unknown, missing or of
-            the wrong type, a value out of range (naming the file, the key and the value), a
-            joint without a drive, a half-sitting angle outside its limits.
+        RobotDescriptionError: the file is not TOML (where) or nests too deeply, a key is
+            unknown, missing or of the wrong type, a value out of range (naming the file, the
+            key and the value), a joint without a drive, a half-sitting angle outside its limits.
         RobotFileError: the model file is not a well-formed URDF.
     """
     path = description_path(path).resolve()
@@ -149,8 +149,13 @@ def _cached_description(path: Path, _mtime_ns: int) -> RobotDescription:
     """:func:`load_description` of the resolved ``path`` (``_mtime_ns`` keys the cache)."""
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise RobotDescriptionError(f"robot description {path}: not TOML: {exc}") from None
+    except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
+        reason = str(exc).split(";")[0]
+        raise RobotDescriptionError(
+            f"robot description {path}: not TOML, or not a value TOML reads: {reason}"
+        ) from None
+    except RecursionError:  # arrays nested a thousand deep
+        raise RobotDescriptionError(f"robot description {path}: values nested too deeply to read") from None
     except UnicodeDecodeError as exc:
         raise RobotDescriptionError(f"robot description {path}: not UTF-8 text ({exc.reason})") from None
     return _Reader(path, data).description()

@@ -149,11 +149,22 @@ def test_a_wrong_key_or_value_is_named_with_the_file(robot_dir, edit, message):
     assert "\n" not in str(caught.value)
 
 
-def test_a_file_that_is_not_toml_is_named_and_where(robot_dir):
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('model = "humanoid.urdf"\nframes = {\n', r"not TOML.*line 2"),
+        ("contact_radius = " + "9" * 5000, "not TOML, or not a value TOML reads: Exceeds the limit"),
+        ("sole_size = " + "[" * 5000 + "]" * 5000, "values nested too deeply"),
+        ("sole_size = [1, 2]\nsole_size = [1, 2]", "not TOML"),
+    ],
+    ids=["truncated", "5000 digits", "5000 deep", "twice"],
+)
+def test_a_file_that_is_not_toml_is_named_and_where(robot_dir, text, message):
     path = robot_dir / "robot.toml"
-    path.write_text('model = "humanoid.urdf"\nframes = {\n')
-    with pytest.raises(RobotDescriptionError, match=r"robot.toml: not TOML: .*line 2"):
+    path.write_text(text)
+    with pytest.raises(RobotDescriptionError, match=f"robot.toml: {message}") as caught:
         load_description(path)
+    assert "\n" not in str(caught.value)
 
 
 # --- fuzz: random values at random keys, random text: a description or a one-line error -------
