@@ -65,8 +65,8 @@ class _Joint:
     xyz: np.ndarray
     rpy: np.ndarray
     axis: np.ndarray
-    limits: tuple[float, float] | None
-    effort: float | None
+    limits: tuple[float, float] | None  # a revolute joint's
+    effort: float | None  # a revolute joint's
     mimic: bool
 
 
@@ -100,6 +100,16 @@ def _floats(text: str | None, size: int, default: float = 0.0) -> np.ndarray:
     return np.array(values)
 
 
+def _printable(name: str) -> bool:
+    """True when ``name`` is text a TOML string holds as it is (no control character, no lone
+    surrogate)."""
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return name.isprintable()
+
+
 def _side(name: str) -> str | None:
     sides = [side for side, pattern in _SIDES.items() if pattern.search(name)]
     return sides[0] if len(sides) == 1 else None
@@ -107,12 +117,12 @@ def _side(name: str) -> str | None:
 
 def _key(name: str) -> str:
     """A TOML key: bare when it can be, else quoted."""
-    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name)
+    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name, ensure_ascii=False)
 
 
 def _value(value) -> str:
     if isinstance(value, str):
-        return json.dumps(value)
+        return json.dumps(value, ensure_ascii=False)
     if isinstance(value, tuple | list):
         return "[" + ", ".join(_value(v) for v in value) + "]"
     return repr(round(float(value), 6) + 0.0)  # + 0.0: no -0.0
@@ -122,39 +132,54 @@ class _Model:
     """The tree of a URDF in its zero configuration."""
 
     def __init__(self, path: Path) -> None:
+        self.path = path
         root = xml_root(path, "robot model file")
         if root.tag != "robot":
             raise RobotFileError(
                 f"robot model file {path}: not a URDF (its root is <{root.tag}>, not <robot>)"
             )
         self.links = {link.get("name"): link for link in root.findall("link")}
+        if None in self.links or "" in self.links or len(self.links) != len(root.findall("link")):
+            raise RobotFileError(f"robot model file {path}: a link without a name, or two of one name")
         self.joints: dict[str, _Joint] = {}
         for element in root.findall("joint"):
-            name = element.get("name")
+            name, kind = element.get("name"), element.get("type")
             try:
                 origin, limit, axis = element.find("origin"), element.find("limit"), element.find("axis")
                 parent, child = element.find("parent").get("link"), element.find("child").get("link")
                 self.joints[name] = _Joint(
                     name=name,
-                    kind=element.get("type"),
+                    kind=kind,
                     parent=parent,
                     child=child,
                     xyz=_floats(None if origin is None else origin.get("xyz"), 3),
                     rpy=_floats(None if origin is None else origin.get("rpy"), 3),
                     axis=_floats(None if axis is None else axis.get("xyz"), 3) if axis is not None else _X,
                     limits=None
-                    if limit is None or limit.get("lower") is None
+                    if kind != "revolute"
                     else (float(limit.get("lower")), float(limit.get("upper"))),
-                    effort=None
-                    if limit is None or limit.get("effort") is None
-                    else float(limit.get("effort")),
+                    effort=None if kind != "revolute" else float(limit.get("effort")),
                     mimic=element.find("mimic") is not None,
                 )
             except (AttributeError, TypeError, ValueError) as exc:
+                needs = " (a revolute joint needs <limit lower upper effort>)" if kind == "revolute" else ""
                 raise RobotFileError(
-                    f"robot model file {path}: joint {name!r}: cannot be read ({exc})"
+                    f"robot model file {path}: joint {name!r}: cannot be read{needs}: {exc}"
                 ) from None
+        if None in self.joints or "" in self.joints or len(self.joints) != len(root.findall("joint")):
+            raise RobotFileError(f"robot model file {path}: a joint without a name, or two of one name")
+        unwritable = [name for name in (*self.links, *self.joints) if not _printable(name)]
+        if unwritable:
+            raise RobotFileError(f"robot model file {path}: names {unwritable} are not printable text")
+        for j in self.joints.values():
+            if j.parent not in self.links or j.child not in self.links:
+                raise RobotFileError(
+                    f"robot model file {path}: joint {j.name!r} joins {j.parent!r} to {j.child!r}: "
+                    "both must be links of the model"
+                )
         self.by_child = {j.child: j for j in self.joints.values()}
+        if len(self.by_child) != len(self.joints):
+            raise RobotFileError(f"robot model file {path}: a link is the child of two joints")
         self.children: dict[str, list[str]] = {name: [] for name in self.links}
         for j in self.joints.values():
             self.children.setdefault(j.parent, []).append(j.child)
@@ -170,6 +195,11 @@ class _Model:
             for child in self.children.get(link, []):
                 j = self.by_child[child]
                 stack.append((child, R @ _rotation(j.rpy), p + R @ j.xyz))
+        detached = sorted(set(self.links) - set(self.pose))
+        if detached:
+            raise RobotFileError(
+                f"robot model file {path}: links {detached} are not below the root {self.root!r}"
+            )
 
     def chain(self, link: str) -> list[str]:
         """The links from the root to ``link``, both included."""
@@ -199,9 +229,14 @@ class _Model:
                 box = geometry.find("geometry/box")
                 if box is not None:
                     origin = geometry.find("origin")
-                    return _floats(box.get("size"), 3), _floats(
-                        None if origin is None else origin.get("xyz"), 3
-                    )
+                    try:
+                        return _floats(box.get("size"), 3), _floats(
+                            origin.get("xyz") if origin is not None else None, 3
+                        )
+                    except ValueError as exc:
+                        raise RobotFileError(
+                            f"robot model file {self.path}: the box of link {link!r} cannot be read: {exc}"
+                        ) from None
         return None
 
     def named(self, links, pattern: str) -> list[str]:
@@ -336,7 +371,7 @@ def draft_description(path: str | Path) -> Draft:
     drives = []
     for joint in model.moving():
         pattern = _key(f"^{re.escape(joint.name)}$")
-        if joint.effort is not None and joint.effort > 0:
+        if joint.effort > 0:  # not NaN
             kp = KP_PER_EFFORT * joint.effort
             drives.append(f"{pattern} = {{ kp = {_value(kp)}, kd = {_value(kp / KD_RATIO)} }}")
         else:

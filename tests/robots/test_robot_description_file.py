@@ -9,6 +9,7 @@ import json
 import math
 import shutil
 import tomllib
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
@@ -249,9 +250,10 @@ def test_a_draft_without_sensor_welds_adds_sole_links(robot_dir):
     """A model whose feet hang on their ankle joints (no weld to read the ankle force through)
     gets a sole link welded under each foot."""
     text = (robot_dir / "humanoid.urdf").read_text()
-    for side in ("l", "r"):  # the feet hang on the ankle-roll joint's link itself
+    for side in ("l", "r"):  # the sensor weld becomes a (toe) joint: no weld between ankle and foot
         text = text.replace(
-            f'<joint name="{side}_ankle_ft" type="fixed">', f'<joint name="{side}_ankle_ft" type="revolute">'
+            f'<joint name="{side}_ankle_ft" type="fixed">',
+            f'<joint name="{side}_ankle_ft" type="revolute"><limit lower="-0.1" upper="0.1" effort="10"/>',
         )
     (robot_dir / "nosensor.urdf").write_text(text)
     drafted = draft_description(robot_dir / "nosensor.urdf")
@@ -274,6 +276,34 @@ def test_a_model_the_draft_cannot_read_is_named(tmp_path, text, message):
     path.write_text(text)
     with pytest.raises(RobotFileError, match=message):
         draft_description(path)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    element=st.integers(0, 10_000),
+    attribute=st.sampled_from(["name", "link", "xyz", "rpy", "lower", "upper", "effort", "size", "type"]),
+    value=st.none()
+    | st.sampled_from(["nan", "inf", "1e999", "", "pelvis", "l_foot", "0 0", "1 2 3 4", "fixed"])
+    | st.text(max_size=6),
+)
+def test_a_fuzzed_urdf_is_drafted_or_refused_in_one_line_naming_it(robot_dir, element, attribute, value):
+    """One attribute of one element of the shipped URDF deleted (None) or set to anything: the
+    draft is a text or a RobotFileError naming the file, never an error from deep inside."""
+    tree = ET.parse(robot_dir / "humanoid.urdf")
+    elements = [e for e in tree.iter() if attribute in e.attrib]
+    target = elements[element % len(elements)]
+    if value is None:
+        del target.attrib[attribute]
+    else:
+        target.set(attribute, value)
+    path = robot_dir / "fuzzed.urdf"
+    tree.write(path)
+    try:
+        drafted = draft_description(path)
+    except RobotFileError as exc:
+        assert str(path) in str(exc) and "\n" not in str(exc), str(exc)
+    else:
+        tomllib.loads(drafted.text)  # it is TOML
 
 
 # --- the command line ------------------------------------------------------------------------
