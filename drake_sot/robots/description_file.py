@@ -131,14 +131,16 @@ def description_path(path: str | Path) -> Path:
 def load_description(path: str | Path) -> RobotDescription:
     """The robot described by the TOML file ``path`` (see the module docstring), or by the
     description beside the model file ``path``; read once per version of the file (cached by
-    its path and modification time).
+    its path and modification time: a model file edited since is read again once its
+    description is touched, or in a new process).
 
     Raises:
         RobotFileMissing: the file, or the model it names, does not exist.
         RobotDescriptionError: the file is not TOML (where) or nests too deeply, a key is
             unknown, missing or of the wrong type, a value out of range (naming the file, the
             key and the value), a joint without a drive, a half-sitting angle outside its limits.
-        RobotFileError: the model file is not a well-formed URDF.
+        RobotFileError: the description cannot be read (permissions), the model file is not a
+            well-formed URDF.
     """
     path = description_path(path).resolve()
     return _cached_description(path, path.stat().st_mtime_ns)
@@ -149,6 +151,10 @@ def _cached_description(path: Path, _mtime_ns: int) -> RobotDescription:
     """:func:`load_description` of the resolved ``path`` (``_mtime_ns`` keys the cache)."""
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise RobotDescriptionError(f"robot description {path}: not UTF-8 text ({exc.reason})") from None
+    except OSError as exc:  # no permission to read it
+        raise RobotFileError(f"robot description {path}: cannot be read: {exc.strerror or exc}") from None
     except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
         reason = str(exc).split(";")[0]
         raise RobotDescriptionError(
@@ -156,8 +162,6 @@ def _cached_description(path: Path, _mtime_ns: int) -> RobotDescription:
         ) from None
     except RecursionError:  # arrays nested a thousand deep
         raise RobotDescriptionError(f"robot description {path}: values nested too deeply to read") from None
-    except UnicodeDecodeError as exc:
-        raise RobotDescriptionError(f"robot description {path}: not UTF-8 text ({exc.reason})") from None
     return _Reader(path, data).description()
 
 

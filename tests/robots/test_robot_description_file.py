@@ -157,12 +157,13 @@ def test_a_wrong_key_or_value_is_named_with_the_file(robot_dir, edit, message):
         ("contact_radius = " + "9" * 5000, "not TOML, or not a value TOML reads: Exceeds the limit"),
         ("sole_size = " + "[" * 5000 + "]" * 5000, "values nested too deeply"),
         ("sole_size = [1, 2]\nsole_size = [1, 2]", "not TOML"),
+        ('name = "caf\xe9"', "not UTF-8 text"),
     ],
-    ids=["truncated", "5000 digits", "5000 deep", "twice"],
+    ids=["truncated", "5000 digits", "5000 deep", "twice", "latin-1"],
 )
 def test_a_file_that_is_not_toml_is_named_and_where(robot_dir, text, message):
     path = robot_dir / "robot.toml"
-    path.write_text(text)
+    path.write_bytes(text.encode("latin-1"))
     with pytest.raises(RobotDescriptionError, match=f"robot.toml: {message}") as caught:
         load_description(path)
     assert "\n" not in str(caught.value)
