@@ -36,6 +36,9 @@ class Parameter:
         maximum: the largest value accepted, None for none (numbers only).
         maximum_excluded: ``maximum`` itself is refused (a probability in [0, 1)).
         choices: the accepted values of a ``choice``.
+        paths: file suffixes (lower case, with the dot) a ``choice`` also accepts: a string
+            ending with one of them is a path, accepted as it is (whoever opens the file says
+            when it is missing or wrong); a robot's name or its description file.
         unit: the unit of a number, shown in messages and help (e.g. ``"s"``).
 
     Raises:
@@ -52,6 +55,7 @@ class Parameter:
     maximum_excluded: bool = False
     choices: tuple[str, ...] = ()
     unit: str = ""
+    paths: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -63,6 +67,8 @@ class Parameter:
             raise ValueError(f"Parameter {self.name}: a {self.kind} has no minimum or maximum")
         if (self.kind == "choice") != bool(self.choices):
             raise ValueError(f"Parameter {self.name}: choices are for (and needed by) a choice only")
+        if self.paths and self.kind != "choice":
+            raise ValueError(f"Parameter {self.name}: paths are for a choice only")
         if self.kind == "int" and self.minimum is None:
             raise ValueError(f"Parameter {self.name}: an int needs a minimum")
         self.check(self.default)
@@ -76,9 +82,10 @@ class Parameter:
     def accepted(self) -> str:
         """What the parameter accepts, as a message or a help text ends: ``in [0, 0.3] s``,
         ``in [0, 1)``, ``>= 0 s``, ``an integer in [1, 8]``, ``one of: plain, weighted``,
-        ``True or False``."""
+        ``True or False``; ``one of: a, b, or a path ending with .toml``."""
         if self.kind == "choice":
-            return f"one of: {', '.join(self.choices)}"
+            paths = f", or a path ending with {', '.join(self.paths)}" if self.paths else ""
+            return f"one of: {', '.join(self.choices)}{paths}"
         if self.kind == "bool":
             return "True or False"
         unit = f" {self.unit}" if self.unit else ""
@@ -100,17 +107,21 @@ class Parameter:
         default = f"{self.default:g}" if self.kind == "float" else str(self.default)
         return f"{self.help}; {self.accepted()} (default {default}{f' {self.unit}' if self.unit else ''})"
 
+    def is_path(self, value: Any) -> bool:
+        """True when ``value`` is a string ending with one of ``paths`` (any case)."""
+        return isinstance(value, str) and bool(self.paths) and value.lower().endswith(self.paths)
+
     def check(self, value: Any) -> float | int | bool | str:
         """``value`` checked and converted (a float, an int, a bool or one of the choices).
 
         Raises:
             ValueError: naming the parameter, the value and what is accepted: NaN, ±inf, an
                 integer beyond float range, a value out of bounds, a non-integral int, a bool
-                that is not one, a choice that is not one of ``choices``.
+                that is not one, a choice that is not one of ``choices`` (nor a path).
         """
         refused = f"{self.name} = {validation.shown(value)}{f' {self.unit}' if self.unit else ''}"
         if self.kind == "choice":
-            if not (isinstance(value, str) and value in self.choices):
+            if not (isinstance(value, str) and (value in self.choices or self.is_path(value))):
                 raise ValueError(f"{refused}: must be {self.accepted()}")
             return value
         if self.kind == "bool":

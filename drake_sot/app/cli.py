@@ -68,6 +68,7 @@ from drake_sot.remote.shell import DEFAULT_PORT, TOKEN_ENV, shell_main
 from drake_sot.robots import ROBOTS, RobotDataMissing, RobotFileError, get_robot
 from drake_sot.robots.catalog import INSTALL_HINT
 from drake_sot.robots.description import LOGICAL_FRAMES
+from drake_sot.robots.draft import draft_description
 from drake_sot.script import ScriptError, Statement
 from drake_sot.studies.catalog import STUDIES as CATALOG
 from drake_sot.validation import bounded, finite, is_number, nonnegative, positive, positive_int
@@ -289,6 +290,19 @@ def distinct_parameters(owners: Mapping[str, Sequence[Parameter]]) -> dict[str, 
     return found
 
 
+def _choice_or_path(parameter: Parameter) -> Callable[[str], str]:
+    """An argparse ``type``: one of the ``parameter``'s choices or a path ending with one of its
+    ``paths``; anything else is argparse's one-line error naming what is accepted (exit 2)."""
+
+    def convert(text: str) -> str:
+        try:
+            return str(parameter.check(text))
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return convert
+
+
 def _parameter_options(parser: argparse.ArgumentParser, owners: Mapping[str, Sequence[Parameter]]) -> None:
     """One option per distinct parameter of ``owners`` (:func:`distinct_parameters`), its value
     ``None`` when not given; its help names the owners, what it accepts and its default. A
@@ -298,6 +312,14 @@ def _parameter_options(parser: argparse.ArgumentParser, owners: Mapping[str, Seq
         if parameter.kind == "bool":
             parser.add_argument(
                 parameter.option, dest=name, action="store_const", const=not parameter.default, help=described
+            )
+        elif parameter.kind == "choice" and parameter.paths:  # a name or a path: no argparse choices
+            parser.add_argument(
+                parameter.option,
+                dest=name,
+                type=_choice_or_path(parameter),
+                metavar="NAME|PATH",
+                help=described,
             )
         elif parameter.kind == "choice":
             parser.add_argument(parameter.option, dest=name, choices=parameter.choices, help=described)
@@ -375,6 +397,18 @@ def _parser(
         script, "simulated seconds (default: what the script's 'run SECONDS' lines add up to)"
     )
     _remote_parsers(sub, _served_parameters() if served is None else served)
+    robot = sub.add_parser(
+        "robot", help="your own robot: 'robot draft MODEL > MODEL.toml' drafts its description"
+    )
+    actions = robot.add_subparsers(dest="action", required=True)
+    draft = actions.add_parser(
+        "draft",
+        help="print a description file drafted from a URDF (frames, sole, sensors, half-sitting, gains)",
+        epilog="write it beside the model under the model's name with .toml, check what its first lines "
+        "say it could not guess, then: drake-sot run walk --robot MODEL.toml; exit status 2: a model "
+        "file that is missing or cannot be read",
+    )
+    draft.add_argument("model", metavar="MODEL", help="the robot's URDF file")
     study_arguments(sub.add_parser("study", help="run a study (many runs) on Dask", epilog=STUDY_EPILOG))
     return parser, run, script
 
@@ -442,6 +476,21 @@ def _check_robot(parser: argparse.ArgumentParser, name: str | None) -> None:
             get_robot(name)
         except (RobotDataMissing, RobotFileError) as exc:
             parser.error(f"--robot {name}: {exc}")
+
+
+def _draft(model: str, parser: argparse.ArgumentParser) -> int:
+    """``robot draft MODEL``: the drafted description on stdout, how many things it could not
+    guess on stderr; a model that is missing or cannot be read is one line on stderr, exit 2."""
+    try:
+        drafted = draft_description(model)
+    except RobotFileError as exc:
+        parser.exit(2, f"drake-sot robot draft: error: {exc}\n")
+    sys.stdout.write(drafted.text)
+    print(
+        f"drafted; {len(drafted.unguessed)} things not guessed, listed at the top: check them",
+        file=sys.stderr,
+    )
+    return 0
 
 
 def _list_robots() -> int:
@@ -542,6 +591,8 @@ def _main(argv: Sequence[str] | None) -> int:
         return (
             _serve(args, parser) if args.command == "serve" else shell_main(args.host, args.port, args.token)
         )
+    if args.command == "robot":
+        return _draft(args.model, parser)
     if args.command == "list" and args.robots:
         return _list_robots()
     if args.command == "list":

@@ -32,6 +32,7 @@ from drake_sot.hand_steps import HandStepRule
 from drake_sot.parameters import Parameter, UndeclaredParameter, check_parameters
 from drake_sot.plots import plot_task_errors
 from drake_sot.robots import ROBOTS
+from drake_sot.robots.description_file import ROBOT_PATH_SUFFIXES
 from drake_sot.systems.admittance import AdmittanceController
 from drake_sot.systems.channel import Channel
 from drake_sot.systems.hand_steps import StepDecider
@@ -160,13 +161,15 @@ class Scenario:
     servable: bool = False  # ``build`` takes ``command_server``
 
 
-#: The robot a scenario drives (its builder's ``robot=``), by name.
+#: The robot a scenario drives (its builder's ``robot=``), by name or by the path of its
+#: description file (or of its model, the description beside it).
 ROBOT = Parameter(
     "robot",
     "choice",
     "embedded",
-    "the robot (see 'drake-sot list --robots')",
+    "the robot (see 'drake-sot list --robots'; your own: see 'drake-sot robot draft')",
     choices=tuple(sorted(ROBOTS)),
+    paths=ROBOT_PATH_SUFFIXES,
 )
 
 Runner = Callable[..., RunResult]

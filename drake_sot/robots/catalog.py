@@ -19,6 +19,7 @@ from pathlib import Path
 from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.footsteps import StepTiming
 from drake_sot.robots.description import (
+    OPTICAL_RPY,
     CollisionShape,
     Drive,
     FrameSpec,
@@ -27,6 +28,7 @@ from drake_sot.robots.description import (
     srdf_group_state,
     urdf_joints,
 )
+from drake_sot.robots.description_file import is_robot_path, load_description
 from drake_sot.robots.urdf import AddedWeld
 
 #: Environment variable naming the ``robots`` directory of example-robot-data (overrides
@@ -102,9 +104,6 @@ def __getattr__(name: str) -> RobotDescription:
     if name == "EMBEDDED":
         return _embedded()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-_OPTICAL = (-math.pi / 2, 0.0, -math.pi / 2)  # camera axes (z forward, x right, y down) on a link (x forward)
 
 
 def _frames(
@@ -293,7 +292,7 @@ def g1() -> RobotDescription:
             pelvis="pelvis",
             torso="torso_link",
             head=FrameSpec("head_link", (0.005, 0.0, 0.43)),  # the link's origin is at the waist
-            head_camera=FrameSpec("d435_link", rpy=_OPTICAL),
+            head_camera=FrameSpec("d435_link", rpy=OPTICAL_RPY),
             foot="{side}_sole_link",
             ankle="{side}_ankle_roll_link",
             wrist="{side}_wrist_yaw_link",
@@ -350,15 +349,21 @@ ROBOTS: dict[str, Callable[[], RobotDescription]] = {
 }
 
 
-def get_robot(name: str | RobotDescription) -> RobotDescription:
-    """The description of robot ``name`` (a description passes through).
+def get_robot(name: str | Path | RobotDescription) -> RobotDescription:
+    """The description of robot ``name``: one of :data:`ROBOTS`, or a path to a description file
+    (``.toml``) or to a model file with its description beside it (see
+    :func:`~drake_sot.robots.description_file.load_description`); a description passes through.
 
     Raises :class:`~drake_sot.errors.UnknownNameError` (a ValueError and a KeyError) for an
-    unknown name (listing the known ones), RobotDataMissing when its model files are not
-    installed.
+    unknown name that is no path (listing the known names),
+    RobotDataMissing when its model files are not installed, and for a path what
+    :func:`~drake_sot.robots.description_file.load_description` raises (RobotFileMissing,
+    RobotDescriptionError, RobotFileError: each naming the file).
     """
     if isinstance(name, RobotDescription):
         return name
+    if isinstance(name, Path) or is_robot_path(name):
+        return load_description(name)
     if name not in ROBOTS:
         raise UnknownNameError("robot", name, ROBOTS)
     return ROBOTS[name]()

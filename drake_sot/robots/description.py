@@ -13,6 +13,7 @@ No pydrake import here.
 
 from __future__ import annotations
 
+import math
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
@@ -42,6 +43,8 @@ LOGICAL_FRAMES = (
     "left_hand",
     "right_hand",
 )
+#: Roll-pitch-yaw [rad] of a camera frame (z forward, x right, y down) on a link (x forward, z up).
+OPTICAL_RPY = (-math.pi / 2, 0.0, -math.pi / 2)
 #: The force/torque sensors every robot gives.
 FORCE_SENSORS = ("left_ankle", "right_ankle", "left_wrist", "right_wrist")
 
