@@ -676,8 +676,8 @@ class HumanoidTaskBuilder:
         logs = dict(logs)
         if self.pushes:
             logs["push_forces"] = self._add_pushes()
-        if not self.fixed_base:
-            logs["sole_forces"] = self._add_sole_forces()
+        if not self.fixed_base and self.meshcat is not None:  # drawn in the replay (a Python system
+            logs["sole_forces"] = self._add_sole_forces()  # a tick: not paid where nothing draws it)
         if self.fall_criteria is not None:
             torso = self.plant.GetFrameByName(self.info.frames["torso"], self.info.model_instance).body()
             self.fall_monitor = b.AddSystem(
