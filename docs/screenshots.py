@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -19,7 +20,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
-from headless import screenshot  # noqa: E402 - the tests' Chromium helper, one home
+from headless import FLAGS, chromium, screenshot  # noqa: E402 - the tests' Chromium helper, one home
 
 from drake_sot.remote import Client  # noqa: E402
 
@@ -50,21 +51,19 @@ def _served(scenario: str, at: float, tmp: Path) -> None:
             client.read("dyn.com")
             while client.t < at:
                 client.read("dyn.com")
-            screenshot(_page(view, tmp, "view"), IMAGES / "live_view.png", size="900,600")
-            screenshot(_page(plot, tmp, "plot"), IMAGES / "live_plot.png", size="1200,480")
+            _shoot_url(view, IMAGES / "live_view.png", "900,600", tmp)
+            _shoot_url(plot, IMAGES / "live_plot.png", "1200,480", tmp)
     finally:
         proc.terminate()
         proc.wait(timeout=30)
 
 
-def _page(url: str, tmp: Path, name: str) -> Path:
-    """A local page that shows ``url`` full-window (``screenshot`` takes files)."""
-    page = tmp / f"{name}.html"
-    page.write_text(
-        f'<html><body style="margin:0"><iframe src="{url}" style="border:0;width:100vw;height:100vh">'
-        "</iframe></body></html>"
-    )
-    return page
+def _shoot_url(url: str, out: Path, size: str, tmp: Path) -> None:
+    """Headless Chromium's screenshot of a served page (the live ones; :func:`screenshot` takes files)."""
+    profile = tmp / f"profile-{out.stem}"
+    command = [chromium(), *FLAGS, f"--user-data-dir={profile}", f"--screenshot={out}"]
+    command += [f"--window-size={size}", "--timeout=8000", url]
+    subprocess.run(command, capture_output=True, timeout=60, check=True)
 
 
 def main() -> None:
@@ -79,8 +78,12 @@ def main() -> None:
             [*DRAKE_SOT, "run", args.scenario, "--duration", str(args.at), "--out", str(tmp)], check=True
         )
         svg = tmp / f"{args.scenario}.svg"
-        screenshot(svg, IMAGES / "signal_graph.png", size=_svg_size(svg))
-        screenshot(tmp / f"{args.scenario}.html", IMAGES / "replay.png", size="900,600")
+        for page, name, size in (
+            (svg, "signal_graph", _svg_size(svg)),
+            (tmp / f"{args.scenario}.html", "replay", "900,600"),
+        ):
+            screenshot(page, tmp / f"{name}.png", size=size)  # its Chromium profile beside it, in tmp
+            shutil.copyfile(tmp / f"{name}.png", IMAGES / f"{name}.png")
         _served(args.scenario, args.at, tmp)
     for path in sorted(IMAGES.glob("*.png")):
         print(f"wrote {path.relative_to(REPO)}")
