@@ -36,7 +36,7 @@ _PAGE = """<!doctype html>
 <div><b>stack</b> (highest first)<ol id="stack"></ol><div id="legend"></div></div></div>
 <script>
 const colors = ["#1f77b4","#ff7f0e","#2ca02c","#d62728","#9467bd","#8c564b","#e377c2",
-                "#7f7f7f","#bcbd22","#17becf","#393b79","#ad494a","#637939","#7b4173"];
+                "#7f7f7f","#bcbd22","#17becf","#393b79","#ad494a","#6b7a39","#7b4173"];
 function draw(d) {
   const c = document.getElementById("plot"), g = c.getContext("2d");
   const W = c.width, H = c.height, L = 50, B = 25, T = 10;
