@@ -47,10 +47,10 @@ no master, hence no operator ghosts.
 panel): the force measured at the wrists bursts to ±15 N in 33 Hz oscillations of 0.3 s, at
 7, 11, 15, 19 and 23 s (every 4 s), then at 48 and 57 s, while the operator's force stays near
 2 N. Measured on that run (the ripple: the force less its 0.05 s moving mean, RMS over each 1 s
-window): the ripple's median is 0.24 N, the bursts 11-18 times it, both wrists. It is no
-contact chatter (the board's grasp is a bushing, it has no contact), no step impact (the
-landings are in the median) and no packet of the link (their age stays at 0.145 s, the delay
-and a tick); it is the hierarchy at a joint limit:
+window): the ripple's median is 0.24 N, the bursts 11-18 times it at 7-23 s, 6 and 9 times at
+48 and 57 s, at both wrists. It is no contact chatter (the board's grasp is a bushing, it has no
+contact), no step impact (the landings are in the median) and no packet of the link (their age
+stays at 0.145 s, the delay and a tick); it is the hierarchy at a joint limit:
 
 - the robot's body lags the stance its steps are decided from by 15-20 cm (at 20 s the pelvis
   at x = 0.60 m, the planned stance at 0.76 m: the steps queued ahead), so the hands carry the

@@ -101,7 +101,7 @@ def _ripple_rms(time: np.ndarray, force: np.ndarray) -> np.ndarray:
 def test_walking_the_wrist_forces_have_no_bursts(walking, request):
     """Over each 1 s window the ripple of the force measured at each wrist stays within 3 times
     the run's median. With the co-operator leading it does not: 33 Hz bursts of ±15 N at 7, 11,
-    15, 19, 23, 48 and 57 s, 11 to 18 times the median, when an elbow is held at its joint limit
+    15, 19, 23, 48 and 57 s, 6 to 18 times the median, when an elbow is held at its joint limit
     and the hand's position task chatters against it in the solver (the scenario's docstring has
     the measurements): an expected failure, strict, so that a fix shows."""
     if walking.setup.extras.leader == "cooperator":
