@@ -43,6 +43,43 @@ robot's hands by the delay. The co-operator is drawn as a translucent orange sph
 target, ``Partner.targets``, logged as ``cooperator_target``). The two-process mode's slave has
 no master, hence no operator ghosts.
 
+**The wrist-force bursts** (co-operator leading, 140 ms; ``telecooperation_fig7.png``, third
+panel): the force measured at the wrists bursts to ±15 N in 33 Hz oscillations of 0.3 s, at
+7, 11, 15, 19 and 23 s (every 4 s), while the operator's force stays near 2 N. Measured on that
+run (the ripple: the force less its 0.05 s moving mean, RMS over each 1 s window): the ripple's
+median is 0.24 N, the bursts 11-18 times it, at both wrists. They are no contact chatter (the
+board's grasp is a bushing, it has no contact), no step impact (the landings are in the median)
+and no packet of the link (their age stays at 0.145 s, the delay and a tick); they are the
+hierarchy at a joint limit:
+
+- the robot's body lags the stance its steps are decided from by 15-20 cm (at 20 s the pelvis
+  at x = 0.60 m, the planned stance at 0.76 m: the steps queued ahead), so the hands carry the
+  board 0.56 m ahead of the pelvis instead of 0.37 m; the reach comes from the chest (pitch up
+  to 0.6 rad) and the elbows (from -1.07 rad to -0.03 rad);
+- the chest's lean is bounded by e_head: the neck is at its limit (``head_pitch`` -0.504 rad,
+  the limit -0.524 less taskJL's 0.02 margin), so the head follows the operator's pitch only
+  through the chest; when the operator's nod looks up (-0.1 rad, every 4 s) during the left
+  foot's single support (the right foot swinging), the chest leans 0.41 rad instead of 0.6
+  and the right elbow reaches its bound (-0.03 rad: its limit 0, the straight arm, less the
+  margin);
+- with the elbow held at its bound, the hand's position task (e_fr) chatters through the wrist
+  and the shoulder's yaw: the right wrist's pitch and yaw, the shoulder's yaw change their
+  velocity by 5.5, 4.1 and 3.1 rad/s RMS from a tick to the next (0.01 before the burst).
+
+Varied one at a time on the same run: without the nod (the head's pitch 0) the bursts at 7-23 s
+are gone, one is left at 9 s (the left elbow at its bound, 9 times the median; that run fell
+at 56.9 s, the co-operator-led balance being marginal); with the elbows held 0.3 rad bent by
+another joint-limit level under taskJL, the chatter moved to that bound and went on through the
+walk (the median ripple 3.9 N). The chatter is the hand task against an active joint bound in
+the solver, not the straight arm's singularity, nor physics. The operator leading has one such
+burst, at 6.5-7.5 s (the left elbow at its bound, 11 times the median of 0.21 N). Milder ones
+(3-9 times the median, 2-6 Hz) come with the feet late in the walk: the swing foot touching
+down before the planned landing (48 and 57 s with the co-operator leading, 46 s with the
+operator; at 57.4 s the stance foot's force drops from 700 to 34 N for a tick), a lift-off
+(51 s) and the altitude tasks' removal as the walk stops (56.3 s), both with the operator.
+``tests/diagrams/test_telecooperation_walking.py`` measures the ripple (an expected failure
+while the bursts are there).
+
 Why the walk fell before, and what fixed it (the arms carried in front with position-only
 hand tasks, the hands' wrenches in the stabilizer's model, a spring in z in the hands'
 admittance): ``benchmarks/README.md``.
