@@ -147,6 +147,7 @@ from drake_sot.diagrams.balance import add_zmp_estimator, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.scenario import Scenario, ScenarioHandles, ScenarioSetup
+from drake_sot.diagrams.tasks import HAND_SCALE, PARTNER_COLOUR
 from drake_sot.diagrams.telecooperation_plots import plot_telecooperation
 from drake_sot.diagrams.walking import add_walking
 from drake_sot.footsteps import StepLimits
@@ -162,6 +163,7 @@ from drake_sot.systems.hand_steps import StepDecider
 from drake_sot.systems.marker import MeshcatMarker
 from drake_sot.systems.master import MasterSite, Operator
 from drake_sot.systems.partner import Hold, Partner
+from drake_sot.systems.replay_view import Arrow, ArrowGroup
 from drake_sot.systems.sequencer import TaskSequencer
 from drake_sot.systems.telecoop import (
     MASTER_BOUNDS,
@@ -740,6 +742,17 @@ def build(
         b.plant.get_body_spatial_velocities_output_port(), cooperator.GetInputPort("body_spatial_velocities")
     )
     b.apply_spatial_forces(cooperator.GetOutputPort("spatial_forces"))
+    b.draw_forces(
+        ArrowGroup(
+            "cooperator",
+            "the co-operator's pull on the board's far end",
+            PARTNER_COLOUR,
+            HAND_SCALE,
+            3,
+            (Arrow("board", (0.5 * config.board_length, 0.0, 0.0), 0),),
+        ),
+        cooperator.GetOutputPort("forces"),
+    )
     if meshcat is not None:
         add_cooperator_ghost(builder, meshcat, cooperator.GetOutputPort("targets"), config)
 

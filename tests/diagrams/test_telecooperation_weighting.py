@@ -182,3 +182,19 @@ def test_the_replay_draws_the_cooperator_where_they_pull_the_boards_far_end(reco
         worst = max(worst, float(np.linalg.norm(a["cooperator_force"][k] - law)))
     print(f"co-operator force against k (target - far end) + b (rate - velocity): worst {worst:.3f} N")
     assert worst < 0.5  # [N] of ~10
+
+
+def test_the_replay_draws_the_cooperators_pull_as_an_arrow_with_its_legend(recorded):
+    """The co-operator's force on the board's far end is an arrow of the replay (a shaft and a
+    head, shown at some frames), named in the page's legend."""
+    import html
+
+    from replay_html import replay_messages
+
+    messages = replay_messages(recorded.files["html"])
+    drawn = {m["path"] for m in messages if m.get("type") == "set_object"}
+    assert {"/forces/cooperator/0/shaft/cylinder", "/forces/cooperator/0/head/cone"} <= drawn
+    (animation,) = [m for m in messages if m.get("type") == "set_animation"]
+    tracks = [a for a in animation["animations"] if a["path"].startswith("/forces/cooperator/0")]
+    assert tracks, "the arrow is never moved in the recording"
+    assert "co-operator's pull on the board" in html.unescape(recorded.files["html"].read_text())
