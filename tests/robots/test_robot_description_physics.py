@@ -10,13 +10,12 @@ landed soles against the planned footprints walking; the same walk with the desc
 
 from __future__ import annotations
 
-import math
 import shutil
 from pathlib import Path
 
-import numpy as np
 import pytest
 from landings import landing_errors
+from standing import assert_stands_5s
 
 from drake_sot.diagrams import walk, walking
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
@@ -36,24 +35,7 @@ def test_the_robot_is_loaded_from_its_files():
 
 
 def test_stands_5s_with_the_pelvis_within_1cm():
-    b = HumanoidSoTBuilder(robot=str(DESCRIPTION))
-    b.add_op_point_task("taskLF", "left_foot", gain=5.0)
-    b.add_op_point_task("taskRF", "right_foot", gain=5.0)
-    b.add_com_task("taskCom", selection="110", gain=3.0)
-    b.add_posture_task("taskPosture", gain=1.0)
-    built = b.build(stack=["taskLF", "taskRF", "taskCom", "taskPosture"])
-    simulator = built.create_simulator()
-    context = simulator.get_context()
-    start = built.frame_pose(context, "pelvis").translation()
-    drift = []
-    for t in np.arange(0.5, 5.01, 0.5):
-        simulator.AdvanceTo(t)
-        drift.append(np.linalg.norm(built.frame_pose(context, "pelvis").translation() - start))
-    assert max(drift) < 0.01, f"pelvis drifted {max(drift):.4f} m"
-    for foot in ("left_foot", "right_foot"):  # on the ground, flat
-        X = built.frame_pose(context, foot)
-        assert abs(X.translation()[2]) < 0.003, f"{foot} at z = {X.translation()[2]:.4f}"
-        assert X.rotation().matrix()[2, 2] > math.cos(math.radians(1.0))
+    assert_stands_5s(str(DESCRIPTION))
 
 
 def drafted(tmp_path: Path) -> Path:

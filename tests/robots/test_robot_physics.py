@@ -7,18 +7,16 @@ footprints, the ZMP of the ankle force sensors against the support polygon of th
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from landings import landing_errors
 from robot_data import robot_or_skip
+from standing import assert_stands_5s
 
 from drake_sot.diagrams import alpha_sweep, reach, walk, walking
 from drake_sot.diagrams import priority_switching as ps
 from drake_sot.diagrams import table_pounding as tp
 from drake_sot.diagrams import walk_then_interact as wti
-from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.scenario import run_scenario
 
 pytestmark = pytest.mark.slow
@@ -46,25 +44,7 @@ LEFT_ARM = {
 @pytest.mark.parametrize("name", ROBOTS)
 def test_stands_5s_with_the_pelvis_within_1cm(name):
     robot_or_skip(name)
-    b = HumanoidSoTBuilder(robot=name)
-    b.add_op_point_task("taskLF", "left_foot", gain=5.0)
-    b.add_op_point_task("taskRF", "right_foot", gain=5.0)
-    b.add_com_task("taskCom", selection="110", gain=3.0)
-    b.add_posture_task("taskPosture", gain=1.0)
-    built = b.build(stack=["taskLF", "taskRF", "taskCom", "taskPosture"])
-    simulator = built.create_simulator()
-    context = simulator.get_context()
-    start = built.frame_pose(context, "pelvis")
-    drift = []
-    for t in np.arange(0.5, 5.01, 0.5):
-        simulator.AdvanceTo(t)
-        drift.append(np.linalg.norm(built.frame_pose(context, "pelvis").translation() - start.translation()))
-    assert max(drift) < 0.01, f"{name}: pelvis drifted {max(drift):.4f} m"
-    # Standing on its soles at the half-sitting height: the soles stay on the ground, flat.
-    for foot in ("left_foot", "right_foot"):
-        X = built.frame_pose(context, foot)
-        assert abs(X.translation()[2]) < 0.003, f"{name} {foot} at z = {X.translation()[2]:.4f}"
-        assert X.rotation().matrix()[2, 2] > math.cos(math.radians(1.0))
+    assert_stands_5s(name)
 
 
 @pytest.mark.parametrize("name", ROBOTS)
