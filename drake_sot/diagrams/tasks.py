@@ -75,6 +75,15 @@ SOLE_ARROW_GAP = 0.03
 FALL_CRITERIA = FallCriteria()
 
 
+def feature_name(task_name: str) -> str:
+    """The name of the feature a builder makes for the task ``task_name``, as the SoT's scripts
+    name them (Mansard et al. 2009): ``taskCom`` → ``featureCom``, ``taskRH`` → ``featureRH``; a
+    task name not of the form ``task<Name>`` gets ``feature_<task name>``."""
+    if task_name.startswith("task") and task_name[4:5].isupper():
+        return "feature" + task_name[4:]
+    return f"feature_{task_name}"
+
+
 class HumanoidTaskBuilder:
     """Adds features and tasks by name around the embedded humanoid (the loop is closed
     by a subclass, which says how the simulated robot is actuated in
@@ -253,7 +262,7 @@ class HumanoidTaskBuilder:
                 task_name, self._shared_pose_feature(feature_of, frame_key, desired), gain, selection
             )
         feature = FeaturePoint6d(
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
             desired=self.initial_pose(frame_key) if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain, selection)
@@ -299,7 +308,7 @@ class HumanoidTaskBuilder:
         op, ref = self.op_point(frame_key), self.op_point(reference_key)
         if desired is None:
             desired = self.initial_pose(reference_key).InvertAndCompose(self.initial_pose(frame_key))
-        feature = FeaturePoint6dRelative(selection=selection, name=f"feature_{task_name}", desired=desired)
+        feature = FeaturePoint6dRelative(selection=selection, name=feature_name(task_name), desired=desired)
         task = self._add_task(task_name, feature, gain)
         self._connect_frame(op, feature)
         self._connect_frame(ref, feature, "Ref")
@@ -316,7 +325,7 @@ class HumanoidTaskBuilder:
         """A CoM task (``FeatureCoM``, xy by default); holds the initial CoM unless ``desired``."""
         feature = FeatureCoM(
             selection=selection,
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
             desired=self.initial_com() if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain)
@@ -352,7 +361,7 @@ class HumanoidTaskBuilder:
             gain: λ [1/s]; desired: s* (2,) in normalised image coordinates; selection: of x, y.
         """
         op = self.op_point(camera)
-        feature = FeatureVisualPoint(selection=selection, name=f"feature_{task_name}", desired=desired)
+        feature = FeatureVisualPoint(selection=selection, name=feature_name(task_name), desired=desired)
         task = self._add_task(task_name, feature, gain)
         self._connect_frame(op, feature)
         self.builder.Connect(point, feature.GetInputPort("point"))
@@ -372,7 +381,7 @@ class HumanoidTaskBuilder:
         feature = FeaturePosture(
             self.control_plant,
             list(joints) if joints is not None else list(self.control_info.actuated_joints),
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
             desired=self.q0 if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain)
@@ -503,7 +512,7 @@ class HumanoidTaskBuilder:
             self.control_plant,
             list(joints) if joints is not None else list(self.control_info.actuated_joints),
             margin=margin,
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
         )
         task = self._add_task(task_name, feature, gain)
         self.use_reference_q(feature.GetInputPort("q"))
