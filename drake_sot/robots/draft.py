@@ -1,14 +1,16 @@
 """A first description file of a robot, drafted from its model (``drake-sot robot draft MODEL``).
 
-:func:`draft_description` reads a URDF and guesses, from the link names and the kinematic tree
-in the zero configuration, what :mod:`~drake_sot.robots.description_file` asks:
+:func:`draft_description` reads a model (a URDF, an SDF or an MJCF, through
+:mod:`~drake_sot.robots.model_tree`) and guesses, from the link names and the kinematic tree in
+the zero configuration, what :mod:`~drake_sot.robots.description_file` asks:
 
 - the sides: a link is left or right when a word of its name says so (``left``, ``l``, ``L``
   before a capital: ``l_knee``, ``left_hip_link``, ``LAnkle``);
 - the feet: on each side the lowest link; the sole under it, at the bottom of its box (visual
   or collision) when it has one, which gives the sole's size too; the ankle: the child of the
   last revolute joint above the foot; the ankle's force sensor: a fixed joint between the two,
-  else a sole link welded under the foot (an added weld);
+  else a sole link welded under the foot (an added weld; in an MJCF, a body, the weld named as
+  Drake names it);
 - the legs: the subtree of the first sided link on the way from the base to the foot; the
   arms: the other sided links; the hand: the arm's link named hand, palm, gripper or tool (else
   its deepest link); the wrist and its sensor: the fixed joint nearest above the hand;
@@ -97,13 +99,14 @@ def _named(model: ModelTree, links, pattern: str) -> list[str]:
 
 
 def draft_description(path: str | Path) -> Draft:
-    """A description file for the URDF ``path`` (to be written beside it, named as it with
-    ``.toml``): see the module docstring for what it guesses and how.
+    """A description file for the model ``path`` (a URDF, an SDF or an MJCF; to be written
+    beside it, named as it with ``.toml``): see the module docstring for what it guesses and how.
 
     Raises:
         RobotFileMissing: ``path`` does not exist.
-        RobotFileError: it is not well-formed XML, not a URDF, has no single root link, a
-            joint that cannot be read, or not two sides with a foot each (naming the file).
+        RobotFileError: an unknown suffix, not well-formed XML, not the format its suffix says,
+            a feature :mod:`~drake_sot.robots.model_tree` refuses, no single root link, a joint
+            that cannot be read, or not two sides with a foot each (naming the file).
     """
     path = Path(path)
     model = read_model_tree(path)

@@ -449,7 +449,7 @@ class _Mjcf(_Reader):
         if len(bodies) != 1 or len(free) != 1:
             raise self.error(
                 f"an MJCF robot is one body under <worldbody> with a <freejoint> (its floating base); "
-                f"it has {len(bodies)} bodies, {len(free)} of them free"
+                f"top bodies {[b.get('name') for b in bodies]}, free {[b.get('name') for b in free]}"
             )
         links: list[TreeLink] = []
         joints: list[TreeJoint] = []
