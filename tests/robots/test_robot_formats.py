@@ -2,7 +2,8 @@
 robot, checked on the plants Drake builds from each (joints, mass, CoM, mass matrix, frames,
 sensor welds) and on the embedded tables they were written from; the tree read from small
 models using each format's features against Drake's own parse of them; the fixes of each
-format; the draft of each format; the refusals, each naming the file and what is accepted."""
+format, meshes beside the model included; the draft of each format; the refusals, each naming
+the file and what is accepted."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pydrake.geometry import Role
+from pydrake.geometry import Mesh, Role
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
@@ -23,7 +24,7 @@ from drake_sot.robots import RobotFileError
 from drake_sot.robots.description import FORCE_SENSORS, LOGICAL_FRAMES
 from drake_sot.robots.description_file import RobotDescriptionError, description_path, load_description
 from drake_sot.robots.draft import draft_description
-from drake_sot.robots.loading import make_robot_control_model
+from drake_sot.robots.loading import load_robot, make_robot_control_model
 from drake_sot.robots.mjcf import prepare_mjcf
 from drake_sot.robots.model_tree import read_model_tree
 from drake_sot.robots.sdf import prepare_sdf
@@ -380,3 +381,76 @@ def test_a_path_to_an_sdf_or_an_mjcf_finds_its_description(tmp_path):
         RobotDescriptionError, match=r"robot\.obj: a path must end with one of .toml, .urdf, .sdf, .xml"
     ):
         description_path(tmp_path / "robot.obj")
+
+
+CUBE_STL = """solid cube
+facet normal 0 0 -1
+outer loop
+vertex 0 0 0
+vertex 0 1 0
+vertex 1 0 0
+endloop
+endfacet
+facet normal 0 -1 0
+outer loop
+vertex 0 0 0
+vertex 1 0 0
+vertex 0 0 1
+endloop
+endfacet
+facet normal -1 0 0
+outer loop
+vertex 0 0 0
+vertex 0 0 1
+vertex 0 1 0
+endloop
+endfacet
+facet normal 1 1 1
+outer loop
+vertex 1 0 0
+vertex 0 1 0
+vertex 0 0 1
+endloop
+endfacet
+endsolid cube
+"""
+
+
+@pytest.mark.parametrize("fmt", ["sdf", "mjcf"])
+def test_a_mesh_beside_the_model_is_found_though_the_text_is_parsed_from_memory(tmp_path, fmt):
+    """The pelvis drawn by an STL in a directory beside the model (an SDF's relative URI, an MJCF's
+    ``meshdir``): with a SceneGraph it is converted and drawn; without, the plant loads (an MJCF
+    body with an <inertial> loses its mesh geom, as Drake's MJCF parser reads OBJ only)."""
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "pelvis.stl").write_text(CUBE_STL)
+    text = (EXAMPLE / MODELS[fmt]).read_text()
+    if fmt == "sdf":
+        box = "<box>\n            <size>0.2 0.26 0.18</size>\n          </box>"
+        assert box in text
+        text = text.replace(box, "<mesh><uri>meshes/pelvis.stl</uri><scale>0.2 0.26 0.18</scale></mesh>", 1)
+    else:
+        geom = '<geom type="box" size="0.1 0.13 0.09" pos="0 0 0.07"'
+        assert geom in text
+        text = text.replace(geom, '<geom type="mesh" mesh="pelvis" pos="0 0 0.07"', 1).replace(
+            '<compiler angle="radian" autolimits="true" />',
+            '<compiler angle="radian" autolimits="true" meshdir="meshes" />'
+            '<asset><mesh file="pelvis.stl" scale="0.2 0.26 0.18" /></asset>',
+        )
+    model = tmp_path / MODELS[fmt]
+    model.write_text(text)
+    description = DESCRIPTIONS[fmt].read_text()
+    (tmp_path / DESCRIPTIONS[fmt].name).write_text(description)
+    robot = load_description(tmp_path / DESCRIPTIONS[fmt].name)
+    make_robot_control_model(robot)  # no SceneGraph: no mesh read
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.001)
+    load_robot(plant, robot, mesh_cache=tmp_path / "cache")
+    plant.Finalize()
+    inspector = scene_graph.model_inspector()
+    pelvis = plant.GetBodyFrameIdOrThrow(plant.GetBodyByName("pelvis").index())
+    (mesh,) = [
+        inspector.GetShape(g)
+        for g in inspector.GetGeometries(pelvis, Role.kIllustration)
+        if isinstance(inspector.GetShape(g), Mesh)
+    ]
+    assert Path(mesh.source().path()).parent == tmp_path / "cache"
