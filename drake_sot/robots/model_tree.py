@@ -7,7 +7,8 @@ one into a :class:`ModelTree` (links, joints, poses) for the draft of a descript
 (:mod:`~drake_sot.robots.draft`); :func:`model_joints` gives the moving joints' limits and effort
 limits for the description's check of its half-sitting angles and drives.
 
-The tree is the one Drake's parser builds, names included:
+The tree is the one Drake's parser builds, names included; its moving joints, which the loader
+drives, are the revolute ones with their limits (a continuous or prismatic joint is not driven):
 
 - URDF: links and joints as named; a ``<mimic>`` joint is not a moving joint (the loader fixes
   it); a revolute joint needs ``<limit lower upper effort>``;
@@ -368,12 +369,12 @@ class _Sdf(_Reader):
                     R_E = self.frame_pose(expressed or name)[0]
                     direction = R_C.T @ R_E @ direction
                     limit = axis.find("limit") if axis is not None else None
-                    lower = float(limit.findtext("lower", "-1e16")) if limit is not None else -1e16
-                    upper = float(limit.findtext("upper", "1e16")) if limit is not None else 1e16
-                    limits = (lower, upper) if kind == "revolute" else (-math.inf, math.inf)
-                    value = float(limit.findtext("effort", "-1")) if limit is not None else -1.0
-                    effort = value if value > 0.0 else None
-                    kind = "revolute"
+                    if kind == "revolute":  # a continuous joint is not driven, as in a URDF
+                        lower = float(limit.findtext("lower", "-1e16")) if limit is not None else -1e16
+                        upper = float(limit.findtext("upper", "1e16")) if limit is not None else 1e16
+                        limits = (lower, upper)
+                        value = float(limit.findtext("effort", "-1")) if limit is not None else -1.0
+                        effort = value if value > 0.0 else None
                 else:
                     direction = _Z
             except (AttributeError, TypeError, ValueError) as exc:
@@ -444,8 +445,7 @@ class _Mjcf(_Reader):
         efforts = self.actuator_efforts()
         world = self.root.find("worldbody")
         bodies = [] if world is None else world.findall("body")
-        free = [b for b in bodies if b.find("freejoint") is not None or any(
-            self.attrs(j, "main").get("type") == "free" for j in b.findall("joint"))]  # fmt: skip
+        free = [body for body in bodies if self.free(body, "main")]
         if len(bodies) != 1 or len(free) != 1:
             raise self.error(
                 f"an MJCF robot is one body under <worldbody> with a <freejoint> (its floating base); "
@@ -468,7 +468,7 @@ class _Mjcf(_Reader):
             links.append(TreeLink(name, massive, self.box(geoms, name)))
             if parent is not None:
                 body_joints = [self.attrs(j, childclass) for j in body.findall("joint")]
-                if any(j.get("type") == "free" for j in body_joints) or body.find("freejoint") is not None:
+                if self.free(body, childclass):
                     raise self.error(
                         f"body {name!r}: a free joint below the base; a robot has one floating base"
                     )
@@ -481,11 +481,18 @@ class _Mjcf(_Reader):
                     child = name if last else f"{name}{i}"
                     if not last:
                         links.append(TreeLink(child, False, None))
-                    joints.append(self.joint(joint, parent, child, R if last else np.eye(3),
-                                             p if last else np.zeros(3), efforts))  # fmt: skip
+                    X_PC = (R, p) if last else (np.eye(3), np.zeros(3))  # Drake's massless bodies
+                    joints.append(self.joint(joint, parent, child, *X_PC, efforts))
                     parent = child
             stack.extend((child, name, childclass) for child in reversed(body.findall("body")))
         return links, joints
+
+    def free(self, body: ET.Element, childclass: str) -> bool:
+        """True when ``body`` has a <freejoint> or a joint of type free."""
+        joints = body.findall("joint")
+        return body.find("freejoint") is not None or any(
+            self.attrs(j, childclass).get("type") == "free" for j in joints
+        )
 
     def read_default(self, element: ET.Element, inherited: dict[str, dict[str, str]]) -> None:
         own = {tag: dict(inherited.get(tag, {})) for tag in self._DEFAULTED}

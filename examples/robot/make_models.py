@@ -167,24 +167,35 @@ def mjcf_text() -> str:
         if name in joints:
             joint = joints[name]
             ET.SubElement(
-                element, "joint", name=joint.name, type="hinge",
-                axis=_numbers(humanoid._AXES[joint.axis]), range=_numbers(joint.limits),
-            )  # fmt: skip
+                element,
+                "joint",
+                name=joint.name,
+                type="hinge",
+                axis=_numbers(humanoid._AXES[joint.axis]),
+                range=_numbers(joint.limits),
+            )
         elif parent.tag == "worldbody":
             ET.SubElement(element, "freejoint")
         inertia = _inertia(link)
         ET.SubElement(
-            element, "inertial", pos=_numbers(link.centre), mass=f"{link.mass:.9g}",
+            element,
+            "inertial",
+            pos=_numbers(link.centre),
+            mass=f"{link.mass:.9g}",
             fullinertia=" ".join(inertia[k] for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")),
-        )  # fmt: skip
+        )
         kind, *dims = link.shape
         size = (
             [d / 2 for d in dims] if kind == "box" else [dims[0], dims[1] / 2] if kind == "cylinder" else dims
         )
         ET.SubElement(
-            element, "geom", type=kind, size=_numbers(size), pos=_numbers(link.centre),
+            element,
+            "geom",
+            type=kind,
+            size=_numbers(size),
+            pos=_numbers(link.centre),
             rgba=_numbers(link.colour.rgba),
-        )  # fmt: skip
+        )
         for child, position in children.get(name, []):
             body(element, child, position)
 
@@ -194,8 +205,9 @@ def mjcf_text() -> str:
     actuators = ET.SubElement(root, "actuator")
     for joint in humanoid.JOINTS:
         effort = f"{_drive(joint).effort:.9g}"
-        ET.SubElement(actuators, "motor", name=f"{joint.name}_motor", joint=joint.name,
-                      forcerange=f"-{effort} {effort}")  # fmt: skip
+        ET.SubElement(
+            actuators, "motor", name=f"{joint.name}_motor", joint=joint.name, forcerange=f"-{effort} {effort}"
+        )
     return _text(root)
 
 
