@@ -514,7 +514,16 @@ class _Mjcf(_Reader):
     def body_pose(self, body: ET.Element, name: str) -> tuple[np.ndarray, np.ndarray]:
         a = body.attrib
         try:
-            p = _floats(a.get("pos"), 3)
+            R, p = self.orientation(a), _floats(a.get("pos"), 3)
+        except ValueError as exc:
+            raise self.error(f"body {name!r}: its pose cannot be read: {exc}") from None
+        if not np.all(np.isfinite(R)):
+            raise self.error(f"body {name!r}: its orientation has no direction (a zero vector)")
+        return R, p
+
+    def orientation(self, a: dict[str, str]) -> np.ndarray:
+        """The rotation of a body's frame in its parent's, from whichever attribute gives it."""
+        with np.errstate(invalid="ignore", divide="ignore"):  # a zero vector: NaN, refused above
             if "quat" in a:
                 w, *v = _floats(a["quat"], 4)  # a unit quaternion's turn, about v
                 turn = np.linalg.norm(v)
@@ -542,9 +551,7 @@ class _Mjcf(_Reader):
                     R = np.eye(3) if z[2] > 0 else np.diag([1.0, -1.0, -1.0])
             else:
                 R = np.eye(3)
-        except ValueError as exc:
-            raise self.error(f"body {name!r}: its pose cannot be read: {exc}") from None
-        return R, p
+        return R
 
     def limited(self, attrs: dict[str, str], key: str) -> bool:
         flag = attrs.get(f"{key[:-5]}limited" if key != "range" else "limited", "auto")
@@ -566,6 +573,8 @@ class _Mjcf(_Reader):
                 effort = own if effort is None else min(effort, own)
         except (TypeError, ValueError) as exc:
             raise self.error(f"joint {name!r}: its axis or range cannot be read: {exc}") from None
+        if not np.linalg.norm(axis) > 0.0:
+            raise self.error(f"joint {name!r}: axis {attrs.get('axis')!r} has no direction")
         kind = {"hinge": "revolute", "slide": "prismatic"}.get(kind, kind)
         return TreeJoint(name, kind, parent, child, R, p, axis / np.linalg.norm(axis), limits, effort)
 

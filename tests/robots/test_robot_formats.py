@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import shutil
 import tomllib
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from pydrake.geometry import Mesh, Role
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
@@ -454,3 +457,33 @@ def test_a_mesh_beside_the_model_is_found_though_the_text_is_parsed_from_memory(
         if isinstance(inspector.GetShape(g), Mesh)
     ]
     assert Path(mesh.source().path()).parent == tmp_path / "cache"
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    element=st.integers(0, 10_000),
+    attribute=st.sampled_from(
+        ["name", "pos", "axis", "range", "size", "type", "mass", "joint", "forcerange"]
+    ),
+    value=st.none()
+    | st.sampled_from(["nan", "inf", "1e999", "", "0 0 0", "pelvis", "l_foot", "1 2", "free", "box"])
+    | st.text(max_size=6),
+)
+def test_a_fuzzed_mjcf_is_drafted_or_refused_in_one_line_naming_it(tmp_path, element, attribute, value):
+    """One attribute of one element of the shipped MJCF deleted (None) or set to anything: the draft
+    is a text or a RobotFileError naming the file, never an error from deep inside."""
+    tree = ET.parse(EXAMPLE / "humanoid.xml")
+    elements = [e for e in tree.iter() if attribute in e.attrib]
+    target = elements[element % len(elements)]
+    if value is None:
+        del target.attrib[attribute]
+    else:
+        target.set(attribute, value)
+    path = tmp_path / "fuzzed.xml"
+    tree.write(path)
+    try:
+        drafted = draft_description(path)
+    except RobotFileError as exc:
+        assert str(path) in str(exc) and "\n" not in str(exc), str(exc)
+    else:
+        tomllib.loads(drafted.text)  # it is TOML
