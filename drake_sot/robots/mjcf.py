@@ -35,17 +35,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from drake_sot.robots.model_tree import weld_name
-from drake_sot.robots.urdf import ADDED_LINK_INERTIA, ADDED_LINK_MASS, AddedWeld
+from drake_sot.robots.urdf import ADDED_LINK_INERTIA, ADDED_LINK_MASS, AddedWeld, mesh_scale
 
-#: The top-level elements removed, and why, for the list of fixes.
+#: The top-level elements removed (see the module docstring for why).
 _REMOVED = ("actuator", "sensor", "tendon", "equality", "contact", "keyframe")
-
-
-def _scale(text: str | None) -> tuple[float, float, float]:
-    values = [float(v) for v in (text or "1 1 1").split()]
-    if len(values) != 3:
-        raise ValueError(f"mesh scale {text!r}: needs 3 numbers")
-    return (values[0], values[1], values[2])
 
 
 def prepare_mjcf(
@@ -141,7 +134,7 @@ def prepare_mjcf(
             mesh.set("file", str(source))
             continue
         mesh.set("name", mesh.get("name") or Path(mesh.get("file")).stem)
-        mesh.set("file", mesh_file(source, _scale(mesh.attrib.pop("scale", None))))
+        mesh.set("file", mesh_file(source, mesh_scale(mesh.attrib.pop("scale", None))))
         converted += 1
     if converted:
         fixes.append(f"{converted} mesh assets converted to OBJ (scale baked in)")

@@ -25,7 +25,13 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from drake_sot.robots.errors import RobotFileMissing
-from drake_sot.robots.urdf import ADDED_LINK_INERTIA, ADDED_LINK_MASS, AddedWeld, resolve_package_uri
+from drake_sot.robots.urdf import (
+    ADDED_LINK_INERTIA,
+    ADDED_LINK_MASS,
+    AddedWeld,
+    mesh_scale,
+    resolve_package_uri,
+)
 
 
 def _mesh_source(uri: str, directory: Path, packages: Mapping[str, Path]) -> Path:
@@ -36,13 +42,6 @@ def _mesh_source(uri: str, directory: Path, packages: Mapping[str, Path]) -> Pat
     if not path.is_file():
         raise RobotFileMissing(f"mesh URI {uri!r}: file {path} does not exist")
     return path
-
-
-def _scale(text: str | None) -> tuple[float, float, float]:
-    values = [float(v) for v in (text or "1 1 1").split()]
-    if len(values) != 3:
-        raise ValueError(f"mesh scale {text!r}: needs 3 numbers")
-    return (values[0], values[1], values[2])
 
 
 def prepare_sdf(
@@ -131,7 +130,7 @@ def prepare_sdf(
             uri = mesh.find("uri")
             source = _mesh_source((uri.text or "").strip() if uri is not None else "", directory, packages)
             scale = mesh.find("scale")
-            uri.text = mesh_file(source, _scale(None if scale is None else scale.text))
+            uri.text = mesh_file(source, mesh_scale(None if scale is None else scale.text))
             if scale is not None:
                 mesh.remove(scale)
             meshes += 1
