@@ -183,7 +183,11 @@ class ModelTree:
                 )
         self.by_child = {j.child: j for j in joints}
         if len(self.by_child) != len(joints):
-            raise RobotFileError(f"robot model file {path}: a link is the child of two joints")
+            twice = sorted({j.child for j in joints if self.by_child[j.child] is not j})
+            raise RobotFileError(
+                f"robot model file {path}: links {twice} are the child of two joints (a closed loop): "
+                "a robot here is a tree"
+            )
         self.children: dict[str, list[str]] = {name: [] for name in self.links}
         for j in joints:
             self.children[j.parent].append(j.child)
