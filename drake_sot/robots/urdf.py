@@ -71,7 +71,9 @@ def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
     return path
 
 
-def _scale(text: str | None) -> tuple[float, float, float]:
+def mesh_scale(text: str | None) -> tuple[float, float, float]:
+    """The three scale factors of a mesh's ``scale`` (1 or 3 numbers; None: unit scale); a
+    ValueError names a text of another count."""
     if text is None:
         return (1.0, 1.0, 1.0)
     values = [float(v) for v in text.split()]
@@ -179,7 +181,7 @@ def prepare_urdf(
             if mesh is None:
                 continue
             source = resolve_package_uri(mesh.get("filename", ""), packages)
-            mesh.set("filename", mesh_file(source, _scale(mesh.get("scale"))))
+            mesh.set("filename", mesh_file(source, mesh_scale(mesh.get("scale"))))
             mesh.attrib.pop("scale", None)
             meshes += 1
     if collisions:
