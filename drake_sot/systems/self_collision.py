@@ -140,13 +140,23 @@ class SelfCollisionAvoidance(InequalityTask):
         self._plant_context = plant.GetMyMutableContextFromRoot(self._context)
         self._scene_context = scene_graph.GetMyContextFromRoot(self._context)
         inspector = scene_graph.model_inspector()
-        #: geometry → (its body's frame, its pose in that frame): where a witness point lies.
-        self._geometries = {
-            g: (plant.GetBodyFromFrameId(inspector.GetFrameId(g)).body_frame(), inspector.GetPoseInFrame(g))
-            for pair in inspector.GetCollisionCandidates()
-            for g in pair
-        }
-        self._names = {g: inspector.GetName(g) for g in self._geometries}
+        self._world = plant.world_frame()
+        # The shapes that may collide, row g of the tables (found by the value of the shape's id):
+        # its body (an index into _frames), its rotation and origin in the body frame. Plain numpy:
+        # at a tick, Drake's ``RigidTransform @`` and the hashes of its id types cost more than the
+        # Jacobians.
+        geometries = sorted(
+            {g for pair in inspector.GetCollisionCandidates() for g in pair}, key=lambda g: g.get_value()
+        )
+        self._row = {g.get_value(): row for row, g in enumerate(geometries)}
+        self._names = {g: inspector.GetName(g) for g in geometries}
+        body_frames = [plant.GetBodyFromFrameId(inspector.GetFrameId(g)).body_frame() for g in geometries]
+        unique = {int(frame.index()): frame for frame in body_frames}  # in the order first seen
+        self._frames = list(unique.values())
+        self._body = np.array([list(unique).index(int(frame.index())) for frame in body_frames])
+        poses = [inspector.GetPoseInFrame(g) for g in geometries]
+        self._R_BG = np.array([X.rotation().matrix() for X in poses])
+        self._p_BG = np.array([X.translation() for X in poses])
         self._q = self.DeclareVectorInputPort("q", plant.num_positions())
         self._declare_task({self.all_input_ports_ticket()})
 
@@ -161,26 +171,32 @@ class SelfCollisionAvoidance(InequalityTask):
         """The rows' pairs at the input q: (shape A, shape B, signed distance [m]), in row order."""
         return tuple((self._names[p.id_A], self._names[p.id_B], p.distance) for p in self._closest(context))
 
-    def _witness_jacobian(self, geometry, point: np.ndarray) -> np.ndarray:
-        """(3, nv): the translational Jacobian of ``point`` (in the geometry's frame) fixed on its body."""
+    def _witness_jacobians(self, pairs: list) -> tuple[np.ndarray, np.ndarray]:
+        """(k, 3, nv) twice: the translational Jacobians of the witness points on A and on B,
+        each fixed on its body; one Drake call per body for all its points."""
         plant = self.model.plant
-        frame, X_BG = self._geometries[geometry]
-        return plant.CalcJacobianTranslationalVelocity(
-            self._plant_context,
-            JacobianWrtVariable.kV,
-            frame,
-            X_BG @ point,
-            plant.world_frame(),
-            plant.world_frame(),
+        rows = np.array(
+            [self._row[g.get_value()] for pair in pairs for g in (pair.id_A, pair.id_B)], dtype=int
         )
+        local = np.array([p for pair in pairs for p in (pair.p_ACa, pair.p_BCb)]).reshape(len(rows), 3)
+        in_body = np.einsum("kij,kj->ki", self._R_BG[rows], local) + self._p_BG[rows]
+        bodies = self._body[rows]
+        J = np.empty((len(rows), 3, plant.num_velocities()))
+        for body in np.unique(bodies):
+            at = np.flatnonzero(bodies == body)
+            J[at] = plant.CalcJacobianTranslationalVelocity(
+                self._plant_context,
+                JacobianWrtVariable.kV,
+                self._frames[body],
+                in_body[at].T,
+                self._world,
+                self._world,
+            ).reshape(len(at), 3, -1)
+        return J[0::2], J[1::2]
 
     def _compute(self, context):
         pairs = self._closest(context)
-        nv = self.model.plant.num_velocities()
-        J_a, J_b = np.zeros((len(pairs), 3, nv)), np.zeros((len(pairs), 3, nv))
-        for i, pair in enumerate(pairs):
-            J_a[i] = self._witness_jacobian(pair.id_A, pair.p_ACa)
-            J_b[i] = self._witness_jacobian(pair.id_B, pair.p_BCb)
+        J_a, J_b = self._witness_jacobians(pairs)
         return ineq.distance_rows(
             np.array([p.distance for p in pairs]),
             np.array([p.nhat_BA_W for p in pairs]).reshape(len(pairs), 3),

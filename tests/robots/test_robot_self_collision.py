@@ -1,6 +1,7 @@
 """Self-collision avoidance (drake_sot.systems.self_collision) on every robot: the distance
 Jacobian against finite differences of Drake's signed distance, the rows against the distances
-of every pair, and a hand driven into the torso that stops at the margin (kinematics only)."""
+of every pair, a hand driven into the torso that stops at the margin (kinematics only), the
+task as a level of the stack and in the builder, and its parameters refused by name."""
 
 from __future__ import annotations
 
@@ -9,8 +10,10 @@ import pytest
 from pydrake.multibody.tree import JacobianWrtVariable
 from robot_data import robot_or_skip
 
+from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.hqp import solve_hqp
 from drake_sot.models import half_sitting_configuration
+from drake_sot.robots import make_robot_control_model
 from drake_sot.signals import TaskSignal
 from drake_sot.systems.self_collision import SelfCollisionAvoidance, make_collision_model
 from drake_sot.systems.sot import StackOfTasks
@@ -232,3 +235,39 @@ def test_the_task_is_a_level_of_the_hqp_stack():
 def test_bad_parameters_are_refused_naming_the_value(arguments, message):
     with pytest.raises(ValueError, match=f"'arms': {message}"):
         SelfCollisionAvoidance("embedded", name="arms", **arguments)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+@pytest.mark.parametrize("fixed_base", [False, True])
+def test_the_collision_model_has_the_control_models_coordinates(name, fixed_base):
+    """The task reads the controller's q: its model has the same joints at the same places."""
+    robot = robot_or_skip(name)
+    control, _ = make_robot_control_model(robot, fixed_base=fixed_base)
+    plant = make_collision_model(robot, fixed_base=fixed_base).plant
+
+    def layout(p):
+        joints = (p.get_joint(i) for i in p.GetJointIndices())
+        return sorted((j.name(), j.position_start(), j.velocity_start(), j.num_positions()) for j in joints)
+
+    assert (plant.num_positions(), plant.num_velocities()) == (
+        control.num_positions(),
+        control.num_velocities(),
+    )
+    assert layout(plant) == layout(control)
+
+
+def test_the_builder_wires_the_task_to_the_reference_configuration():
+    """``HumanoidSoTBuilder.add_self_collision_task``: in the built diagram, the task's rows at
+    the initial configuration are those of the task alone at ``q0``."""
+    b = HumanoidSoTBuilder()
+    b.add_self_collision_task("taskSelfCollision", d_s=0.01, d_i=0.06, xi=0.3)
+    b.add_posture_task("taskPosture")
+    built = b.build(stack=["taskSelfCollision", "taskPosture"], solver="hqp")
+    task = built.tasks["taskSelfCollision"]
+    wired = task.GetOutputPort("task").Eval(task.GetMyContextFromRoot(built.diagram.CreateDefaultContext()))
+    alone, _ = rows(SelfCollisionAvoidance("embedded", d_s=0.01, d_i=0.06, xi=0.3), built.q0)
+    assert np.isfinite(alone.lower).sum() >= 2  # the feet's pairs, 4-5 cm apart at half-sitting
+    for got, expected in zip(
+        (wired.jacobian, wired.lower, wired.error), (alone.jacobian, alone.lower, alone.error), strict=True
+    ):
+        np.testing.assert_array_equal(got, expected)
