@@ -18,12 +18,9 @@ row: far from each other, the bodies move freely.
 The damper is first order: over one period the distance also changes at second order in the
 motion, most where a box's edge or corner takes over the closest points as a body slides
 along another, and a pair that comes from beyond ``d_i`` to below ``d_s`` in one period is
-seen too late. ``d_s`` absorbs it when the motion per period is small: the embedded
-humanoid's right hand pulled into its torso (fixed base, the arm's joints at most 0.4 of
-their velocity limits, 10 ms periods, ``d_s`` = 2 cm, ``d_i`` = 8 cm, ``ξ`` = 0.3 m/s) stays
-``d_s`` away to within 1 mm over 1 s (``tests/robots/test_robot_self_collision.py``); at 0.5 of
-the limits, still pulling for 1.5 s, the hand sliding along the torso's edges came 19 mm
-inside ``d_s``.
+seen too late. ``d_s`` absorbs it when the motion per period is small against ``d_s`` and
+the shapes' curvature; how far a hand pulled into the torso gets inside ``d_s`` at which
+speeds is measured in ``benchmarks/README.md`` (section ``bench_self_collision.py``).
 
 The distances and witness points come from Drake's signed-distance query
 (``QueryObject.ComputeSignedDistancePairwiseClosestPoints(max_distance=d_i)``) on the robot's
