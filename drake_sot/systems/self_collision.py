@@ -89,7 +89,8 @@ class SelfCollisionAvoidance(InequalityTask):
     nothing). When more than ``max_pairs`` pairs are closer than ``d_i``, the farthest of them
     get no row at that evaluation: their bounds are the loosest.
 
-    The system keeps one scratch context of its collision model: evaluate it from one thread.
+    The system keeps one scratch context of its collision model (``model``, the
+    :class:`CollisionModel` the distances are computed on): evaluate it from one thread.
 
     Input ports:
         q: configuration (nq,) of the controller's model of ``robot`` (the device's
