@@ -52,6 +52,7 @@ from drake_sot.systems.inequalities import (
 from drake_sot.systems.kinematics import FRAME_SUFFIX, RobotKinematics
 from drake_sot.systems.partner import ConstantForce, Partner
 from drake_sot.systems.replay_view import Arrow, ArrowGroup, FollowCamera, ForceArrows, SoleForces
+from drake_sot.systems.self_collision import SelfCollisionAvoidance
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive, vector
 
@@ -642,6 +643,32 @@ class HumanoidTaskBuilder:
         )
         self._wire_op_point(frame_a, task, "_a")
         self._wire_op_point(frame_b, task, "_b")
+        return task
+
+    def add_self_collision_task(
+        self,
+        task_name: str,
+        *,
+        d_s: float = 0.01,
+        d_i: float = 0.05,
+        xi: float = 0.2,
+        max_pairs: int = 16,
+    ) -> SelfCollisionAvoidance:
+        """Every pair of the robot's collision shapes that may collide kept ``d_s`` apart, with
+        rows for the pairs closer than ``d_i`` (``SelfCollisionAvoidance``, on this builder's
+        robot and base). Reads the reference q. An inequality task."""
+        task = self._add_inequality(
+            SelfCollisionAvoidance(
+                self.robot,
+                fixed_base=self.fixed_base,
+                d_s=d_s,
+                d_i=d_i,
+                xi=xi,
+                max_pairs=max_pairs,
+                name=task_name,
+            )
+        )
+        self.use_reference_q(task.GetInputPort("q"))
         return task
 
     def _wire_op_point(self, frame_key: str, system, suffix: str = "") -> None:
