@@ -163,7 +163,10 @@ class SelfCollisionAvoidance(InequalityTask):
         self.model.plant.SetPositions(self._plant_context, self._q.Eval(context))
         query = self.model.scene_graph.get_query_output_port().Eval(self._scene_context)
         pairs = query.ComputeSignedDistancePairwiseClosestPoints(max_distance=self._d_i)
-        return sorted(pairs, key=lambda pair: pair.distance)[: self._m]
+        # Drake may also report a pair at max_distance (its box-box distances carry ~1e-5 m of
+        # noise): only those strictly closer than d_i get a row.
+        closer = [pair for pair in pairs if pair.distance < self._d_i]
+        return sorted(closer, key=lambda pair: pair.distance)[: self._m]
 
     def pairs(self, context: Context) -> tuple[tuple[str, str, float], ...]:
         """The rows' pairs at the input q: (shape A, shape B, signed distance [m]), in row order."""
