@@ -29,6 +29,8 @@ from drake_sot.robots.urdf import (
     ADDED_LINK_INERTIA,
     ADDED_LINK_MASS,
     AddedWeld,
+    check_added_weld,
+    geometry_fixes,
     mesh_scale,
     resolve_package_uri,
 )
@@ -134,22 +136,12 @@ def prepare_sdf(
             if scale is not None:
                 mesh.remove(scale)
             meshes += 1
-    if removed["collision"]:
-        fixes.append(
-            f"{removed['collision']} <collision> elements removed (simple shapes from the description)"
-        )
     if removed["sensor"] or removed["plugin"]:
         fixes.append(f"{removed['sensor']} <sensor> and {removed['plugin']} <plugin> elements removed")
-    if meshes:
-        fixes.append(f"{meshes} visual meshes converted to OBJ (scale baked in)")
-    if visuals_dropped:
-        fixes.append(f"{visuals_dropped} visuals dropped (no geometry wanted)")
+    fixes += geometry_fixes(removed["collision"], meshes, visuals_dropped)
 
     for weld in added_welds:
-        if weld.parent not in links:
-            raise ValueError(f"added weld {weld.name!r}: no link {weld.parent!r} in the model")
-        if weld.child in links or weld.name in joints:
-            raise ValueError(f"added weld {weld.name!r}: link {weld.child!r} or joint exists already")
+        check_added_weld(weld, links, joints)
         link = ET.SubElement(model, "link", name=weld.child)
         ET.SubElement(link, "pose", relative_to=weld.parent).text = (
             " ".join(repr(float(v)) for v in weld.xyz) + " 0 0 0"

@@ -30,7 +30,7 @@ No pydrake import here: XML in, XML out.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Container, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,6 +52,30 @@ class AddedWeld:
     parent: str
     child: str
     xyz: tuple[float, float, float]
+
+
+def geometry_fixes(collisions: int, meshes: int, visuals_dropped: int) -> list[str]:
+    """The sentences of the geometry fixes of a URDF or an SDF: ``collisions`` collision elements
+    removed, ``meshes`` visual meshes converted, ``visuals_dropped`` visuals dropped (none said
+    for a count of 0)."""
+    return [
+        sentence
+        for count, sentence in (
+            (collisions, f"{collisions} <collision> elements removed (simple shapes from the description)"),
+            (meshes, f"{meshes} visual meshes converted to OBJ (scale baked in)"),
+            (visuals_dropped, f"{visuals_dropped} visuals dropped (no geometry wanted)"),
+        )
+        if count
+    ]
+
+
+def check_added_weld(weld: AddedWeld, links: Container[str], joints: Container[str]) -> None:
+    """Raise ValueError (naming the weld and the link) when ``weld``'s parent is not one of the
+    model's ``links`` or its link or joint exists already."""
+    if weld.parent not in links:
+        raise ValueError(f"added weld {weld.name!r}: no link {weld.parent!r} in the model")
+    if weld.child in links or weld.name in joints:
+        raise ValueError(f"added weld {weld.name!r}: link {weld.child!r} or joint exists already")
 
 
 def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
@@ -184,18 +208,10 @@ def prepare_urdf(
             mesh.set("filename", mesh_file(source, mesh_scale(mesh.get("scale"))))
             mesh.attrib.pop("scale", None)
             meshes += 1
-    if collisions:
-        fixes.append(f"{collisions} <collision> elements removed (simple shapes from the description)")
-    if meshes:
-        fixes.append(f"{meshes} visual meshes converted to OBJ (scale baked in)")
-    if visuals_dropped:
-        fixes.append(f"{visuals_dropped} visuals dropped (no geometry wanted)")
+    fixes += geometry_fixes(collisions, meshes, visuals_dropped)
 
     for weld in added_welds:
-        if weld.parent not in links:
-            raise ValueError(f"added weld {weld.name!r}: no link {weld.parent!r} in the model")
-        if weld.child in links or weld.name in joints:
-            raise ValueError(f"added weld {weld.name!r}: link {weld.child!r} or joint exists already")
+        check_added_weld(weld, links, joints)
         link = ET.SubElement(root, "link", name=weld.child)
         inertial = ET.SubElement(link, "inertial")
         ET.SubElement(inertial, "mass", value=repr(ADDED_LINK_MASS))

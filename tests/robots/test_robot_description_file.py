@@ -9,12 +9,12 @@ import json
 import math
 import shutil
 import tomllib
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from robot_data import assert_mutated_model_is_drafted_or_refused
 
 from drake_sot.app import cli
 from drake_sot.parameters import Parameter
@@ -300,21 +300,9 @@ def test_a_model_the_draft_cannot_read_is_named(tmp_path, text, message):
 def test_a_fuzzed_urdf_is_drafted_or_refused_in_one_line_naming_it(robot_dir, element, attribute, value):
     """One attribute of one element of the shipped URDF deleted (None) or set to anything: the
     draft is a text or a RobotFileError naming the file, never an error from deep inside."""
-    tree = ET.parse(robot_dir / "humanoid.urdf")
-    elements = [e for e in tree.iter() if attribute in e.attrib]
-    target = elements[element % len(elements)]
-    if value is None:
-        del target.attrib[attribute]
-    else:
-        target.set(attribute, value)
-    path = robot_dir / "fuzzed.urdf"
-    tree.write(path)
-    try:
-        drafted = draft_description(path)
-    except RobotFileError as exc:
-        assert str(path) in str(exc) and "\n" not in str(exc), str(exc)
-    else:
-        tomllib.loads(drafted.text)  # it is TOML
+    assert_mutated_model_is_drafted_or_refused(
+        robot_dir / "humanoid.urdf", robot_dir / "fuzzed.urdf", element, attribute, value
+    )
 
 
 # --- the command line ------------------------------------------------------------------------

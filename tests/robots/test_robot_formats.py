@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import shutil
 import tomllib
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
+from robot_data import assert_mutated_model_is_drafted_or_refused
 
 from drake_sot.models import humanoid
 from drake_sot.robots import RobotFileError
@@ -472,18 +472,6 @@ def test_a_mesh_beside_the_model_is_found_though_the_text_is_parsed_from_memory(
 def test_a_fuzzed_mjcf_is_drafted_or_refused_in_one_line_naming_it(tmp_path, element, attribute, value):
     """One attribute of one element of the shipped MJCF deleted (None) or set to anything: the draft
     is a text or a RobotFileError naming the file, never an error from deep inside."""
-    tree = ET.parse(EXAMPLE / "humanoid.xml")
-    elements = [e for e in tree.iter() if attribute in e.attrib]
-    target = elements[element % len(elements)]
-    if value is None:
-        del target.attrib[attribute]
-    else:
-        target.set(attribute, value)
-    path = tmp_path / "fuzzed.xml"
-    tree.write(path)
-    try:
-        drafted = draft_description(path)
-    except RobotFileError as exc:
-        assert str(path) in str(exc) and "\n" not in str(exc), str(exc)
-    else:
-        tomllib.loads(drafted.text)  # it is TOML
+    assert_mutated_model_is_drafted_or_refused(
+        EXAMPLE / "humanoid.xml", tmp_path / "fuzzed.xml", element, attribute, value
+    )
