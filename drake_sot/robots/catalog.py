@@ -79,7 +79,7 @@ def _embedded() -> RobotDescription:
         drives[j.name] = Drive(kp=d.kp, kd=d.kd, effort=d.effort, rotor_inertia=d.rotor_inertia)
     return RobotDescription(
         name="embedded",
-        title="the embedded HRP-2-class humanoid built from primitive shapes (61 kg, 30 joints)",
+        title="the embedded HRP-2-class humanoid built from primitive shapes (58 kg, 30 joints)",
         model_file=None,
         packages={},
         base_body="pelvis",
