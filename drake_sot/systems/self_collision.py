@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.geometry import SceneGraph
+from pydrake.geometry import SceneGraph, SignedDistancePair
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, ValueProducer
@@ -315,7 +315,8 @@ class SelfCollisionAvoidance(InequalityTask):
             "pair_indices", self._m, self._calc_indices, prerequisites_of_calc=ticket
         )
 
-    def _pair_index(self, pair) -> int:
+    def _pair_index(self, pair: SignedDistancePair) -> int:
+        """The index of ``pair`` (a row's, from Drake's query) in ``candidate_pairs``."""
         return self._index[frozenset((pair.id_A.get_value(), pair.id_B.get_value()))]
 
     def _calc_closest_pairs(self, context: Context, value: AbstractValue) -> None:
