@@ -276,7 +276,8 @@ def write_npz(arrays: dict[str, np.ndarray], path: str | Path) -> None:
 def write_replay(built: BuiltHumanoid, path: str | Path, *, scenario: str) -> None:
     """Publish the Meshcat recording and save the standalone HTML page, titled with the
     ``scenario``'s name and the robot's, with a legend of the force arrows the diagram draws
-    (:class:`~drake_sot.systems.replay_view.ForceArrows`: what each colour is, and its scale).
+    (:class:`~drake_sot.systems.replay_view.ForceArrows`: what each colour is, and its scale) and
+    of the lines of its self-collision pairs (:class:`~drake_sot.systems.replay_view.PairLines`).
 
     Raises:
         ValueError: the diagram was built without Meshcat (nothing to replay).

@@ -97,8 +97,9 @@ class HumanoidTaskBuilder:
         meshcat: a Meshcat to draw in; None for no visualisation. Use
             :func:`~drake_sot.diagrams.world.loopback_meshcat` for a headless recorder
             bound to localhost. Besides the robot it shows the forces as arrows (see
-            :meth:`draw_forces`) and, on a floating base, its camera follows the pelvis
-            (:class:`~drake_sot.systems.replay_view.FollowCamera`).
+            :meth:`draw_forces`), the pairs each self-collision task holds apart (see
+            :meth:`add_self_collision_task`) and, on a floating base, its camera follows the
+            pelvis (:class:`~drake_sot.systems.replay_view.FollowCamera`).
         fixed_base: weld the pelvis in the air (no ground), as the real iCub of Liu,
             Lober, Padois 2016.
         before_finalize: adds to the simulated world before it is finalized (see
