@@ -211,8 +211,11 @@ class SelfCollisionAvoidance(InequalityTask):
         self._declare_reports()
 
     def _closest(self, context: Context) -> list:
-        """The pairs closer than ``d_i`` at the input q, closest first, at most ``max_pairs``
-        (Drake's ``SignedDistancePair``), computed once per input q for the task and the reports.
+        """The pairs closer than ``d_i`` at the input q, closest first (pairs at one distance by
+        their shapes' names: Drake's query returns them in an order that varies from one model to
+        another), at most ``max_pairs`` (Drake's ``SignedDistancePair``), computed once per input
+        q for the task and the reports.
+
         The scratch context is left at that q (the witness points' Jacobians and poses are
         computed on it), whichever context set it last."""
         q = self._q.Eval(context)
@@ -224,7 +227,7 @@ class SelfCollisionAvoidance(InequalityTask):
         """:meth:`_closest`, computed (the scratch context at the input q)."""
         query = self.model.scene_graph.get_query_output_port().Eval(self._scene_context)
         pairs = query.ComputeSignedDistancePairwiseClosestPoints(max_distance=self._d_i)
-        return sorted(pairs, key=lambda pair: pair.distance)[: self._m]
+        return sorted(pairs, key=lambda p: (p.distance, self._names[p.id_A], self._names[p.id_B]))[: self._m]
 
     def pairs(self, context: Context) -> tuple[tuple[str, str, float], ...]:
         """The rows' pairs at the input q: (shape A, shape B, signed distance [m]), in row order."""
