@@ -3,6 +3,9 @@ after the ports, loggers and plumbing left out, one A4 page wide for the case st
 
 from __future__ import annotations
 
+import importlib
+import inspect
+import pkgutil
 import re
 import xml.etree.ElementTree as ET
 
@@ -10,9 +13,10 @@ import pytest
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, VectorLogSink
 
+from drake_sot import systems
 from drake_sot.app import cli
 from drake_sot.diagrams.scenario import build_scenario
-from drake_sot.diagrams.signal_graph import signal_graph, write_graph
+from drake_sot.diagrams.signal_graph import FAMILIES, OBSERVERS, signal_graph, write_graph
 
 SVG = "{http://www.w3.org/2000/svg}"
 #: An A4 page is 595 pt wide; the picture, scaled to fit it, keeps its 9-pt text readable down to
@@ -105,3 +109,22 @@ def test_a_signal_through_plumbing_is_drawn_dashed_from_entity_to_entity(tmp_pat
     (line,) = [p for p in edges["source.y->sink.u"].iter(f"{SVG}path")]
     assert line.get("stroke-dasharray")  # dashed: through plumbing
     assert {"y", "u"} <= texts
+
+
+def test_every_module_of_systems_is_a_family_or_an_observer():
+    """A module of ``drake_sot.systems`` with a LeafSystem of its own is drawn in a family of the
+    paper's (the self-collision avoidance among the tasks) or left out as an observer, never
+    filed under "other" for want of a line in FAMILIES."""
+    unplaced = []
+    for module in pkgutil.iter_modules(systems.__path__):
+        members = vars(importlib.import_module(f"{systems.__name__}.{module.name}")).values()
+        if (
+            any(
+                inspect.isclass(c) and issubclass(c, LeafSystem) and c.__module__.endswith(f".{module.name}")
+                for c in members
+            )
+            and module.name not in FAMILIES.keys() | OBSERVERS
+        ):
+            unplaced.append(module.name)
+    assert not unplaced
+    assert FAMILIES["self_collision"] == "tasks"

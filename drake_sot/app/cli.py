@@ -39,6 +39,7 @@ from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import PEERS, SCENARIOS, STUDIES
 from drake_sot.diagrams.alpha_sweep import StudyScenario
 from drake_sot.diagrams.artifacts import output_directory, report_unrendered, report_unwritten
+from drake_sot.diagrams.collision_log import collision_report
 from drake_sot.diagrams.pushes import MAX_PUSH_FORCE, ExternalPush, check_pushes
 from drake_sot.diagrams.run import (
     MAX_DURATION,
@@ -746,6 +747,8 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     print(f"wrote {path}", flush=True)
                 report_unwritten(output.unwritten)
                 report_unrendered(output.unrendered)
+                for line in collision_report(output.arrays):
+                    print(line, flush=True)
                 unwritten = output.unwritten
                 result = output.result
             else:
@@ -882,6 +885,8 @@ def _simulate(scenario: Scenario, args: argparse.Namespace, parameters: dict, pr
         f"simulated {result.end_time:.2f} s in {result.wall_time:.1f} s "
         f"(real-time factor {result.realtime_factor:.2f})"
     )
+    for line in collision_report(output.arrays):
+        print(line)
     time = output.arrays.get("time")
     if time is not None and len(time) and time[0] > 0.0:
         print(f"the logs cover the run's last {time[-1] - time[0]:.1f} s (from t = {time[0]:.1f} s)")

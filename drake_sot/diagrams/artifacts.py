@@ -24,14 +24,17 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from pydrake.geometry import Rgba
 from pydrake.systems.framework import Context, Diagram
 
+from drake_sot.diagrams.collision_log import collision_arrays, pair_log
 from drake_sot.diagrams.pushes import pushes_record
 from drake_sot.diagrams.run import RunResult
 from drake_sot.diagrams.world import BuiltHumanoid
 from drake_sot.errors import DrakeSotError
-from drake_sot.systems.replay_view import ArrowGroup, ForceArrows
+from drake_sot.systems.replay_view import FAR_COLOUR, NEAR_COLOUR, ArrowGroup, ForceArrows, PairLines
 from drake_sot.systems.search import systems_of_type
+from drake_sot.systems.self_collision import SelfCollisionAvoidance
 
 #: The programs that render Graphviz source, in the order tried: ``graphviz-pure`` (a dependency,
 #: pip-installed: the same SVG on every platform), then Graphviz's own ``dot``.
@@ -220,7 +223,8 @@ def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -
     [s], ``body``, ``force`` (3,) [N, world frame], ``duration`` [s]; empty without pushes);
     ``fall`` (3,) [s, m, rad] the time, pelvis height and trunk tilt of the fall, when the
     robot fell. The extra logs of the builder follow their names (``fallen`` (T, 1) when a
-    fall monitor watched, ``push_forces`` when there are pushes, ...).
+    fall monitor watched, ``push_forces`` when there are pushes, ...); a self-collision task's
+    rows, by name, are under ``collision/<task>/`` (:mod:`~drake_sot.diagrams.collision_log`).
     """
     state = built.loggers["state"].FindLog(root_context)
     time = state.sample_times()
@@ -243,6 +247,9 @@ def log_arrays(built: BuiltHumanoid, root_context: Context, result: RunResult) -
     arrays["event_time"] = np.array([t for t, _ in result.events])
     arrays["event_label"] = np.array([label for _, label in result.events], dtype=str)
     arrays["pushes"] = pushes_record(built.pushes)
+    for task in built.tasks.values():
+        if isinstance(task, SelfCollisionAvoidance) and pair_log(task.get_name()) in arrays:  # logged
+            arrays.update(collision_arrays(task, arrays[pair_log(task.get_name())]))
     if result.fell is not None:
         arrays["fall"] = np.array([result.fell.time, result.fell.pelvis_height, result.fell.tilt])
     return arrays
@@ -269,7 +276,8 @@ def write_npz(arrays: dict[str, np.ndarray], path: str | Path) -> None:
 def write_replay(built: BuiltHumanoid, path: str | Path, *, scenario: str) -> None:
     """Publish the Meshcat recording and save the standalone HTML page, titled with the
     ``scenario``'s name and the robot's, with a legend of the force arrows the diagram draws
-    (:class:`~drake_sot.systems.replay_view.ForceArrows`: what each colour is, and its scale).
+    (:class:`~drake_sot.systems.replay_view.ForceArrows`: what each colour is, and its scale) and
+    of the lines of its self-collision pairs (:class:`~drake_sot.systems.replay_view.PairLines`).
 
     Raises:
         ValueError: the diagram was built without Meshcat (nothing to replay).
@@ -283,7 +291,8 @@ def write_replay(built: BuiltHumanoid, path: str | Path, *, scenario: str) -> No
     title = replay_title(scenario, built.info.robot)
     html = html.replace("<title>Drake MeshCat</title>", f"<title>{escape(title)}</title>", 1)
     groups = [group for arrows in systems_of_type(built.diagram, ForceArrows) for group in arrows.groups]
-    html = html.replace("</body>", _legend(title, groups) + "</body>", 1)
+    pairs = systems_of_type(built.diagram, PairLines)
+    html = html.replace("</body>", _legend(title, groups, pairs) + "</body>", 1)
     with atomic_path(path) as temporary:
         temporary.write_text(html, encoding="utf-8")
 
@@ -293,19 +302,30 @@ def replay_title(scenario: str, robot: str) -> str:
     return f"{scenario} on {robot} (drake_sot replay)"
 
 
-def _legend(title: str, groups: list[ArrowGroup]) -> str:
+def _swatch(colour: Rgba) -> str:
+    """``colour`` as CSS."""
+    return f"rgb({colour.r() * 255:.0f}, {colour.g() * 255:.0f}, {colour.b() * 255:.0f})"
+
+
+def _legend(title: str, groups: list[ArrowGroup], pairs: list[PairLines]) -> str:
     """The replay's legend: its title, then a line per kind of arrow (colour, label, scale;
-    groups alike, e.g. the two wrists, share one)."""
+    groups alike, e.g. the two wrists, share one) and one per self-collision task whose pairs
+    are drawn (the colours from ``d_i`` to ``d_s``)."""
     lines = [f'<div style="font-weight: bold">{escape(title)}</div>']
     for group in groups:
-        colour = group.rgba
-        swatch = f"rgb({colour.r() * 255:.0f}, {colour.g() * 255:.0f}, {colour.b() * 255:.0f})"
         line = (
-            f'<div><span style="color: {swatch}">&#9632;&#9472;&#9654;</span> '
+            f'<div><span style="color: {_swatch(group.rgba)}">&#9632;&#9472;&#9654;</span> '
             f"{escape(group.label)} ({group.newtons_per_metre:g} N per m)</div>"
         )
         if line not in lines:
             lines.append(line)
+    for drawn in pairs:
+        lines.append(
+            f'<div><span style="color: {_swatch(FAR_COLOUR)}">&#9472;&#9472;</span>'
+            f'<span style="color: {_swatch(NEAR_COLOUR)}">&#9472;&#9472;</span> '
+            f"{escape(drawn.task)}: pairs of collision shapes closer than {drawn.d_i:g} m, between "
+            f"their closest points (green at {drawn.d_i:g} m to red at the margin, {drawn.d_s:g} m)</div>"
+        )
     style = (
         "position: fixed; left: 8px; bottom: 8px; padding: 6px 10px; background: rgba(255, 255, 255, 0.85); "
         "font: 13px sans-serif; border-radius: 4px; pointer-events: none"

@@ -264,8 +264,9 @@ def run_scenario(
     :mod:`~drake_sot.diagrams.signal_graph`) and ``<name>_drake.svg`` (Drake's picture of every
     system; both written before the run) into ``out_dir``. Without a Graphviz renderer the two
     pictures are written as ``.dot`` source instead and listed in the output's ``unrendered``.
-    The replay draws the forces as arrows, with a legend, and its camera follows the robot's
-    pelvis (see :mod:`~drake_sot.systems.replay_view`) unless ``fixed_camera``.
+    The replay draws the forces as arrows and the pairs of collision shapes a self-collision task
+    holds apart as lines, with a legend, and its camera follows the robot's pelvis (see
+    :mod:`~drake_sot.systems.replay_view`) unless ``fixed_camera``.
 
     Artefacts are written even when the run is interrupted (SIGINT, SIGTERM), fails or the
     robot falls, covering what was simulated; ``result`` says how it ended. A file that cannot

@@ -29,6 +29,7 @@ FAMILIES: dict[str, str] = {
     "features": "features",
     "task": "tasks",
     "inequalities": "tasks",
+    "self_collision": "tasks",
     "sot": "solver",
     "generalized_controller": "solver",
     "pattern_generator": "pattern generator",

@@ -21,6 +21,7 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForceMultiplexer, Mu
 from pydrake.systems.framework import Diagram, DiagramBuilder, InputPort, OutputPort
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
+from drake_sot.diagrams.collision_log import distance_log, pair_log
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.world import add_humanoid_plant
 from drake_sot.errors import UnknownNameError
@@ -51,7 +52,7 @@ from drake_sot.systems.inequalities import (
 )
 from drake_sot.systems.kinematics import FRAME_SUFFIX, RobotKinematics
 from drake_sot.systems.partner import ConstantForce, Partner
-from drake_sot.systems.replay_view import Arrow, ArrowGroup, FollowCamera, ForceArrows, SoleForces
+from drake_sot.systems.replay_view import Arrow, ArrowGroup, FollowCamera, ForceArrows, PairLines, SoleForces
 from drake_sot.systems.self_collision import SelfCollisionAvoidance
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive, vector
@@ -96,8 +97,9 @@ class HumanoidTaskBuilder:
         meshcat: a Meshcat to draw in; None for no visualisation. Use
             :func:`~drake_sot.diagrams.world.loopback_meshcat` for a headless recorder
             bound to localhost. Besides the robot it shows the forces as arrows (see
-            :meth:`draw_forces`) and, on a floating base, its camera follows the pelvis
-            (:class:`~drake_sot.systems.replay_view.FollowCamera`).
+            :meth:`draw_forces`), the pairs each self-collision task holds apart (see
+            :meth:`add_self_collision_task`) and, on a floating base, its camera follows the
+            pelvis (:class:`~drake_sot.systems.replay_view.FollowCamera`).
         fixed_base: weld the pelvis in the air (no ground), as the real iCub of Liu,
             Lober, Padois 2016.
         before_finalize: adds to the simulated world before it is finalized (see
@@ -656,7 +658,9 @@ class HumanoidTaskBuilder:
     ) -> SelfCollisionAvoidance:
         """Every pair of the robot's collision shapes that may collide kept ``d_s`` apart, with
         rows for the pairs closer than ``d_i`` (``SelfCollisionAvoidance``, on this builder's
-        robot and base). Reads the reference q. An inequality task."""
+        robot and base). Reads the reference q. An inequality task. Its rows' distances and pairs
+        are logged (``collision/<task_name>/...``, see :mod:`~drake_sot.diagrams.collision_log`)
+        and, with Meshcat, drawn (:class:`~drake_sot.systems.replay_view.PairLines`)."""
         task = self._add_inequality(
             SelfCollisionAvoidance(
                 self.robot,
@@ -669,7 +673,14 @@ class HumanoidTaskBuilder:
             )
         )
         self.use_reference_q(task.GetInputPort("q"))
+        self._log_self_collision(task)
         return task
+
+    def _log_self_collision(self, task: SelfCollisionAvoidance) -> None:
+        """Log the rows' distances and pairs of ``task`` (see
+        :mod:`~drake_sot.diagrams.collision_log`); the replay draws its pairs (``_add_replay_view``)."""
+        self.log(distance_log(task.get_name()), task.GetOutputPort("distances"))
+        self.log(pair_log(task.get_name()), task.GetOutputPort("pair_indices"))
 
     def _wire_op_point(self, frame_key: str, system, suffix: str = "") -> None:
         """The pose and Jacobian of the operational point on ``frame_key`` into ``system``'s
@@ -780,9 +791,15 @@ class HumanoidTaskBuilder:
         return soles.GetOutputPort("forces")
 
     def _add_replay_view(self) -> None:
-        """The force arrows of :meth:`draw_forces` and, on a floating base, a camera that
-        follows the pelvis."""
+        """The force arrows of :meth:`draw_forces`, the pairs of the self-collision tasks and,
+        on a floating base, a camera that follows the pelvis."""
         b, poses = self.builder, self.plant.get_body_poses_output_port()
+        for task in self.tasks.values():
+            if isinstance(task, SelfCollisionAvoidance):
+                lines = b.AddSystem(
+                    PairLines(self.meshcat, task.get_name(), task.dimension, task.d_s, task.d_i)
+                )
+                b.Connect(task.GetOutputPort("closest_pairs"), lines.GetInputPort("closest_pairs"))
         if self._drawn_forces:
             arrows = b.AddSystem(ForceArrows(self.meshcat, self.plant, [g for g, _ in self._drawn_forces]))
             b.Connect(poses, arrows.GetInputPort("body_poses"))

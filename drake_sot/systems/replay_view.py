@@ -1,8 +1,9 @@
 """What a replay shows besides the robot: the forces as arrows (:class:`ForceArrows`, with
-:class:`SoleForces` for the contact forces at the soles) and a camera that follows the robot
-(:class:`FollowCamera`).
+:class:`SoleForces` for the contact forces at the soles), the pairs of collision shapes the
+self-collision avoidance holds apart as lines between their closest points (:class:`PairLines`)
+and a camera that follows the robot (:class:`FollowCamera`).
 
-Both draw in Meshcat at a publish period and pass the publish's time to Meshcat, so that while
+All draw in Meshcat at a publish period and pass the publish's time to Meshcat, so that while
 Meshcat records (``MeshcatVisualizer.StartRecording``) every draw is also a frame of the
 recording: the arrows and the camera move in the replay as they do in the live view. The time
 passed is the publish's plus half a period (:func:`recording_time`): Meshcat's frame is
@@ -17,12 +18,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.common.value import AbstractValue
 from pydrake.geometry import Cylinder, Meshcat, MeshcatCone, Rgba
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
-from drake_sot.validation import nonempty_string, positive
+from drake_sot.validation import nonempty_string, positive, positive_int
 
 #: The Meshcat path of the viewer's camera: :class:`FollowCamera` moves it.
 CAMERA_PATH = "/Cameras/default"
@@ -39,6 +41,19 @@ ARROWS_PATH = "/forces"
 
 #: [m] an arrow shorter than this is hidden (no force, or a NaN one).
 SHORTEST_ARROW = 1e-3
+
+#: The Meshcat path under which :class:`PairLines` draws (``/self_collision/<task>/<row>``).
+PAIRS_PATH = "/self_collision"
+
+#: The colours of :class:`PairLines`: a pair at the activation distance ``d_i`` is drawn in the
+#: first, one at the safety margin ``d_s`` (or closer) in the last.
+FAR_COLOUR = Rgba(0.1, 0.75, 0.2, 1.0)
+NEAR_COLOUR = Rgba(0.9, 0.1, 0.1, 1.0)
+
+#: The number of colours from :data:`FAR_COLOUR` to :data:`NEAR_COLOUR` a pair's line takes:
+#: Meshcat's recordings animate what is visible, not colours, so each line is one object per
+#: colour, all but one hidden.
+PAIR_COLOURS = 5
 
 
 def recording_time(time: float, period: float) -> float:
@@ -220,6 +235,104 @@ class ForceArrows(LeafSystem):
                     f"{path}/shaft", "scale", [1.0, 1.0, max(length - self._head, 1e-4)], time_in_recording=t
                 )
                 self._meshcat.SetTransform(f"{path}/head", RigidTransform([0.0, 0.0, length]), t)
+
+
+def pair_colour(distance: float, d_s: float, d_i: float) -> int:
+    """Which of the :data:`PAIR_COLOURS` colours a pair ``distance`` [m] apart is drawn in: 0
+    at ``d_i`` [m] and beyond, the last at ``d_s`` [m] and closer, linear between (rounded)."""
+    nearness = (d_i - distance) / (d_i - d_s)
+    return int(np.clip(np.rint(nearness * (PAIR_COLOURS - 1)), 0, PAIR_COLOURS - 1))
+
+
+def _blend(share: float) -> Rgba:
+    """The colour ``share`` of the way from :data:`FAR_COLOUR` to :data:`NEAR_COLOUR`."""
+    far, near = FAR_COLOUR.rgba, NEAR_COLOUR.rgba
+    return Rgba(*((1 - share) * far + share * near))
+
+
+class PairLines(LeafSystem):
+    """The pairs of collision shapes of a self-collision task, each drawn as a thin cylinder from
+    its witness point on B to the one on A, coloured by its distance (:func:`pair_colour`: from
+    :data:`FAR_COLOUR` at ``d_i`` to :data:`NEAR_COLOUR` at ``d_s``), in Meshcat and its
+    recording, at ``period``. A row without a pair is hidden: nothing shows when no pair is
+    closer than ``d_i``.
+
+    Row ``i`` is ``/self_collision/<task>/<i>``: its transform puts the origin on the point on B
+    and the z axis towards the point on A, the ``scale`` of its ``line`` gives the length, and
+    ``line/<c>`` is the line in colour ``c`` (one visible). Only a shown row's transform, scale
+    and colours are sent: a hidden row's line is hidden with it.
+
+    Input ports:
+        closest_pairs: abstract ``tuple[ClosestPair, ...]`` (the task's ``closest_pairs``: the
+            pairs' distances [m] and witness points in world [m]).
+
+    Args:
+        meshcat: where to draw.
+        task: the task's name (its Meshcat path; the legend names it).
+        rows: the task's number of rows (``max_pairs``), >= 1.
+        d_s: the task's safety margin [m].
+        d_i: the task's activation distance [m], > ``d_s``.
+        period: [s] how often they are drawn, finite and > 0 (1/30 s: the visualizer's rate).
+        radius: [m] the lines' radius, finite and > 0.
+
+    Attributes:
+        task, d_s, d_i: as given (for a legend).
+
+    Raises:
+        ValueError: an empty ``task``, ``rows`` < 1, ``d_i`` not > ``d_s``, a ``period`` or
+            ``radius`` that is not finite and > 0 (each named).
+    """
+
+    def __init__(
+        self,
+        meshcat: Meshcat,
+        task: str,
+        rows: int,
+        d_s: float,
+        d_i: float,
+        *,
+        period: float = 1 / 30,
+        radius: float = 0.003,
+    ) -> None:
+        super().__init__()
+        self.task = nonempty_string("task", task)
+        self.set_name(f"pair_lines_{task}")
+        self._meshcat = meshcat
+        self.d_s, self.d_i = float(d_s), float(d_i)
+        if not (self.d_i > self.d_s):
+            raise ValueError(f"{task!r}: d_i = {d_i!r} m: must be > d_s = {d_s!r} m")
+        radius = positive("radius", radius, unit="m")
+        self._period = positive("period", period, unit="s")
+        self._paths = [f"{PAIRS_PATH}/{task}/{i}" for i in range(positive_int(f"{task!r}: rows", rows))]
+        for path in self._paths:
+            for c in range(PAIR_COLOURS):
+                cylinder = f"{path}/line/{c}/cylinder"
+                meshcat.SetObject(cylinder, Cylinder(radius, 1.0), _blend(c / (PAIR_COLOURS - 1)))
+                meshcat.SetTransform(cylinder, RigidTransform([0.0, 0.0, 0.5]))
+            meshcat.SetProperty(path, "visible", False)
+        self._pairs = self.DeclareAbstractInputPort("closest_pairs", AbstractValue.Make(()))
+        self.DeclarePeriodicPublishEvent(self._period, 0.0, self._publish)
+        self.DeclareForcedPublishEvent(self._publish)
+
+    def _publish(self, context: Context) -> None:
+        t = recording_time(context.get_time(), self._period)
+        pairs = self._pairs.Eval(context)
+        for i, path in enumerate(self._paths):
+            shown = i < len(pairs)
+            self._meshcat.SetProperty(path, "visible", shown, time_in_recording=t)
+            if not shown:
+                continue
+            pair = pairs[i]
+            p_WCa, p_WCb = np.asarray(pair.p_WCa), np.asarray(pair.p_WCb)
+            length = float(np.linalg.norm(p_WCa - p_WCb))
+            R = RotationMatrix.MakeFromOneVector(p_WCa - p_WCb, 2) if length > 1e-9 else RotationMatrix()
+            self._meshcat.SetTransform(path, RigidTransform(R, p_WCb), t)
+            self._meshcat.SetProperty(
+                f"{path}/line", "scale", [1.0, 1.0, max(length, 1e-4)], time_in_recording=t
+            )
+            colour = pair_colour(pair.distance, self.d_s, self.d_i)
+            for c in range(PAIR_COLOURS):
+                self._meshcat.SetProperty(f"{path}/line/{c}", "visible", c == colour, time_in_recording=t)
 
 
 class FollowCamera(LeafSystem):

@@ -15,6 +15,11 @@ allowed at ``d_i``: ``ḋ = J_d q̇`` then shrinks with the distance left, so ``
 ``d_s`` and does not cross it (:mod:`drake_sot.inequalities`). A pair beyond ``d_i`` has no
 row: far from each other, the bodies move freely.
 
+What the rows hold is reported by name (:class:`ClosestPair`: the two shapes and their bodies,
+the signed distance, the witness points in world) on the ``closest_pairs`` output, and, for
+the logs, as fixed-size vectors: each row's distance and its pair as an index into the task's
+``candidate_pairs``, a fixed list of names (the pairs change from tick to tick).
+
 The damper is first order: over one period the distance also changes at second order in the
 motion, most where a box's edge or corner takes over the closest points as a body slides
 along another, and a pair that comes from beyond ``d_i`` to below ``d_s`` in one period is
@@ -35,10 +40,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import SceneGraph
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import SceneGraph, SignedDistancePair
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.systems.framework import Context, Diagram, DiagramBuilder
+from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, ValueProducer
 
 from drake_sot import inequalities as ineq
 from drake_sot import validation
@@ -46,7 +52,7 @@ from drake_sot.models import HumanoidInfo
 from drake_sot.robots import RobotDescription, add_robot_collision, load_robot, weld_robot_base
 from drake_sot.systems.inequalities import InequalityTask
 
-__all__ = ["CollisionModel", "SelfCollisionAvoidance", "make_collision_model"]
+__all__ = ["CandidatePair", "ClosestPair", "CollisionModel", "SelfCollisionAvoidance", "make_collision_model"]
 
 
 @dataclass(frozen=True)
@@ -59,6 +65,41 @@ class CollisionModel:
     plant: MultibodyPlant
     scene_graph: SceneGraph
     info: HumanoidInfo
+
+
+@dataclass(frozen=True)
+class CandidatePair:
+    """A pair of collision shapes the task watches (one the collision filters leave), by name:
+    the shapes' SceneGraph names (``shape_a`` before ``shape_b`` in alphabetical order) and the
+    names of the bodies they are fixed on."""
+
+    shape_a: str
+    shape_b: str
+    body_a: str
+    body_b: str
+
+
+@dataclass(frozen=True)
+class ClosestPair:
+    """One row of :class:`SelfCollisionAvoidance` at a tick: a pair of collision shapes closer
+    than the activation distance ``d_i``.
+
+    Attributes:
+        shape_a, shape_b: the shapes' SceneGraph names (A and B as Drake's query orders them).
+        body_a, body_b: the names of the bodies A and B are fixed on.
+        distance: the signed distance [m] (negative when they interpenetrate).
+        p_WCa, p_WCb: the witness points on A and on B, world frame [m].
+        index: the pair's index in the task's ``candidate_pairs``.
+    """
+
+    shape_a: str
+    shape_b: str
+    body_a: str
+    body_b: str
+    distance: float
+    p_WCa: tuple[float, float, float]
+    p_WCb: tuple[float, float, float]
+    index: int
 
 
 def make_collision_model(
@@ -100,6 +141,16 @@ class SelfCollisionAvoidance(InequalityTask):
             ``error`` = ``d - d_s`` where negative, else 0 [m]; ``J`` (max_pairs, nv) the rows
             ``J_d`` w.r.t. v [m/rad, 1]; ``lower`` = ``-ξ (d - d_s) / (d_i - d_s)`` [m/s],
             ``upper`` = +inf.
+        closest_pairs: abstract ``tuple[ClosestPair, ...]``, the pairs of the rows (closest
+            first, at most ``max_pairs``) at the input q, by name, with their signed distances
+            [m] and witness points in world [m].
+        distances: (max_pairs,) [m] each row's signed distance, NaN for a row without a pair.
+        pair_indices: (max_pairs,) each row's pair as an index into ``candidate_pairs``, -1 for
+            a row without a pair.
+
+    Attributes:
+        candidate_pairs: every pair the task watches (:class:`CandidatePair`), in a fixed
+            order (by the shapes' names): what ``pair_indices`` index.
 
     Args:
         robot: a robot name (``drake_sot.robots.ROBOTS``) or description.
@@ -157,16 +208,29 @@ class SelfCollisionAvoidance(InequalityTask):
         self._p_BG = np.array([X.translation() for X in poses])
         self._q = self.DeclareVectorInputPort("q", plant.num_positions())
         self._declare_task({self.all_input_ports_ticket()})
+        self._declare_reports()
 
     def _closest(self, context: Context) -> list:
-        """The pairs closer than ``d_i`` at the input q, closest first, at most ``max_pairs``."""
-        self.model.plant.SetPositions(self._plant_context, self._q.Eval(context))
+        """The pairs closer than ``d_i`` at the input q, closest first (pairs at one distance by
+        their shapes' names: Drake's query returns them in an order that varies from one model to
+        another), at most ``max_pairs`` (Drake's ``SignedDistancePair``), computed once per input
+        q for the task and the reports.
+
+        The scratch context is left at that q (the witness points' Jacobians and poses are
+        computed on it), whichever context set it last."""
+        q = self._q.Eval(context)
+        if not np.array_equal(self.model.plant.GetPositions(self._plant_context), q):
+            self.model.plant.SetPositions(self._plant_context, q)
+        return self._closest_cache.Eval(context)
+
+    def _query(self, context: Context) -> list:
+        """:meth:`_closest`, computed (the scratch context at the input q)."""
         query = self.model.scene_graph.get_query_output_port().Eval(self._scene_context)
         pairs = query.ComputeSignedDistancePairwiseClosestPoints(max_distance=self._d_i)
         # Drake may also report a pair at max_distance (its box-box distances carry ~1e-5 m of
         # noise): only those strictly closer than d_i get a row.
         closer = [pair for pair in pairs if pair.distance < self._d_i]
-        return sorted(closer, key=lambda pair: pair.distance)[: self._m]
+        return sorted(closer, key=lambda p: (p.distance, self._names[p.id_A], self._names[p.id_B]))[: self._m]
 
     def pairs(self, context: Context) -> tuple[tuple[str, str, float], ...]:
         """The rows' pairs at the input q: (shape A, shape B, signed distance [m]), in row order."""
@@ -207,3 +271,87 @@ class SelfCollisionAvoidance(InequalityTask):
             self._gain,
             self._m,
         )
+
+    # --- what the rows hold, by name: the reports ---------------------------------------------
+    @property
+    def d_s(self) -> float:
+        """The safety margin [m]."""
+        return self._d_s
+
+    @property
+    def d_i(self) -> float:
+        """The activation distance [m]."""
+        return self._d_i
+
+    def _declare_reports(self) -> None:
+        """The cache of the rows' pairs (the task's and the reports' one query a tick), the
+        fixed list of the candidate pairs and the ``closest_pairs``, ``distances`` and
+        ``pair_indices`` outputs."""
+        self._closest_cache = self.DeclareCacheEntry(
+            "closest",
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make([]),
+                calc=lambda context, value: value.set_value(self._query(context)),
+            ),
+            prerequisites_of_calc={self.all_input_ports_ticket()},
+        )
+        plant, inspector = self.model.plant, self.model.scene_graph.model_inspector()
+        self._bodies = {g: plant.GetBodyFromFrameId(inspector.GetFrameId(g)).name() for g in self._names}
+        named = sorted(
+            tuple(sorted(((self._names[a], self._bodies[a]), (self._names[b], self._bodies[b]))))
+            for a, b in inspector.GetCollisionCandidates()
+        )
+        self.candidate_pairs = tuple(
+            CandidatePair(a, b, body_a, body_b) for (a, body_a), (b, body_b) in named
+        )
+        index = {(p.shape_a, p.shape_b): k for k, p in enumerate(self.candidate_pairs)}
+        self._index = {
+            frozenset((a.get_value(), b.get_value())): index[tuple(sorted((self._names[a], self._names[b])))]
+            for a, b in inspector.GetCollisionCandidates()
+        }
+        ticket = {self._closest_cache.ticket()}
+        self.DeclareAbstractOutputPort(
+            "closest_pairs",
+            lambda: AbstractValue.Make(()),
+            self._calc_closest_pairs,
+            prerequisites_of_calc=ticket,
+        )
+        self.DeclareVectorOutputPort("distances", self._m, self._calc_distances, prerequisites_of_calc=ticket)
+        self.DeclareVectorOutputPort(
+            "pair_indices", self._m, self._calc_indices, prerequisites_of_calc=ticket
+        )
+
+    def _pair_index(self, pair: SignedDistancePair) -> int:
+        """The index of ``pair`` (a row's, from Drake's query) in ``candidate_pairs``."""
+        return self._index[frozenset((pair.id_A.get_value(), pair.id_B.get_value()))]
+
+    def _calc_closest_pairs(self, context: Context, value: AbstractValue) -> None:
+        pairs = self._closest(context)
+        query = self.model.scene_graph.get_query_output_port().Eval(self._scene_context)
+        value.set_value(
+            tuple(
+                ClosestPair(
+                    shape_a=self._names[p.id_A],
+                    shape_b=self._names[p.id_B],
+                    body_a=self._bodies[p.id_A],
+                    body_b=self._bodies[p.id_B],
+                    distance=float(p.distance),
+                    p_WCa=tuple(map(float, query.GetPoseInWorld(p.id_A) @ p.p_ACa)),
+                    p_WCb=tuple(map(float, query.GetPoseInWorld(p.id_B) @ p.p_BCb)),
+                    index=self._pair_index(p),
+                )
+                for p in pairs
+            )
+        )
+
+    def _calc_distances(self, context: Context, output: BasicVector) -> None:
+        distances = np.full(self._m, np.nan)
+        pairs = self._closest(context)
+        distances[: len(pairs)] = [p.distance for p in pairs]
+        output.SetFromVector(distances)
+
+    def _calc_indices(self, context: Context, output: BasicVector) -> None:
+        indices = np.full(self._m, -1.0)
+        pairs = self._closest(context)
+        indices[: len(pairs)] = [self._pair_index(p) for p in pairs]
+        output.SetFromVector(indices)
