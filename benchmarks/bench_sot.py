@@ -117,12 +117,19 @@ def reach_tick(robot: str = "embedded"):
     without the ``robot`` argument, so that the baseline tree (which has none) runs it too."""
     from drake_sot.diagrams import reach
 
-    setup = reach.build(None) if robot == "embedded" else reach.build(None, robot=robot)
+    return ticker(reach.build(None) if robot == "embedded" else reach.build(None, robot=robot))[0]
+
+
+def ticker(setup, at: float = 1.0):
+    """``(tick, context)``: :func:`reach_tick`'s tick on a ``reach`` setup (built, e.g., with
+    more tasks), simulated to t = 1 s, its right-hand target then moved, and on to ``at`` [s];
+    the simulator's root context, at the configuration ticked about."""
     built = setup.built
     simulator = built.create_simulator()
     context = simulator.get_mutable_context()
     simulator.AdvanceTo(1.0)
     setup.commands[0].apply(context)  # the right hand is moving: every feature is non-trivial
+    simulator.AdvanceTo(at)
     sot_context = built.sot.GetMyMutableContextFromRoot(context)
     device_context = built.device.GetMyMutableContextFromRoot(context)
     rng = np.random.default_rng(1)
@@ -134,7 +141,7 @@ def reach_tick(robot: str = "embedded"):
         built.device.set_configuration(device_context, q)
         built.sot.EvalUniquePeriodicDiscreteUpdate(sot_context)
 
-    return tick
+    return tick, context
 
 
 def bench_tick(repeat: int = 300, robot: str = "embedded") -> dict[str, float]:

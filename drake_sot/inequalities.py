@@ -15,6 +15,12 @@ drive ``s`` back at rate ``λ``. Rate bounds ``[r_min, r_max]`` on ``ṡ`` itsel
 velocity limits) clip both: ``lower = clip(λ (s_min - s), r_min, r_max)`` and the same
 for ``upper``, which keeps ``lower <= upper``.
 
+For the distance ``d`` between two bodies the damper reads as in Kanoun, Lamiraux, Wieber
+2011 (after Faverjon and Tournassoud 1987): with a safety margin ``d_s`` and an
+activation distance ``d_i > d_s``, ``ḋ >= -ξ (d - d_s) / (d_i - d_s)`` for ``d < d_i``
+(no row beyond), i.e. the damper above with ``s_min = d_s`` and ``λ = ξ / (d_i - d_s)``:
+``ξ`` [m/s] is the approach speed allowed at the activation distance.
+
 The functions here give ``s`` and ``J`` of the quantities the inequality tasks of
 :mod:`drake_sot.systems.inequalities` use. Frame Jacobians follow Drake's convention
 (as :mod:`drake_sot.features`): (6, nv), rows ``[ω; v]`` in the world frame.
@@ -31,6 +37,8 @@ from drake_sot.support import sole_corners, support_polygon
 
 __all__ = [
     "clearance_above_plane",
+    "distance_damper_gain",
+    "distance_rows",
     "feet_polygon",
     "outside",
     "point_distance",
@@ -112,6 +120,71 @@ def point_distance(
     if not s > 0.0:
         return np.zeros(1), np.zeros((1, J_a.shape[1]))
     return np.array([s]), ((delta / s) @ (J_a - J_b))[None, :]
+
+
+def distance_damper_gain(name: str, margin: float, activation: float, speed: float) -> float:
+    """``λ = ξ / (d_i - d_s)`` [1/s] of the distance damper (module docstring), the three checked.
+
+    Args:
+        name: what the parameters belong to, for the messages.
+        margin: the safety margin ``d_s`` [m], finite >= 0.
+        activation: the activation distance ``d_i`` [m], finite and > ``margin``.
+        speed: ``ξ`` [m/s], finite > 0.
+
+    Raises:
+        ValueError: naming the parameter and its value: NaN, ±inf, a negative margin, an
+            activation distance not above the margin, a speed that is not > 0.
+    """
+    margin = validation.nonnegative(f"{name}: safety margin d_s", margin, unit="m")
+    activation = validation.finite(f"{name}: activation distance d_i", activation)
+    if not activation > margin:
+        raise ValueError(
+            f"{name}: activation distance d_i = {activation!r} m: "
+            f"must be > the safety margin d_s = {margin!r} m"
+        )
+    return validation.positive(f"{name}: ξ", speed, unit="m/s") / (activation - margin)
+
+
+def distance_rows(
+    distances: np.ndarray,
+    normals: np.ndarray,
+    J_a: np.ndarray,
+    J_b: np.ndarray,
+    margin: float,
+    gain: float,
+    rows: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(error, J, lower, upper)`` of the distance damper for k pairs of bodies, in ``rows`` rows.
+
+    Pair i has signed distance ``d_i`` between witness points ``p_A`` on body A and ``p_B``
+    on body B, and unit normal ``n_i`` from B to A (``(p_A - p_B) / |p_A - p_B|`` when
+    ``d_i > 0``). Its row is ``J_d = n_iᵀ (J_A - J_B)``, the rate ``ḋ`` of the distance
+    (the witness points move with their bodies), bounded below by ``λ (d_s - d_i)``
+    (:func:`velocity_bounds`; module docstring); ``error`` is ``d_i - d_s`` where negative,
+    else 0 [m]. Rows k to ``rows - 1`` are zero and unbounded: they constrain nothing.
+
+    Args:
+        distances: (k,) signed distances [m], k <= ``rows``.
+        normals: (k, 3) unit normals, from B to A, world frame.
+        J_a, J_b: (k, 3, nv) translational Jacobians of the witness points on A and on B
+            (world frame, w.r.t. v).
+        margin: ``d_s`` [m]; gain: ``λ`` [1/s] (:func:`distance_damper_gain`).
+        rows: the number of rows m.
+
+    Raises:
+        ValueError: more pairs than rows.
+    """
+    k = len(distances)
+    if k > rows:
+        raise ValueError(f"{k} pairs of bodies: more than the {rows} rows")
+    nv = J_a.shape[2]
+    error, J = np.zeros(rows), np.zeros((rows, nv))
+    lower, upper = np.full(rows, -np.inf), np.full(rows, np.inf)
+    d = np.asarray(distances, dtype=float)
+    J[:k] = np.einsum("ij,ijk->ik", normals, J_a - J_b)
+    error[:k] = outside(d, margin, np.inf)
+    lower[:k], upper[:k] = velocity_bounds(d, margin, np.inf, gain)
+    return error, J, lower, upper
 
 
 def polygon_edges(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

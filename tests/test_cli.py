@@ -95,7 +95,7 @@ def test_diagram_svg_shows_the_control_graph(recorded_run):
     out, _ = recorded_run
     root = ET.parse(out / "reach.svg").getroot()
     text = " ".join(t.text or "" for t in root.iter("{http://www.w3.org/2000/svg}text"))
-    for system in ("dyn", "sot", "device", "taskRH", "feature_taskRH", "plant"):
+    for system in ("dyn", "sot", "device", "taskRH", "featureRH", "plant"):
         assert system in text, system
 
 

@@ -114,6 +114,52 @@ def test_coincident_points_give_a_zero_row():
     assert s[0] == 0.0 and not J.any()
 
 
+# --- distances between bodies (self-collision) --------------------------------------------
+
+
+def test_distance_rows_by_hand():
+    """Two pairs in four rows: ``J_d = nᵀ (J_A - J_B)`` and the bound of Kanoun et al. 2011,
+    ``ḋ >= -ξ (d - d_s) / (d_i - d_s)``, written out; the rows beyond the pairs are free."""
+    d_s, d_i, xi = 0.01, 0.05, 0.2
+    gain = ineq.distance_damper_gain("test", d_s, d_i, xi)
+    assert gain == pytest.approx(5.0)
+    distances = np.array([0.03, 0.005])  # the second already inside the margin
+    normals = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0]])
+    J_a = np.zeros((2, 3, 3))
+    J_b = np.zeros((2, 3, 3))
+    J_a[0, 2] = [1.0, 2.0, 3.0]  # pair 0: A's witness point rises with q̇
+    J_b[0, 2] = [0.0, 0.0, 1.0]
+    J_b[1, 0] = [1.0, 0.0, 0.0]  # pair 1: B's point moves along x, A's stands
+    error, J, lower, upper = ineq.distance_rows(distances, normals, J_a, J_b, d_s, gain, 4)
+    np.testing.assert_allclose(J, [[1.0, 2.0, 2.0], [-0.6, 0.0, 0.0], [0, 0, 0], [0, 0, 0]])
+    np.testing.assert_allclose(lower[:2], [-0.2 * 0.02 / 0.04, -0.2 * -0.005 / 0.04])
+    assert np.isneginf(lower[2:]).all() and np.isposinf(upper).all()
+    np.testing.assert_allclose(error, [0.0, -0.005, 0.0, 0.0])
+    with pytest.raises(ValueError, match="3 pairs of bodies: more than the 2 rows"):
+        ineq.distance_rows(
+            np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3, 1)), np.zeros((3, 3, 1)), d_s, gain, 2
+        )
+
+
+@pytest.mark.parametrize(
+    ("d_s", "d_i", "xi", "message"),
+    [
+        (float("nan"), 0.05, 0.2, "safety margin d_s = nan m: must be finite and >= 0"),
+        (-0.01, 0.05, 0.2, "safety margin d_s = -0.01 m: must be finite and >= 0"),
+        (0.01, float("nan"), 0.2, "activation distance d_i = nan: must be a finite number"),
+        (0.01, 0.01, 0.2, "activation distance d_i = 0.01 m: must be > the safety margin d_s = 0.01 m"),
+        (0.05, 0.02, 0.2, "activation distance d_i = 0.02 m: must be > the safety margin d_s = 0.05 m"),
+        (0.01, float("inf"), 0.2, "activation distance d_i = inf: must be a finite number"),
+        (0.01, 0.05, float("nan"), "ξ = nan m/s: must be finite and > 0"),
+        (0.01, 0.05, 0.0, "ξ = 0.0 m/s: must be finite and > 0"),
+        (0.01, 0.05, -1.0, "ξ = -1.0 m/s: must be finite and > 0"),
+    ],
+)
+def test_bad_distance_damper_parameters_are_refused_by_name(d_s, d_i, xi, message):
+    with pytest.raises(ValueError, match=f"^arms: {message}"):
+        ineq.distance_damper_gain("arms", d_s, d_i, xi)
+
+
 # --- polygons -----------------------------------------------------------------------------
 
 

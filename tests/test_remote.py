@@ -181,7 +181,7 @@ def test_a_pushed_task_gets_its_error_at_a_later_tick(server):
                 break
         assert not np.isnan(after).any() and client.t > pushed_at
         # the task's error is the left hand's position error (Mansard et al. 2009: e = s - s*)
-        feature = np.array(client.read("feature_taskLH.error"))
+        feature = np.array(client.read("featureLH.error"))
         assert np.allclose(feature[:3], after[:3], atol=0.02)
         client.run("sot.rm taskLH")
         assert "taskLH" not in client.run("sot.list").split()
@@ -196,8 +196,8 @@ def test_a_read_of_the_stacked_errors_says_whose_rows_are_which(server):
         named = client.read_stacked("sot.errors")
         assert list(named) == list(slices)
         assert [len(named[task]) for task in slices] == [stop - start for start, stop in slices.values()]
-        for task in ("taskRH", "taskCom"):  # in the stack: its rows are its feature's error
-            feature = np.array(client.read(f"feature_{task}.error"))
+        for task, feature_name in (("taskRH", "featureRH"), ("taskCom", "featureCom")):  # in the stack
+            feature = np.array(client.read(f"{feature_name}.error"))  # its rows: its feature's error
             assert np.allclose(named[task], feature, atol=0.02), task
         with pytest.raises(ValueError, match="'dyn.com' is not a stacked signal"):
             client.read_stacked("dyn.com")
@@ -214,7 +214,7 @@ def _hold_the_right_hand(client):
     target = np.array([0.3, -0.25, 0.9])
     for _ in range(2):
         client.write("taskRH.position_des", target.tolist())
-        target = np.array(client.read("feature_taskRH.error"))[:3] + target
+        target = np.array(client.read("featureRH.error"))[:3] + target
     return target
 
 
@@ -226,12 +226,12 @@ def test_a_written_target_changes_the_error_then_the_motion(server):
         assert 0.5 < p[2] < 1.5  # a hand of a standing humanoid
         step = np.array([0.05, 0.0, -0.10])  # the new target: 5 cm ahead of the hand, 10 cm below
         client.write("taskRH.position_des", (p + step).tolist())
-        e1 = np.array(client.read("feature_taskRH.error"))[:3]
+        e1 = np.array(client.read("featureRH.error"))[:3]
         assert np.allclose(e1, -step, atol=0.01), e1
         written_at = client.t
         while client.t < written_at + 1.5:  # 1.5 simulated seconds, 3.75 time constants at gain 2.5
             time.sleep(0.1)
-            e2 = np.array(client.read("feature_taskRH.error"))[:3]
+            e2 = np.array(client.read("featureRH.error"))[:3]
         assert np.linalg.norm(e2) < 0.5 * np.linalg.norm(e1), (written_at, client.t, e2)
 
 
@@ -261,16 +261,16 @@ def test_a_task_gain_set_remotely_sets_the_decay_rate_of_its_error(server):
         with pytest.raises(RemoteError, match=r"gain = -1.0 1/s: must be finite and > 0"):
             client.run("taskRH.controlGain -1")
         with pytest.raises(RemoteError, match=r"taskRH.add: not a run-time command"):
-            client.run("taskRH.add feature_taskLH")
+            client.run("taskRH.add featureLH")
         client.run("taskRH.controlGain 10")
         try:
             p = _hold_the_right_hand(client)
             step = np.array([0.0, 0.0, 0.06])  # up: the test before leaves the hand 10 cm lower
             client.write("taskRH.position_des", (p + step).tolist())
-            e1 = np.array(client.read("feature_taskRH.error"))[:3]
+            e1 = np.array(client.read("featureRH.error"))[:3]
             start = client.t
             while client.t < start + 0.25:
-                e2 = np.array(client.read("feature_taskRH.error"))[:3]
+                e2 = np.array(client.read("featureRH.error"))[:3]
             assert np.linalg.norm(e2) < 0.3 * np.linalg.norm(e1), (client.t - start, e1, e2)
         finally:
             client.run("taskRH.controlGain 2.5")

@@ -124,13 +124,11 @@ def test_each_run_line_is_parsed_once(served, monkeypatch):
     network.put(
         Request("run", 1, cmd="taskRH.controlGain 3"),
         Request("run", 2, cmd="sot.rm taskPosture"),
-        Request("run", 3, cmd="get feature_taskRH.error"),
+        Request("run", 3, cmd="get featureRH.error"),
     )
     _ticks(simulator, serving, 3)
     assert all(network.reply(i)["ok"] for i in (1, 2, 3)), network.sent
-    assert sorted(parsed) == sorted(
-        ["taskRH.controlGain 3", "sot.rm taskPosture", "get feature_taskRH.error"]
-    )
+    assert sorted(parsed) == sorted(["taskRH.controlGain 3", "sot.rm taskPosture", "get featureRH.error"])
 
 
 @pytest.mark.parametrize(

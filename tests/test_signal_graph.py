@@ -39,8 +39,8 @@ def test_the_case_study_fits_a_page_and_names_the_papers_entities_and_their_sign
     write_graph(case_study, path)
     width, texts, edges, nodes = _svg(path)
     assert width <= A4_READABLE_WIDTH
-    # The scenario names the CoM's feature feature_taskCom (the SoT's featureCom).
-    entities = {"sot", "dyn", "pg", "stabilizer", "taskCom", "feature_taskCom", "device"}
+    # The SoT's names: the CoM's feature of taskCom is featureCom (Mansard et al. 2009).
+    entities = {"sot", "dyn", "pg", "stabilizer", "taskCom", "featureCom", "device"}
     assert entities <= nodes and entities <= texts
     # Every connection between them, read from Drake's own connection map, is an edge of the
     # picture, and its two plugs are named in it.
@@ -51,11 +51,11 @@ def test_the_case_study_fits_a_page_and_names_the_papers_entities_and_their_sign
             between.add(f"{source.get_name()}.{output}->{destination.get_name()}.{input_}")
             assert {output, input_} <= texts
     assert {
-        "dyn.com->feature_taskCom.com",
-        "dyn.Jcom->feature_taskCom.Jcom",
+        "dyn.com->featureCom.com",
+        "dyn.Jcom->featureCom.Jcom",
         "pg.com->stabilizer.com_ref",
-        "stabilizer.com->feature_taskCom.sdes",
-        "feature_taskCom.feature->taskCom.feature_taskCom",
+        "stabilizer.com->featureCom.sdes",
+        "featureCom.feature->taskCom.featureCom",
         "taskCom.task->sot.taskCom",
         "sot.qdot->device.qdot",
     } <= between

@@ -403,12 +403,17 @@ def _parser(
     actions = robot.add_subparsers(dest="action", required=True)
     draft = actions.add_parser(
         "draft",
-        help="print a description file drafted from a URDF (frames, sole, sensors, half-sitting, gains)",
+        help="print a description file drafted from a URDF, SDF or MJCF model (frames, sole, sensors, "
+        "half-sitting, gains)",
         epilog="write it beside the model under the model's name with .toml, check what its first lines "
         "say it could not guess, then: drake-sot run walk --robot MODEL.toml; exit status 2: a model "
         "file that is missing or cannot be read",
     )
-    draft.add_argument("model", metavar="MODEL", help="the robot's URDF file")
+    draft.add_argument(
+        "model",
+        metavar="MODEL",
+        help="the robot's model file: a URDF (.urdf), an SDF (.sdf) or an MJCF (.xml)",
+    )
     study_arguments(sub.add_parser("study", help="run a study (many runs) on Dask", epilog=STUDY_EPILOG))
     return parser, run, script
 

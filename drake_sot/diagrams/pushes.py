@@ -20,8 +20,8 @@ from drake_sot import validation
 from drake_sot.diagrams.run import MAX_DURATION
 from drake_sot.errors import UnknownNameError
 
-#: The largest push [N] (norm of the force): 10 kN, sixteen times the embedded humanoid's
-#: weight (61 kg) and eleven times TALOS's (93 kg). Held for the shortest push the scenarios
+#: The largest push [N] (norm of the force): 10 kN, seventeen times the embedded humanoid's
+#: weight (58 kg) and eleven times TALOS's (93 kg). Held for the shortest push the scenarios
 #: use (0.1 s) it is an impulse of 1000 N s, which throws any of them metres away: a larger
 #: force is a typo, and one near the float range (1e300) ends the contact solver's run.
 MAX_PUSH_FORCE = 1e4

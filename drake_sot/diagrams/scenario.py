@@ -167,7 +167,8 @@ ROBOT = Parameter(
     "robot",
     "choice",
     "embedded",
-    "the robot (see 'drake-sot list --robots'; your own: see 'drake-sot robot draft')",
+    "the robot (see 'drake-sot list --robots'; your own: a description .toml, or a URDF, SDF or "
+    "MJCF .xml model with its description beside it, see 'drake-sot robot draft')",
     choices=tuple(sorted(ROBOTS)),
     paths=ROBOT_PATH_SUFFIXES,
 )

@@ -52,6 +52,7 @@ from drake_sot.systems.inequalities import (
 from drake_sot.systems.kinematics import FRAME_SUFFIX, RobotKinematics
 from drake_sot.systems.partner import ConstantForce, Partner
 from drake_sot.systems.replay_view import Arrow, ArrowGroup, FollowCamera, ForceArrows, SoleForces
+from drake_sot.systems.self_collision import SelfCollisionAvoidance
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive, vector
 
@@ -73,6 +74,15 @@ PUSH_SCALE = 500.0
 SOLE_ARROW_GAP = 0.03
 #: The fall criteria every floating-base builder monitors by default.
 FALL_CRITERIA = FallCriteria()
+
+
+def feature_name(task_name: str) -> str:
+    """The name of the feature a builder makes for the task ``task_name``, as the SoT's scripts
+    name them (Mansard et al. 2009): ``taskCom`` → ``featureCom``, ``taskRH`` → ``featureRH``; a
+    task name not of the form ``task<Name>`` gets ``feature_<task name>``."""
+    if task_name.startswith("task") and task_name[4:5].isupper():
+        return "feature" + task_name[4:]
+    return f"feature_{task_name}"
 
 
 class HumanoidTaskBuilder:
@@ -253,7 +263,7 @@ class HumanoidTaskBuilder:
                 task_name, self._shared_pose_feature(feature_of, frame_key, desired), gain, selection
             )
         feature = FeaturePoint6d(
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
             desired=self.initial_pose(frame_key) if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain, selection)
@@ -299,7 +309,7 @@ class HumanoidTaskBuilder:
         op, ref = self.op_point(frame_key), self.op_point(reference_key)
         if desired is None:
             desired = self.initial_pose(reference_key).InvertAndCompose(self.initial_pose(frame_key))
-        feature = FeaturePoint6dRelative(selection=selection, name=f"feature_{task_name}", desired=desired)
+        feature = FeaturePoint6dRelative(selection=selection, name=feature_name(task_name), desired=desired)
         task = self._add_task(task_name, feature, gain)
         self._connect_frame(op, feature)
         self._connect_frame(ref, feature, "Ref")
@@ -316,7 +326,7 @@ class HumanoidTaskBuilder:
         """A CoM task (``FeatureCoM``, xy by default); holds the initial CoM unless ``desired``."""
         feature = FeatureCoM(
             selection=selection,
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
             desired=self.initial_com() if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain)
@@ -352,7 +362,7 @@ class HumanoidTaskBuilder:
             gain: λ [1/s]; desired: s* (2,) in normalised image coordinates; selection: of x, y.
         """
         op = self.op_point(camera)
-        feature = FeatureVisualPoint(selection=selection, name=f"feature_{task_name}", desired=desired)
+        feature = FeatureVisualPoint(selection=selection, name=feature_name(task_name), desired=desired)
         task = self._add_task(task_name, feature, gain)
         self._connect_frame(op, feature)
         self.builder.Connect(point, feature.GetInputPort("point"))
@@ -372,7 +382,7 @@ class HumanoidTaskBuilder:
         feature = FeaturePosture(
             self.control_plant,
             list(joints) if joints is not None else list(self.control_info.actuated_joints),
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
             desired=self.q0 if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain)
@@ -503,7 +513,7 @@ class HumanoidTaskBuilder:
             self.control_plant,
             list(joints) if joints is not None else list(self.control_info.actuated_joints),
             margin=margin,
-            name=f"feature_{task_name}",
+            name=feature_name(task_name),
         )
         task = self._add_task(task_name, feature, gain)
         self.use_reference_q(feature.GetInputPort("q"))
@@ -633,6 +643,32 @@ class HumanoidTaskBuilder:
         )
         self._wire_op_point(frame_a, task, "_a")
         self._wire_op_point(frame_b, task, "_b")
+        return task
+
+    def add_self_collision_task(
+        self,
+        task_name: str,
+        *,
+        d_s: float = 0.01,
+        d_i: float = 0.05,
+        xi: float = 0.2,
+        max_pairs: int = 16,
+    ) -> SelfCollisionAvoidance:
+        """Every pair of the robot's collision shapes that may collide kept ``d_s`` apart, with
+        rows for the pairs closer than ``d_i`` (``SelfCollisionAvoidance``, on this builder's
+        robot and base). Reads the reference q. An inequality task."""
+        task = self._add_inequality(
+            SelfCollisionAvoidance(
+                self.robot,
+                fixed_base=self.fixed_base,
+                d_s=d_s,
+                d_i=d_i,
+                xi=xi,
+                max_pairs=max_pairs,
+                name=task_name,
+            )
+        )
+        self.use_reference_q(task.GetInputPort("q"))
         return task
 
     def _wire_op_point(self, frame_key: str, system, suffix: str = "") -> None:

@@ -5,8 +5,10 @@ name or a description) and load it with :func:`load_robot`. The embedded humanoi
 robot "embedded"; TALOS and the Unitree G1 need the optional extra ``drake_sot[robots]``.
 
 The descriptions (:mod:`~drake_sot.robots.catalog`, :mod:`~drake_sot.robots.description`,
-:mod:`~drake_sot.robots.urdf`) import no pydrake, nor does this package until one of the
-loading functions is asked for: the peer benchmark reads TALOS from here without Drake.
+:mod:`~drake_sot.robots.model_tree`) and the model fixes (:mod:`~drake_sot.robots.urdf`,
+:mod:`~drake_sot.robots.sdf`, :mod:`~drake_sot.robots.mjcf`) import no pydrake, nor does this
+package until one of the loading functions is asked for: the peer benchmark reads TALOS from
+here without Drake.
 """
 
 from typing import Any

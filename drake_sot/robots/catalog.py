@@ -26,9 +26,9 @@ from drake_sot.robots.description import (
     RobotDescription,
     drives_by_pattern,
     srdf_group_state,
-    urdf_joints,
 )
 from drake_sot.robots.description_file import is_robot_path, load_description
+from drake_sot.robots.model_tree import model_joints
 from drake_sot.robots.urdf import AddedWeld
 
 #: Environment variable naming the ``robots`` directory of example-robot-data (overrides
@@ -79,7 +79,7 @@ def _embedded() -> RobotDescription:
         drives[j.name] = Drive(kp=d.kp, kd=d.kd, effort=d.effort, rotor_inertia=d.rotor_inertia)
     return RobotDescription(
         name="embedded",
-        title="the embedded HRP-2-class humanoid built from primitive shapes (61 kg, 30 joints)",
+        title="the embedded HRP-2-class humanoid built from primitive shapes (58 kg, 30 joints)",
         model_file=None,
         packages={},
         base_body="pelvis",
@@ -174,7 +174,7 @@ def talos() -> RobotDescription:
         "_fingertip_3",
     )
     frozen = tuple(f"gripper_{side}{part}_joint" for side in ("left", "right") for part in parts)
-    joints = urdf_joints(model, frozen)
+    joints = model_joints(model, frozen)
     half_sitting = srdf_group_state(root / "talos_data" / "srdf" / "talos.srdf", "half_sitting")
     gains = {
         #  pattern            kp      kd    rotor inertia
@@ -255,7 +255,7 @@ def g1() -> RobotDescription:
     """
     root = data_root("robot 'g1'")
     model = root / "g1_description" / "urdf" / "g1_29dof_rev_1_0.urdf"
-    joints = urdf_joints(model)
+    joints = model_joints(model)
     stance = {
         "hip_pitch": -0.35,
         "knee": 0.70,

@@ -23,6 +23,7 @@ from types import MappingProxyType
 
 from drake_sot.footsteps import StepLimits, StepTiming
 from drake_sot.robots.errors import RobotFileError, RobotFileMissing
+from drake_sot.robots.model_tree import ModelJoint
 from drake_sot.robots.urdf import AddedWeld
 
 #: The logical frames every robot gives (sole = the sole plane under the ankle, x
@@ -50,7 +51,7 @@ FORCE_SENSORS = ("left_ankle", "right_ankle", "left_wrist", "right_wrist")
 
 
 def xml_root(path: Path, what: str) -> ET.Element:
-    """The root element of the XML file ``path`` (a URDF or an SRDF, said by ``what``).
+    """The root element of the XML file ``path`` (an SRDF, said by ``what``).
 
     Raises:
         RobotFileMissing: ``path`` is not a file.
@@ -105,7 +106,7 @@ class RobotDescription:
     Attributes:
         name: the name ``--robot`` takes ("embedded", "talos", "g1").
         title: one line for ``drake-sot list --robots``.
-        model_file: the URDF; None for the embedded humanoid (built in code).
+        model_file: the model (a URDF, an SDF or an MJCF); None for the embedded humanoid (built in code).
         packages: package name → directory, for the model's ``package://`` URIs.
         base_body: the floating base body (the pelvis).
         frames: logical name (:data:`LOGICAL_FRAMES`) → where it is.
@@ -162,38 +163,6 @@ class RobotDescription:
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
 
 
-@dataclass(frozen=True)
-class UrdfJoint:
-    """A moving joint as the URDF declares it: limits [rad] and effort limit [N m]."""
-
-    lower: float
-    upper: float
-    effort: float
-
-
-def urdf_joints(path: Path, frozen: tuple[str, ...] = ()) -> dict[str, UrdfJoint]:
-    """The revolute joints of a URDF file (less ``frozen`` ones and mimic followers), in file order.
-
-    Raises RobotFileMissing naming the file when it is missing, RobotFileError when it is not
-    well-formed XML or a revolute joint has no numeric ``<limit lower upper effort>``.
-    """
-    joints = {}
-    for joint in xml_root(path, "robot model file").findall("joint"):
-        name = joint.get("name")
-        if joint.get("type") != "revolute" or name in frozen or joint.find("mimic") is not None:
-            continue
-        limit = joint.find("limit")
-        try:
-            joints[name] = UrdfJoint(
-                float(limit.get("lower")), float(limit.get("upper")), float(limit.get("effort"))
-            )
-        except (AttributeError, TypeError, ValueError):  # no <limit>, or a missing or bad attribute
-            raise RobotFileError(
-                f"robot model file {path}: joint {name!r} has no numeric <limit lower upper effort>"
-            ) from None
-    return joints
-
-
 def srdf_group_state(path: Path, state: str) -> dict[str, float]:
     """The joint angles [rad] of group state ``state`` of an SRDF file (one-value joints only:
     the root joint's pose is not an angle).
@@ -212,10 +181,11 @@ def srdf_group_state(path: Path, state: str) -> dict[str, float]:
 
 
 def drives_by_pattern(
-    joints: Mapping[str, UrdfJoint], table: Mapping[str, tuple[float, float, float]]
+    joints: Mapping[str, ModelJoint], table: Mapping[str, tuple[float, float, float]]
 ) -> dict[str, Drive]:
     """A drive for every joint: the first regular expression of ``table`` (pattern → (kp, kd,
-    rotor inertia)) that the joint name matches, with the joint's URDF effort limit.
+    rotor inertia)) that the joint name matches, with the joint's effort limit in the model
+    (which must give one).
 
     Raises ValueError naming the joints that no pattern matches.
     """

@@ -1,15 +1,16 @@
 """Your own robot: a description file (TOML) beside its model, read into a
 :class:`~drake_sot.robots.description.RobotDescription`.
 
-A description file names the model (a URDF, relative to the file) and says what the model
-cannot: the logical frames, the sole, the force sensors, the half-sitting posture and the
-servo gains. ``drake-sot robot draft MODEL`` drafts one (:mod:`drake_sot.robots.draft`);
+A description file names the model (a URDF, an SDF or an MJCF, relative to the file: what each
+format may hold is in :mod:`drake_sot.robots.model_tree`) and says what the model cannot: the
+logical frames, the sole, the force sensors, the half-sitting posture and the servo gains.
+``drake-sot robot draft MODEL`` drafts one (:mod:`drake_sot.robots.draft`);
 ``--robot PATH`` (and ``robot=PATH`` in Python) loads one through :func:`load_description`.
 The keys (``[name]`` a table, ``name[]`` an array of tables; defaults in parentheses)::
 
     name = "myrobot"              # (the file's stem) the robot's name
     title = "..."                 # (the model file's name) one line for `drake-sot list --robots`
-    model = "myrobot.urdf"        # the model, relative to this file
+    model = "myrobot.urdf"        # the model (.urdf, .sdf, or .xml for MJCF), relative to this file
     base_body = "pelvis"          # the floating base body
     sole_size = [0.23, 0.13]      # [m] sole length (x) and width (y), centred on the sole frame
     contact_radius = 0.01         # (0.01) [m] the four contact spheres under each sole
@@ -18,9 +19,11 @@ The keys (``[name]`` a table, ``name[]`` an array of tables; defaults in parenth
     [frames]                      # every logical frame: a frame of the model, or a table
     left_foot = { parent = "l_foot", xyz = [0, 0, -0.075], rpy = [0, 0, 0] }   # [m], [rad]
     [force_sensors]               # left_ankle, right_ankle, left_wrist, right_wrist = weld joint
+                                  #   (an MJCF's welds are named by Drake: "<parent>_welds_to_<child>")
     added_welds[]                 # (none) { name, parent, child, xyz }: a sensor weld the model lacks
     [half_sitting]                # (0 rad) joint = angle [rad]
     [drives]                      # regular expression = { kp, kd, rotor_inertia (0), effort (the model's) }
+                                  #   (effort is needed where the model gives a joint none)
     collision[]                   # (none) { body, kind = box|sphere|capsule, dims, xyz, rpy }
     [step_timing]                 # (0.7 s, 0.1 s, 0.05 m) single_support, double_support, step_height
     [step_limits]                 # (0.35, 0.15, 0.35 m, 0.5 rad) max_stride, min_width, max_width, max_yaw
@@ -49,17 +52,18 @@ from drake_sot.robots.description import (
     Drive,
     FrameSpec,
     RobotDescription,
-    urdf_joints,
 )
 from drake_sot.robots.errors import RobotFileError, RobotFileMissing
+from drake_sot.robots.model_tree import MODEL_FORMATS, model_joints, model_root
 from drake_sot.robots.urdf import AddedWeld
 from drake_sot.validation import shown
 
 #: The file suffix of a description.
 DESCRIPTION_SUFFIX = ".toml"
-#: The model files a description may name (Drake's URDF parser, after the fixes of
-#: :func:`~drake_sot.robots.urdf.prepare_urdf`).
-MODEL_SUFFIXES = (".urdf",)
+#: The model files a description may name: URDF, SDF, MJCF (``.xml`` whose root is ``<mujoco>``),
+#: parsed by Drake after the in-memory fixes of :mod:`~drake_sot.robots.urdf`,
+#: :mod:`~drake_sot.robots.sdf` and :mod:`~drake_sot.robots.mjcf`.
+MODEL_SUFFIXES = tuple(MODEL_FORMATS)
 #: What ``--robot`` takes as a path: a description, or a model with its description beside it.
 ROBOT_PATH_SUFFIXES = (DESCRIPTION_SUFFIX, *MODEL_SUFFIXES)
 #: The collision shape kinds and how many dimensions each takes.
@@ -100,12 +104,14 @@ def is_robot_path(name: str) -> bool:
 
 def description_path(path: str | Path) -> Path:
     """The description file of ``path``: itself when it is a ``.toml``, else the ``.toml`` of the
-    same stem beside the model file.
+    same stem beside the model file (:func:`load_description` checks that it names that model).
 
     Raises:
         RobotFileMissing: the file (or the description beside the model) does not exist; for a
             model, the message says how to draft one.
         RobotDescriptionError: ``path`` is neither a description nor a model file.
+        RobotFileError: a model that is not well-formed XML or not of the format its suffix says
+            (an ``.xml`` whose root is not ``<mujoco>``), naming it.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -115,10 +121,9 @@ def description_path(path: str | Path) -> Path:
         return path
     if suffix not in MODEL_SUFFIXES:
         raise RobotDescriptionError(
-            f"--robot {path}: a path must end with one of {', '.join(ROBOT_PATH_SUFFIXES)}"
+            f"--robot {path}: a path must end with one of {', '.join(ROBOT_PATH_SUFFIXES)} (MJCF)"
         )
-    if not path.is_file():
-        raise RobotFileMissing(f"robot model file {path} does not exist")
+    model_root(path)  # it exists and is what its suffix says
     beside = path.with_suffix(DESCRIPTION_SUFFIX)
     if not beside.is_file():
         raise RobotFileMissing(
@@ -138,12 +143,24 @@ def load_description(path: str | Path) -> RobotDescription:
         RobotFileMissing: the file, or the model it names, does not exist.
         RobotDescriptionError: the file is not TOML (where) or nests too deeply, a key is
             unknown, missing or of the wrong type, a value out of range (naming the file, the
-            key and the value), a joint without a drive, a half-sitting angle outside its limits.
-        RobotFileError: the description cannot be read (permissions), the model file is not a
-            well-formed URDF.
+            key and the value), a joint without a drive (or without an effort limit), a
+            half-sitting angle outside its limits; the description beside a model file ``path``
+            names another model.
+        RobotFileError: the description cannot be read (permissions), the model file is not
+            well-formed XML, not of the format its suffix says, or holds what
+            :mod:`~drake_sot.robots.model_tree` does not read.
     """
-    path = description_path(path).resolve()
-    return _cached_description(path, path.stat().st_mtime_ns)
+    described = description_path(path).resolve()
+    robot = _cached_description(described, described.stat().st_mtime_ns)
+    if (
+        Path(path).suffix.lower() in MODEL_SUFFIXES
+        and Path(robot.model_file).resolve() != Path(path).resolve()
+    ):
+        raise RobotDescriptionError(
+            f"robot description {described} (beside {path}) describes model {robot.model_file}, not {path}: "
+            "give the path of the description of this model"
+        )
+    return robot
 
 
 @functools.lru_cache(maxsize=16)
@@ -256,7 +273,7 @@ class _Reader:
                 drives[name] = Drive(
                     kp=self.number(f"{key}.kp", self.get(gains, "kp", f"{key}."), *positive),
                     kd=self.number(f"{key}.kd", self.get(gains, "kd", f"{key}."), *nonnegative),
-                    effort=self.number(f"{key}.effort", gains.get("effort", joint.effort), *positive),
+                    effort=self.effort(key, name, gains.get("effort", joint.effort)),
                     rotor_inertia=self.number(
                         f"{key}.rotor_inertia", gains.get("rotor_inertia", 0.0), *nonnegative
                     ),
@@ -270,13 +287,21 @@ class _Reader:
             )
         return drives
 
+    def effort(self, key: str, joint: str, value: float | None) -> float:
+        if value is None:
+            raise RobotDescriptionError(
+                f"robot description {self.path}: {key}.effort is missing: the model gives joint "
+                f"{joint!r} no effort limit; give it [N m] (> 0)"
+            )
+        return self.number(f"{key}.effort", value, lambda v: v > 0.0, "(finite, > 0)")
+
     def description(self) -> RobotDescription:
         data, here = self.data, self.path.parent
         self.keys("", data, _TOP_KEYS)
         model = here / self.string("model", self.get(data, "model", ""))
         if model.suffix.lower() not in MODEL_SUFFIXES:
             raise self.error(
-                "model", str(model), f"must be a model file ending with {', '.join(MODEL_SUFFIXES)}"
+                "model", str(model), f"must be a model file ending with {', '.join(MODEL_SUFFIXES)} (MJCF)"
             )
         if not model.is_file():
             raise RobotFileMissing(f"robot description {self.path}: model = {str(model)!r} does not exist")
@@ -288,7 +313,7 @@ class _Reader:
         if not isinstance(frozen, list):
             raise self.error("frozen_joints", frozen, "must be an array of joint names")
         frozen = tuple(self.string(f"frozen_joints[{i}]", j) for i, j in enumerate(frozen))
-        joints = urdf_joints(model, frozen)
+        joints = model_joints(model, frozen)
 
         frames_table = self.table("frames", self.get(data, "frames", ""))
         self.keys("frames: ", frames_table, LOGICAL_FRAMES)

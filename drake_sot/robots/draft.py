@@ -1,14 +1,16 @@
 """A first description file of a robot, drafted from its model (``drake-sot robot draft MODEL``).
 
-:func:`draft_description` reads a URDF and guesses, from the link names and the kinematic tree
-in the zero configuration, what :mod:`~drake_sot.robots.description_file` asks:
+:func:`draft_description` reads a model (a URDF, an SDF or an MJCF, through
+:mod:`~drake_sot.robots.model_tree`) and guesses, from the link names and the kinematic tree in
+the zero configuration, what :mod:`~drake_sot.robots.description_file` asks:
 
 - the sides: a link is left or right when a word of its name says so (``left``, ``l``, ``L``
   before a capital: ``l_knee``, ``left_hip_link``, ``LAnkle``);
 - the feet: on each side the lowest link; the sole under it, at the bottom of its box (visual
   or collision) when it has one, which gives the sole's size too; the ankle: the child of the
   last revolute joint above the foot; the ankle's force sensor: a fixed joint between the two,
-  else a sole link welded under the foot (an added weld);
+  else a sole link welded under the foot (an added weld; in an MJCF, a body, the weld named as
+  Drake names it);
 - the legs: the subtree of the first sided link on the way from the base to the foot; the
   arms: the other sided links; the hand: the arm's link named hand, palm, gripper or tool (else
   its deepest link); the wrist and its sensor: the fixed joint nearest above the hand;
@@ -32,10 +34,9 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
-from drake_sot.robots.description import FORCE_SENSORS, LOGICAL_FRAMES, OPTICAL_RPY, xml_root
+from drake_sot.robots.description import FORCE_SENSORS, LOGICAL_FRAMES, OPTICAL_RPY
 from drake_sot.robots.errors import RobotFileError
+from drake_sot.robots.model_tree import ModelTree, read_model_tree, weld_name
 
 #: The knee bend [rad] of a drafted half-sitting posture (HRP-2 bends its knees 0.87 rad).
 KNEE_BEND = 0.6
@@ -49,25 +50,10 @@ DEFAULT_EFFORT = 10.0
 #: Sole size [m] drafted when the foot has no box to read it from.
 DEFAULT_SOLE = (0.2, 0.1)
 
-_X = np.array([1.0, 0.0, 0.0])  # a URDF joint's default axis
 _SIDES = {
     "left": re.compile(r"(^|[^a-z])(l|left)([^a-z]|$)|^L[A-Z]", re.IGNORECASE),
     "right": re.compile(r"(^|[^a-z])(r|right)([^a-z]|$)|^R[A-Z]", re.IGNORECASE),
 }
-
-
-@dataclass
-class _Joint:
-    name: str
-    kind: str
-    parent: str
-    child: str
-    xyz: np.ndarray
-    rpy: np.ndarray
-    axis: np.ndarray
-    limits: tuple[float, float] | None  # a revolute joint's
-    effort: float | None  # a revolute joint's
-    mimic: bool
 
 
 @dataclass
@@ -76,28 +62,6 @@ class Draft:
 
     text: str
     unguessed: list[str] = field(default_factory=list)
-
-
-def _rotation(rpy: np.ndarray) -> np.ndarray:
-    roll, pitch, yaw = rpy
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
-                              math.cos(yaw), math.sin(yaw))  # fmt: skip
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def _floats(text: str | None, size: int, default: float = 0.0) -> np.ndarray:
-    if text is None:
-        return np.full(size, default)
-    values = [float(v) for v in text.split()]
-    if len(values) != size:
-        raise ValueError(f"{text!r}: needs {size} numbers")
-    return np.array(values)
 
 
 def _printable(name: str) -> bool:
@@ -128,141 +92,27 @@ def _value(value) -> str:
     return repr(round(float(value), 6) + 0.0)  # + 0.0: no -0.0
 
 
-class _Model:
-    """The tree of a URDF in its zero configuration."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        root = xml_root(path, "robot model file")
-        if root.tag != "robot":
-            raise RobotFileError(
-                f"robot model file {path}: not a URDF (its root is <{root.tag}>, not <robot>)"
-            )
-        self.links = {link.get("name"): link for link in root.findall("link")}
-        if None in self.links or "" in self.links or len(self.links) != len(root.findall("link")):
-            raise RobotFileError(f"robot model file {path}: a link without a name, or two of one name")
-        self.joints: dict[str, _Joint] = {}
-        for element in root.findall("joint"):
-            name, kind = element.get("name"), element.get("type")
-            try:
-                origin, limit, axis = element.find("origin"), element.find("limit"), element.find("axis")
-                parent, child = element.find("parent").get("link"), element.find("child").get("link")
-                self.joints[name] = _Joint(
-                    name=name,
-                    kind=kind,
-                    parent=parent,
-                    child=child,
-                    xyz=_floats(None if origin is None else origin.get("xyz"), 3),
-                    rpy=_floats(None if origin is None else origin.get("rpy"), 3),
-                    axis=_floats(None if axis is None else axis.get("xyz"), 3) if axis is not None else _X,
-                    limits=None
-                    if kind != "revolute"
-                    else (float(limit.get("lower")), float(limit.get("upper"))),
-                    effort=None if kind != "revolute" else float(limit.get("effort")),
-                    mimic=element.find("mimic") is not None,
-                )
-            except (AttributeError, TypeError, ValueError) as exc:
-                needs = " (a revolute joint needs <limit lower upper effort>)" if kind == "revolute" else ""
-                raise RobotFileError(
-                    f"robot model file {path}: joint {name!r}: cannot be read{needs}: {exc}"
-                ) from None
-        if None in self.joints or "" in self.joints or len(self.joints) != len(root.findall("joint")):
-            raise RobotFileError(f"robot model file {path}: a joint without a name, or two of one name")
-        unwritable = [name for name in (*self.links, *self.joints) if not _printable(name)]
-        if unwritable:
-            raise RobotFileError(f"robot model file {path}: names {unwritable} are not printable text")
-        for j in self.joints.values():
-            if j.parent not in self.links or j.child not in self.links:
-                raise RobotFileError(
-                    f"robot model file {path}: joint {j.name!r} joins {j.parent!r} to {j.child!r}: "
-                    "both must be links of the model"
-                )
-        self.by_child = {j.child: j for j in self.joints.values()}
-        if len(self.by_child) != len(self.joints):
-            raise RobotFileError(f"robot model file {path}: a link is the child of two joints")
-        self.children: dict[str, list[str]] = {name: [] for name in self.links}
-        for j in self.joints.values():
-            self.children.setdefault(j.parent, []).append(j.child)
-        roots = [name for name in self.links if name not in self.by_child]
-        if len(roots) != 1:
-            raise RobotFileError(f"robot model file {path}: needs one root link, has {roots or 'none'}")
-        self.root = roots[0]
-        self.pose: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # link -> (R, p) in the root's frame
-        stack = [(self.root, np.eye(3), np.zeros(3))]
-        while stack:
-            link, R, p = stack.pop()
-            self.pose[link] = (R, p)
-            for child in self.children.get(link, []):
-                j = self.by_child[child]
-                stack.append((child, R @ _rotation(j.rpy), p + R @ j.xyz))
-        detached = sorted(set(self.links) - set(self.pose))
-        if detached:
-            raise RobotFileError(
-                f"robot model file {path}: links {detached} are not below the root {self.root!r}"
-            )
-
-    def chain(self, link: str) -> list[str]:
-        """The links from the root to ``link``, both included."""
-        links = [link]
-        while links[-1] in self.by_child:
-            links.append(self.by_child[links[-1]].parent)
-        return links[::-1]
-
-    def subtree(self, link: str) -> set[str]:
-        found, stack = set(), [link]
-        while stack:
-            found.add(stack[-1])
-            stack.extend(self.children.get(stack.pop(), []))
-        return found
-
-    def moving(self) -> list[_Joint]:
-        """The revolute joints (mimic followers left out: the loader fixes them)."""
-        return [
-            j for j in self.joints.values() if j.kind == "revolute" and j.limits is not None and not j.mimic
-        ]
-
-    def box(self, link: str) -> tuple[np.ndarray, np.ndarray] | None:
-        """(size, centre) [m] of a box of ``link`` (collision first, then visual), in its frame."""
-        element = self.links[link]
-        for tag in ("collision", "visual"):
-            for geometry in element.findall(tag):
-                box = geometry.find("geometry/box")
-                if box is not None:
-                    origin = geometry.find("origin")
-                    try:
-                        return _floats(box.get("size"), 3), _floats(
-                            origin.get("xyz") if origin is not None else None, 3
-                        )
-                    except ValueError as exc:
-                        raise RobotFileError(
-                            f"robot model file {self.path}: the box of link {link!r} cannot be read: {exc}"
-                        ) from None
-        return None
-
-    def named(self, links, pattern: str) -> list[str]:
-        """The ``links`` whose names match ``pattern``, those with a mass if any has one."""
-        found = [link for link in links if re.search(pattern, link, re.IGNORECASE)]
-        return [link for link in found if self.mass(link) > 0.0] or found
-
-    def mass(self, link: str) -> float:
-        mass = self.links[link].find("inertial/mass")
-        try:
-            return float(mass.get("value"))
-        except (AttributeError, TypeError, ValueError):
-            return 0.0
+def _named(model: ModelTree, links, pattern: str) -> list[str]:
+    """The ``links`` whose names match ``pattern``, those with a mass if any has one."""
+    found = [link for link in links if re.search(pattern, link, re.IGNORECASE)]
+    return [link for link in found if model.links[link].massive] or found
 
 
 def draft_description(path: str | Path) -> Draft:
-    """A description file for the URDF ``path`` (to be written beside it, named as it with
-    ``.toml``): see the module docstring for what it guesses and how.
+    """A description file for the model ``path`` (a URDF, an SDF or an MJCF; to be written
+    beside it, named as it with ``.toml``): see the module docstring for what it guesses and how.
 
     Raises:
         RobotFileMissing: ``path`` does not exist.
-        RobotFileError: it is not well-formed XML, not a URDF, has no single root link, a
-            joint that cannot be read, or not two sides with a foot each (naming the file).
+        RobotFileError: an unknown suffix, not well-formed XML, not the format its suffix says,
+            a feature :mod:`~drake_sot.robots.model_tree` refuses, no single root link, a joint
+            that cannot be read, or not two sides with a foot each (naming the file).
     """
     path = Path(path)
-    model = _Model(path)
+    model = read_model_tree(path)
+    unwritable = [name for name in (*model.links, *model.joints) if not _printable(name)]
+    if unwritable:
+        raise RobotFileError(f"robot model file {path}: names {unwritable} are not printable text")
     unguessed: list[str] = []
     frames: dict[str, str | dict] = {}
     sensors: dict[str, str] = {}
@@ -287,7 +137,7 @@ def draft_description(path: str | Path) -> Draft:
             ),
             foot,
         )
-        box = model.box(foot)
+        box = model.links[foot].box
         if box is None:
             sole_xyz = (0.0, 0.0, 0.0)
             unguessed.append(
@@ -306,7 +156,9 @@ def draft_description(path: str | Path) -> Draft:
             sensors[f"{side}_ankle"] = welded[0].name
             frames[f"{side}_foot"] = {"parent": foot, "xyz": sole_xyz}
         else:
-            weld = {"name": f"{side}_ankle_ft", "parent": foot, "child": f"{side}_sole_link", "xyz": sole_xyz}
+            child = f"{side}_sole_link"
+            name = weld_name(model.format, foot, child, f"{side}_ankle_ft")
+            weld = {"name": name, "parent": foot, "child": child, "xyz": sole_xyz}
             welds.append(weld)
             sensors[f"{side}_ankle"] = weld["name"]
             frames[f"{side}_foot"] = weld["child"]
@@ -315,7 +167,7 @@ def draft_description(path: str | Path) -> Draft:
         arm = [link for link in links if link not in leg]
         if not arm:
             raise RobotFileError(f"robot model file {path}: no {side} arm (every {side} link is in the leg)")
-        candidates = model.named(arm, r"hand|palm|gripper|tool") or model.named(arm, r"wrist")
+        candidates = _named(model, arm, r"hand|palm|gripper|tool") or _named(model, arm, r"wrist")
         hand = (
             min(candidates, key=lambda link: depth[link])
             if candidates
@@ -343,7 +195,7 @@ def draft_description(path: str | Path) -> Draft:
                 f"{side}_wrist sensor: no weld above the hand; {joint.name!r} is not one: add a weld"
             )
     centre = [link for link in model.links if _side(link) is None]
-    heads = model.named(centre, r"head")
+    heads = _named(model, centre, r"head")
     head = max(heads, key=lambda link: depth[link]) if heads else max(centre, key=lambda link: height[link])
     if not heads:
         unguessed.append(f"head: no link named head; the highest link of neither side, {head!r}")
@@ -352,7 +204,7 @@ def draft_description(path: str | Path) -> Draft:
     unguessed.append(
         f"head_camera: put on the origin of {head!r} with the optical axes (z forward): give its xyz"
     )
-    torsos = model.named(centre, r"torso|chest|trunk")
+    torsos = _named(model, centre, r"torso|chest|trunk")
     if torsos:
         frames["torso"] = max(torsos, key=lambda link: depth[link])
     else:
@@ -371,7 +223,7 @@ def draft_description(path: str | Path) -> Draft:
     drives = []
     for joint in model.moving():
         pattern = _key(f"^{re.escape(joint.name)}$")
-        if joint.effort > 0:  # not NaN
+        if joint.effort is not None and joint.effort > 0:  # not NaN
             kp = KP_PER_EFFORT * joint.effort
             drives.append(f"{pattern} = {{ kp = {_value(kp)}, kd = {_value(kp / KD_RATIO)} }}")
         else:
@@ -414,7 +266,7 @@ def draft_description(path: str | Path) -> Draft:
     return Draft("\n".join(lines) + "\n", unguessed)
 
 
-def _half_sitting(model: _Model, unguessed: list[str]) -> dict[str, float]:
+def _half_sitting(model: ModelTree, unguessed: list[str]) -> dict[str, float]:
     """Each moving joint's drafted angle: the knees bent, the hips and ankles of their legs
     turned back about parallel axes by half as much, every other joint at 0 or its nearest limit."""
     angles = {}

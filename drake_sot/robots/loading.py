@@ -2,9 +2,10 @@
 
 :func:`load_robot` is :func:`~drake_sot.models.humanoid.load_humanoid` for any
 :class:`~drake_sot.robots.description.RobotDescription`: for the embedded humanoid it is
-that function; for a URDF robot it reads the model file, applies the in-memory fixes of
-:func:`~drake_sot.robots.urdf.prepare_urdf` (visual meshes converted to OBJ through the
-cache of :mod:`drake_sot.robots.meshes` when the plant has a SceneGraph), parses it, adds
+that function; for a robot of files it reads the model file (URDF, SDF or MJCF), applies the
+in-memory fixes of its format (:mod:`~drake_sot.robots.urdf`, :mod:`~drake_sot.robots.sdf`,
+:mod:`~drake_sot.robots.mjcf`; visual meshes converted to OBJ through the cache of
+:mod:`drake_sot.robots.meshes` when the plant has a SceneGraph), parses it, adds
 one position-controlled actuator per moving joint with the description's drive, the
 logical frames, and four contact spheres under each sole. The returned ``HumanoidInfo``
 is what every builder reads; ``info.frames`` maps logical names to the plant's frames.
@@ -37,12 +38,17 @@ from drake_sot.robots.catalog import get_robot
 from drake_sot.robots.description import FrameSpec, RobotDescription
 from drake_sot.robots.errors import RobotFileError, RobotFileMissing
 from drake_sot.robots.meshes import cache_dir, converted_mesh
+from drake_sot.robots.mjcf import prepare_mjcf
+from drake_sot.robots.model_tree import model_format
+from drake_sot.robots.sdf import prepare_sdf
 from drake_sot.robots.urdf import prepare_urdf
 
 _log = logging.getLogger(__name__)
-#: The package name under which the parser finds the converted meshes (a URDF parsed from
-#: a string may name files only through packages).
+#: The package name under which the parser finds the converted meshes (a URDF or an SDF parsed
+#: from a string may name files only through packages; an MJCF names them by path).
 MESH_PACKAGE = "drake_sot_meshes"
+#: The file type Drake's ``Parser.AddModelsFromString`` takes for each model format.
+PARSER_TYPES = {"urdf": "urdf", "sdf": "sdf", "mjcf": "xml"}
 
 
 def _frame_name(key: str, spec: FrameSpec) -> str:
@@ -52,15 +58,18 @@ def _frame_name(key: str, spec: FrameSpec) -> str:
     return f"sot_{key}"
 
 
-def urdf_text(
+def model_text(
     robot: RobotDescription, *, geometry: bool, mesh_cache: Path | None = None
-) -> tuple[str, list[str]]:
-    """The fixed URDF of ``robot`` and the fixes applied (see :func:`~drake_sot.robots.urdf.prepare_urdf`);
-    visual meshes converted into ``mesh_cache`` (default the user cache) when ``geometry``.
+) -> tuple[str, str, list[str]]:
+    """The format of ``robot``'s model file, its fixed text and the fixes applied (see
+    :func:`~drake_sot.robots.urdf.prepare_urdf`, :func:`~drake_sot.robots.sdf.prepare_sdf`,
+    :func:`~drake_sot.robots.mjcf.prepare_mjcf`); visual meshes converted into ``mesh_cache``
+    (default the user cache) when ``geometry``.
 
     Raises RobotFileMissing (a FileNotFoundError) naming the model file or a mesh when it is
     missing, RobotFileError naming the model file when it is not well-formed XML (or not
-    text), a mesh that cannot be converted or a mesh cache that cannot be written.
+    text) or of an unknown suffix, a mesh that cannot be converted or a mesh cache that
+    cannot be written.
     """
     if robot.model_file is None:
         raise ValueError(f"robot {robot.name!r} is built in code: it has no model file")
@@ -68,21 +77,29 @@ def urdf_text(
     if not path.is_file():
         raise RobotFileMissing(f"robot {robot.name!r}: model file {path} does not exist")
 
-    def mesh_file(source: Path, scale: tuple[float, float, float]) -> str:
+    fmt = model_format(path)
+
+    def mesh_uri(source: Path, scale: tuple[float, float, float]) -> str:
         return f"package://{MESH_PACKAGE}/{converted_mesh(source, scale, mesh_cache).name}"
 
+    def mesh_path(source: Path, scale: tuple[float, float, float]) -> str:
+        return str(converted_mesh(source, scale, mesh_cache).resolve())
+
+    fixes = {"frozen_joints": robot.frozen_joints, "added_welds": robot.added_welds}
     try:
         text = path.read_text()
-        return prepare_urdf(
-            text,
-            packages=robot.packages,
-            mesh_file=mesh_file if geometry else None,
-            frozen_joints=robot.frozen_joints,
-            added_welds=robot.added_welds,
-        )
+        if fmt == "mjcf":
+            mesh_file = mesh_path if geometry else None
+            return fmt, *prepare_mjcf(text, directory=path.parent, mesh_file=mesh_file, **fixes)
+        mesh_file = mesh_uri if geometry else None
+        if fmt == "sdf":
+            return fmt, *prepare_sdf(
+                text, directory=path.parent, packages=robot.packages, mesh_file=mesh_file, **fixes
+            )
+        return fmt, *prepare_urdf(text, packages=robot.packages, mesh_file=mesh_file, **fixes)
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise RobotFileError(
-            f"robot {robot.name!r}: model file {path}: not a well-formed URDF ({exc}): truncated or corrupt?"
+            f"robot {robot.name!r}: model file {path}: not well-formed XML ({exc}): truncated or corrupt?"
         ) from None
 
 
@@ -117,13 +134,13 @@ def load_robot(
         return replace(info, frames=_frames(plant, robot, info), robot=robot.name)
 
     geometry = plant.geometry_source_is_registered()
-    text, fixes = urdf_text(robot, geometry=geometry, mesh_cache=mesh_cache)
+    fmt, text, fixes = model_text(robot, geometry=geometry, mesh_cache=mesh_cache)
     _log.info("robot %s: %s", robot.name, "; ".join(fixes))
     parser = Parser(plant)
     if geometry:  # the cache directory exists: the meshes were just converted into it
         parser.package_map().Add(MESH_PACKAGE, str(cache_dir() if mesh_cache is None else mesh_cache))
     try:
-        (instance,) = parser.AddModelsFromString(text, "urdf")
+        (instance,) = parser.AddModelsFromString(text, PARSER_TYPES[fmt])
     except RuntimeError as exc:  # Drake's parse error names no file: the text came from memory
         reason = " ".join(str(exc).split())
         raise RobotFileError(

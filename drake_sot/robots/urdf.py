@@ -30,7 +30,7 @@ No pydrake import here: XML in, XML out.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Container, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -54,6 +54,30 @@ class AddedWeld:
     xyz: tuple[float, float, float]
 
 
+def geometry_fixes(collisions: int, meshes: int, visuals_dropped: int) -> list[str]:
+    """The sentences of the geometry fixes of a URDF or an SDF: ``collisions`` collision elements
+    removed, ``meshes`` visual meshes converted, ``visuals_dropped`` visuals dropped (none said
+    for a count of 0)."""
+    return [
+        sentence
+        for count, sentence in (
+            (collisions, f"{collisions} <collision> elements removed (simple shapes from the description)"),
+            (meshes, f"{meshes} visual meshes converted to OBJ (scale baked in)"),
+            (visuals_dropped, f"{visuals_dropped} visuals dropped (no geometry wanted)"),
+        )
+        if count
+    ]
+
+
+def check_added_weld(weld: AddedWeld, links: Container[str], joints: Container[str]) -> None:
+    """Raise ValueError (naming the weld and the link) when ``weld``'s parent is not one of the
+    model's ``links`` or its link or joint exists already."""
+    if weld.parent not in links:
+        raise ValueError(f"added weld {weld.name!r}: no link {weld.parent!r} in the model")
+    if weld.child in links or weld.name in joints:
+        raise ValueError(f"added weld {weld.name!r}: link {weld.child!r} or joint exists already")
+
+
 def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
     """The file of a ``package://name/relative/path`` URI through ``packages`` (name → directory).
 
@@ -71,7 +95,9 @@ def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
     return path
 
 
-def _scale(text: str | None) -> tuple[float, float, float]:
+def mesh_scale(text: str | None) -> tuple[float, float, float]:
+    """The three scale factors of a mesh's ``scale`` (1 or 3 numbers; None: unit scale); a
+    ValueError names a text of another count."""
     if text is None:
         return (1.0, 1.0, 1.0)
     values = [float(v) for v in text.split()]
@@ -179,21 +205,13 @@ def prepare_urdf(
             if mesh is None:
                 continue
             source = resolve_package_uri(mesh.get("filename", ""), packages)
-            mesh.set("filename", mesh_file(source, _scale(mesh.get("scale"))))
+            mesh.set("filename", mesh_file(source, mesh_scale(mesh.get("scale"))))
             mesh.attrib.pop("scale", None)
             meshes += 1
-    if collisions:
-        fixes.append(f"{collisions} <collision> elements removed (simple shapes from the description)")
-    if meshes:
-        fixes.append(f"{meshes} visual meshes converted to OBJ (scale baked in)")
-    if visuals_dropped:
-        fixes.append(f"{visuals_dropped} visuals dropped (no geometry wanted)")
+    fixes += geometry_fixes(collisions, meshes, visuals_dropped)
 
     for weld in added_welds:
-        if weld.parent not in links:
-            raise ValueError(f"added weld {weld.name!r}: no link {weld.parent!r} in the model")
-        if weld.child in links or weld.name in joints:
-            raise ValueError(f"added weld {weld.name!r}: link {weld.child!r} or joint exists already")
+        check_added_weld(weld, links, joints)
         link = ET.SubElement(root, "link", name=weld.child)
         inertial = ET.SubElement(link, "inertial")
         ET.SubElement(inertial, "mass", value=repr(ADDED_LINK_MASS))

@@ -51,7 +51,7 @@ class RobotKinematics(LeafSystem):
     Jacobian and, for each *operational point* created with
     :meth:`add_operational_point` (the paper's ``createOpPoint``), the frame's pose and
     Jacobian. Only the operational points a scenario asks for are computed, and each
-    only when q changed (Drake's cache).
+    only when q changed (Drake's cache); ``inertia`` and ``Jcom`` share one mass matrix per q.
 
     Input ports:
         q: configuration (nq,) of ``plant`` (quaternion floating base first).
@@ -81,8 +81,9 @@ class RobotKinematics(LeafSystem):
         self._plant_context = plant.CreateDefaultContext()
         self._world = plant.world_frame()
         self._operational_points: dict[str, str] = {}
-        self._com_rows = momentum_rows(plant)
         self._mass = plant.CalcTotalMass(self._plant_context)
+        # Jcom from the mass matrix (see momentum_rows), or None: Drake's CoM Jacobian.
+        self._com_rows = momentum_rows(plant) if self._mass > 0.0 else None
         nq, nv = plant.num_positions(), plant.num_velocities()
         self._q_port = self.DeclareVectorInputPort("q", nq)
         q_ticket = {self.input_port_ticket(self._q_port.get_index())}
@@ -99,18 +100,28 @@ class RobotKinematics(LeafSystem):
             ),
             q_ticket,
         )
+        # The mass matrix once per q: ``inertia`` and, on a floating base, ``Jcom`` read it (Drake
+        # does not cache it: each CalcMassMatrix is a full composite-body pass).
+        self._mass_matrix = self.DeclareCacheEntry(
+            "mass matrix",
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(np.zeros((nv, nv))), calc=self._calc_mass_matrix
+            ),
+            q_ticket,
+        )
+        matrix_ticket = {self._mass_matrix.ticket()}
         self.DeclareVectorOutputPort("com", 3, self._calc_com, prerequisites_of_calc=q_ticket)
         self.DeclareAbstractOutputPort(
             "Jcom",
             lambda: AbstractValue.Make(np.zeros((3, nv))),
             self._calc_jcom,
-            prerequisites_of_calc=q_ticket,
+            prerequisites_of_calc=q_ticket if self._com_rows is None else matrix_ticket,
         )
         self.DeclareAbstractOutputPort(
             "inertia",
             lambda: AbstractValue.Make(np.zeros((nv, nv))),
-            self._calc_inertia,
-            prerequisites_of_calc=q_ticket,
+            lambda context, value: value.set_value(self._mass_matrix.Eval(context)),
+            prerequisites_of_calc=matrix_ticket,
         )
 
     @property
@@ -203,15 +214,15 @@ class RobotKinematics(LeafSystem):
         self._update(context)
         output.SetFromVector(self._plant.CalcCenterOfMassPositionInWorld(self._plant_context))
 
-    def _calc_inertia(self, context, value) -> None:
+    def _calc_mass_matrix(self, context, value) -> None:
         self._update(context)
         value.set_value(self._plant.CalcMassMatrix(self._plant_context))
 
     def _calc_jcom(self, context, value) -> None:
-        self._update(context)
-        if self._com_rows is not None and self._mass > 0.0:  # see momentum_rows
-            value.set_value(self._plant.CalcMassMatrix(self._plant_context)[self._com_rows] / self._mass)
+        if self._com_rows is not None:
+            value.set_value(self._mass_matrix.Eval(context)[self._com_rows] / self._mass)
             return
+        self._update(context)
         value.set_value(
             self._plant.CalcJacobianCenterOfMassTranslationalVelocity(
                 self._plant_context, JacobianWrtVariable.kV, self._world, self._world

@@ -177,3 +177,21 @@ def test_a_given_initial_configuration_is_where_the_robot_starts_and_a_bad_one_i
     )
     with pytest.raises(ValueError, match="q0"):
         HumanoidSoTBuilder(q0=np.zeros(3))
+
+
+@pytest.mark.parametrize(
+    ("task", "feature"),
+    [
+        ("taskCom", "featureCom"),  # the paper's script: new FeatureCoM featureCom; taskCom.add featureCom
+        ("taskTwofeet", "featureTwofeet"),
+        ("taskRH", "featureRH"),
+        ("taskcom", "feature_taskcom"),  # not task<Name>: the task's whole name, prefixed
+        ("task", "feature_task"),
+        ("posture", "feature_posture"),
+    ],
+)
+def test_features_are_named_as_the_sot_scripts_name_them(task, feature):
+    """A builder's feature of ``taskX`` is ``featureX`` (Mansard et al. 2009), in the diagram too."""
+    builder = HumanoidSoTBuilder()
+    builder.add_com_task(task)
+    assert builder.features[task].get_name() == feature

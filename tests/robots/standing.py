@@ -1,4 +1,4 @@
-"""A robot standing 5 s under the README's stack, measured on the simulated plant: the check the
+"""A robot standing (5 s unless told) under the README's stack, measured on the simulated plant: the check the
 catalog's robots and a robot from its files share."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 
 
-def assert_stands_5s(robot: str) -> None:
-    """``robot`` (a name or a description's path) stands 5 s on the feet, CoM and posture tasks:
+def assert_stands(robot: str, seconds: float = 5.0) -> None:
+    """``robot`` (a name or a description's path) stands ``seconds`` on the feet, CoM and posture tasks:
     its pelvis within 1 cm of where it started, its soles on the ground (3 mm) and flat (1°)."""
     b = HumanoidSoTBuilder(robot=robot)
     b.add_op_point_task("taskLF", "left_foot", gain=5.0)
@@ -23,7 +23,7 @@ def assert_stands_5s(robot: str) -> None:
     context = simulator.get_context()
     start = built.frame_pose(context, "pelvis").translation()
     drift = []
-    for t in np.arange(0.5, 5.01, 0.5):
+    for t in np.arange(0.5, seconds + 0.01, 0.5):
         simulator.AdvanceTo(t)
         drift.append(np.linalg.norm(built.frame_pose(context, "pelvis").translation() - start))
     assert max(drift) < 0.01, f"{robot}: pelvis drifted {max(drift):.4f} m"

@@ -7,7 +7,7 @@ import subprocess
 import sys
 
 
-def test_the_catalog_and_the_urdf_fixes_import_no_pydrake():
+def test_the_catalog_the_draft_and_the_model_fixes_import_no_pydrake():
     code = (
         "import sys\n"
         "from drake_sot.robots.catalog import ROBOTS, get_robot\n"
@@ -21,6 +21,9 @@ def test_the_catalog_and_the_urdf_fixes_import_no_pydrake():
     code_talos = (
         "import sys\n"
         "from drake_sot.robots.catalog import ROBOTS, RobotDataMissing\n"
+        "from drake_sot.robots.draft import draft_description\n"
+        "from drake_sot.robots.mjcf import prepare_mjcf\n"
+        "from drake_sot.robots.sdf import prepare_sdf\n"
         "from drake_sot.robots.urdf import prepare_urdf\n"
         "try:\n"
         "    ROBOTS['talos'](); ROBOTS['g1']()\n"

@@ -9,12 +9,12 @@ import json
 import math
 import shutil
 import tomllib
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from robot_data import assert_mutated_model_is_drafted_or_refused
 
 from drake_sot.app import cli
 from drake_sot.parameters import Parameter
@@ -72,12 +72,17 @@ def test_the_shipped_description_is_the_embedded_robot_read_from_files():
     assert robot.step_timing == embedded.step_timing
 
 
-def test_the_shipped_urdf_is_what_its_script_writes_from_the_embedded_tables():
-    """The shipped model is not edited by hand: it is what ``make_urdf.py`` writes today."""
-    spec = importlib.util.spec_from_file_location("make_urdf", EXAMPLE / "make_urdf.py")
+def test_the_shipped_models_are_what_their_script_writes_from_the_embedded_tables():
+    """The shipped models (URDF, SDF, MJCF) and the descriptions of the SDF and MJCF are not
+    edited by hand: they are what ``make_models.py`` writes today."""
+    spec = importlib.util.spec_from_file_location("make_models", EXAMPLE / "make_models.py")
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
     assert script.urdf_text() == (EXAMPLE / "humanoid.urdf").read_text()
+    assert script.sdf_text() == (EXAMPLE / "humanoid.sdf").read_text()
+    assert script.mjcf_text() == (EXAMPLE / "humanoid.xml").read_text()
+    assert script.description_text("sdf", "humanoid.sdf") == (EXAMPLE / "humanoid_sdf.toml").read_text()
+    assert script.description_text("mjcf", "humanoid.xml") == (EXAMPLE / "humanoid_mjcf.toml").read_text()
 
 
 def test_a_path_is_a_robot_wherever_a_name_is(robot_dir, monkeypatch):
@@ -130,8 +135,8 @@ def test_an_edited_file_is_read_again(robot_dir):
             r"drives.'knee'.kp = -1.0: must be a number \(finite, > 0\)",
         ),
         (
-            lambda d: d.update(model="robot.sdf"),
-            "model = .*robot.sdf.*: must be a model file ending with .urdf",
+            lambda d: d.update(model="robot.obj"),
+            r"model = .*robot.obj.*: must be a model file ending with .urdf, .sdf, .xml \(MJCF\)",
         ),
         (lambda d: d.update(model="absent.urdf"), "absent.urdf.* does not exist"),
         (lambda d: d["collision"][0].update(kind="cone"), r"collision\[0\].kind = 'cone'"),
@@ -295,21 +300,9 @@ def test_a_model_the_draft_cannot_read_is_named(tmp_path, text, message):
 def test_a_fuzzed_urdf_is_drafted_or_refused_in_one_line_naming_it(robot_dir, element, attribute, value):
     """One attribute of one element of the shipped URDF deleted (None) or set to anything: the
     draft is a text or a RobotFileError naming the file, never an error from deep inside."""
-    tree = ET.parse(robot_dir / "humanoid.urdf")
-    elements = [e for e in tree.iter() if attribute in e.attrib]
-    target = elements[element % len(elements)]
-    if value is None:
-        del target.attrib[attribute]
-    else:
-        target.set(attribute, value)
-    path = robot_dir / "fuzzed.urdf"
-    tree.write(path)
-    try:
-        drafted = draft_description(path)
-    except RobotFileError as exc:
-        assert str(path) in str(exc) and "\n" not in str(exc), str(exc)
-    else:
-        tomllib.loads(drafted.text)  # it is TOML
+    assert_mutated_model_is_drafted_or_refused(
+        robot_dir / "humanoid.urdf", robot_dir / "fuzzed.urdf", element, attribute, value
+    )
 
 
 # --- the command line ------------------------------------------------------------------------

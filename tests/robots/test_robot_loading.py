@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -185,3 +186,17 @@ def test_talos_half_sitting_is_the_srdf_one():
     plant.SetPositions(context, q)
     for joint, (angle,) in ((j, v) for j, v in values.items() if j != "root_joint"):
         assert plant.GetJointByName(joint).get_angle(context) == pytest.approx(angle)
+
+
+@pytest.mark.parametrize("name", sorted(catalog.ROBOTS))
+def test_a_robots_title_gives_its_mass_and_joints_as_the_loaded_plant_has_them(name):
+    """``drake-sot list --robots`` prints the titles: the "N kg, M joints" in each is the loaded
+    model's total mass (to the kilogram) and its number of actuated joints."""
+    robot = robot_or_skip(name)
+    found = re.search(r"[(;] ?(\d+) kg, (\d+) joints", robot.title)
+    assert found, robot.title
+    plant = MultibodyPlant(0.0)
+    info = load_robot(plant, robot)
+    plant.Finalize()
+    assert abs(plant.CalcTotalMass(plant.CreateDefaultContext()) - int(found[1])) <= 0.5, robot.title
+    assert plant.num_actuators() == int(found[2]) == len(info.actuated_joints), robot.title

@@ -117,6 +117,47 @@ def test_dyn_com_jacobian_matches_drakes_and_finite_differences(control_model):
         np.testing.assert_allclose(J, _com_jacobian_by_finite_differences(plant, q), atol=1e-8)
 
 
+class _CountingPlant:
+    """A plant that counts its ``CalcMassMatrix`` calls (everything else passes through)."""
+
+    def __init__(self, plant) -> None:
+        self._plant = plant
+        self.mass_matrices = 0
+
+    def CalcMassMatrix(self, context):
+        self.mass_matrices += 1
+        return self._plant.CalcMassMatrix(context)
+
+    def __getattr__(self, name):
+        return getattr(self._plant, name)
+
+
+def test_dyn_computes_the_mass_matrix_once_per_configuration(control_model):
+    """``inertia`` and ``Jcom`` (its base-translation rows) read one mass matrix per q: a weighted
+    admittance beside a CoM task costs one composite-body pass a tick, not two. Values against
+    Drake's mass matrix at the same q."""
+    plant, _, q0 = control_model
+    dyn = RobotKinematics(plant)
+    counting = _CountingPlant(plant)
+    dyn._plant = counting
+    context = dyn.CreateDefaultContext()
+    pc = plant.CreateDefaultContext()
+    rng = np.random.default_rng(7)
+    for k in (1, 2):
+        q = random_configuration(plant, q0, rng)
+        dyn.GetInputPort("q").FixValue(context, q)
+        A = dyn.GetOutputPort("inertia").Eval(context)
+        J = dyn.GetOutputPort("Jcom").Eval(context)
+        assert counting.mass_matrices == k
+        plant.SetPositions(pc, q)
+        np.testing.assert_allclose(A, plant.CalcMassMatrix(pc), rtol=0, atol=1e-12)
+        world = plant.world_frame()
+        drake_J = plant.CalcJacobianCenterOfMassTranslationalVelocity(
+            pc, JacobianWrtVariable.kV, world, world
+        )
+        np.testing.assert_allclose(J, drake_J, atol=1e-13)
+
+
 def test_dyn_com_jacobian_with_a_second_free_body_is_drakes():
     """A free box beside the floating robot moves without its base: the mass-matrix rows are not
     m J_com there, so Jcom is Drake's CoM Jacobian (which includes the box)."""
