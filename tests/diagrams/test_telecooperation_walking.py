@@ -71,13 +71,14 @@ class WalkingChecks:
     LEADER: str
 
     @pytest.fixture(scope="class")
-    def walking(self, tmp_path_factory):
+    @classmethod
+    def walking(cls, tmp_path_factory):
         """The whole scenario at 140 ms one way, ``LEADER`` leading."""
         return run_scenario(
             SCENARIOS["telecooperation"],
-            tmp_path_factory.mktemp(f"walking_{self.LEADER}"),
+            tmp_path_factory.mktemp(f"walking_{cls.LEADER}"),
             record=False,
-            parameters={"leader": self.LEADER, "delay": 0.14},
+            parameters={"leader": cls.LEADER, "delay": 0.14},
         )
 
     def test_walking_steps_are_decided_above_the_threshold_and_each_reduces_the_error(self, walking):
