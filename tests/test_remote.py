@@ -470,43 +470,6 @@ def test_malformed_lines_leave_the_recorded_run_identical(tmp_path):
         assert np.array_equal(clean[key], attacked[key], equal_nan=clean[key].dtype.kind == "f"), key
 
 
-# --- the case study as the paper ran it: the decision layer as a separate client process ---------
-
-
-def _stack_history(out):
-    with np.load(out / "walk_then_interact.npz") as npz:
-        return list(npz["stack_time"]), list(npz["stack"])
-
-
-@pytest.mark.slow
-def test_a_remote_decision_layer_switches_the_stack_as_the_sequencer_does(tmp_path):
-    runs = {}
-    for decision in ("sequencer", "remote"):
-        out = tmp_path / decision
-        proc = subprocess.run(
-            [
-                *DRAKE_SOT,
-                "run",
-                "walk_then_interact",
-                "--decision",
-                decision,
-                "--out",
-                str(out),
-                "--no-record",
-            ],
-            capture_output=True,
-            text=True,
-            cwd=REPO,
-            timeout=600,
-        )
-        assert proc.returncode == 0, proc.stderr
-        runs[decision] = _stack_history(out)
-    (t_seq, stacks_seq), (t_remote, stacks_remote) = runs["sequencer"], runs["remote"]
-    assert stacks_remote == stacks_seq and len(stacks_seq) == 2  # walking, then the force tasks at one tick
-    assert "taskForce" in stacks_seq[1] and "taskRHwaist" not in stacks_seq[1]
-    assert abs(t_remote[1] - t_seq[1]) <= 1.0  # within one poll period (1 s)
-
-
 # --- limits, SIGTERM, the command server in the diagram, a served script -----------------------
 
 
