@@ -358,8 +358,12 @@ def test_inequality_tasks_need_the_hqp_solver_and_sound_bounds(control_model):
         StackOfTasks(plant.num_velocities(), [velocity])
     with pytest.raises(ValueError, match="solver = 'qp': must be one of 'svd', 'hqp'"):
         StackOfTasks(NV, {"a": 1}, solver="qp")
-    with pytest.raises(ValueError, match="damping = 0.1: solver='hqp' solves exactly"):
-        StackOfTasks(NV, {"a": 1}, solver="hqp", damping=0.1)
+    with pytest.raises(ValueError, match=r"a damping per task needs solver='hqp' \(solver='svd'\)"):
+        StackOfTasks(NV, {"a": 1}, damping={"a": 0.1})
+    with pytest.raises(ValueError, match=r"damping of unknown tasks \['b'\]; the tasks are \['a'\]"):
+        StackOfTasks(NV, {"a": 1}, solver="hqp", damping={"b": 0.1})
+    with pytest.raises(ValueError, match=r"damping\['a'\] = -0.1: must be finite and >= 0"):
+        StackOfTasks(NV, {"a": 1}, solver="hqp", damping={"a": -0.1})
     # A bounded signal reaching an svd stack (built from names only) is refused at the tick.
     sot = StackOfTasks(NV, {"a": 1}, stack=("a",))
     context = sot.CreateDefaultContext()
