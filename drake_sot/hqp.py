@@ -297,14 +297,18 @@ def solve_hqp(
             singular value σ of ``J_k Z`` is ``σ / (σ² + μ²)`` times the target instead of
             ``1/σ``, at most ``1 / (2μ)``. The rows it then fixes are fixed at the values it
             reached, as with μ = 0; the regularisation ``I q̇ = 0`` is not damped. Why: at a
-            singularity of the level *given the levels above* (an arm's elbow held at its joint
-            limit by a level above leaves the hand's reach along the forearm to the wrist), the
-            exact step along σ → 0 is as large as the velocity bounds allow and its sign flips
-            each tick about the reach's extremum: q̇ chatters; damped, it goes to zero with σ.
-            The discrete loop then settles when ``T ℓ |ė| / μ² < 1`` (T the control period,
-            |ė| the level's target speed, ℓ [m/rad] the rate at which σ grows away from the
-            extremum). The shortcut and the runs of equality levels are exact solves: with a
-            damped level, the levels go through the active set and ``warm_start`` is not used.
+            singularity of the level *given the levels above* (a joint held at its limit by a
+            level above leaves the level only joints that barely move its task: an arm's elbow
+            at its bound leaves the hand's reach along the forearm to the wrist; in
+            ``telecooperation``, with an elbow held, the CoM's height below the feet's and the
+            hands' tasks is left to joints that barely move it, the wrists), the exact step
+            along σ → 0 is as large as the velocity bounds allow and its sign flips from a tick
+            to the next: q̇ chatters; damped, it goes to zero with σ.
+            The discrete loop then settles when, roughly, ``T ℓ |ė| / μ² < 1`` (T the control
+            period, |ė| the level's target speed, ℓ = dσ/dθ the rate at which σ grows with the
+            joint's angle θ away from the extremum). The shortcut and the runs of equality
+            levels are exact solves: with a damped level, the levels go through the active set
+            and ``warm_start`` is not used.
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
