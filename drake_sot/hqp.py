@@ -211,6 +211,7 @@ def solve_hqp(
     tolerance: float = TOLERANCE,
     validate: bool = True,
     warm_start: HqpResult | Mapping[str, np.ndarray] | None = None,
+    damping: float | Mapping[str, float] = 0.0,
 ) -> HqpResult:
     """Solve a strict hierarchy of equalities and inequalities (Escande, Mansard, Wieber 2014).
 
@@ -286,6 +287,28 @@ def solve_hqp(
             rounding). Or, for a caller that keeps only the sides (a control system holding them in
             its state), a mapping from a level's name to its rows' sides at a bound
             (:func:`bound_sides`: +1 upper, -1 lower, 0 free).
+        damping: μ of the damped least squares of every level, or a mapping from a level's name
+            to its μ (the levels it does not name are exact); finite >= 0, in the units of the
+            level's Jacobian; 0, the default, is the exact hierarchy above. With μ > 0 a level
+            minimises ``||v_k||² + μ² ||q̇ - q̇_{k-1}||²`` over what the levels above leave
+            (the damped least squares of Nakamura and Hanafusa 1986, per level as the SoT's
+            damped inverse, :func:`~drake_sot.hierarchy.solve_strict`'s ``damping``; Escande,
+            Mansard, Wieber 2014 discuss this damping of the levels): its step along a
+            singular value σ of ``J_k Z`` is ``σ / (σ² + μ²)`` times the target instead of
+            ``1/σ``, at most ``1 / (2μ)``. The rows it then fixes are fixed at the values it
+            reached, as with μ = 0; the regularisation ``I q̇ = 0`` is not damped. Why: at a
+            singularity of the level *given the levels above* (a joint held at its limit by a
+            level above leaves the level only joints that barely move its task: an arm's elbow
+            at its bound leaves the hand's reach along the forearm to the wrist; in
+            ``telecooperation``, with an elbow held, the CoM's height below the feet's and the
+            hands' tasks is left to joints that barely move it, the wrists), the exact step
+            along σ → 0 is as large as the velocity bounds allow and its sign flips from a tick
+            to the next: q̇ chatters; damped, it goes to zero with σ.
+            The discrete loop then settles when, roughly, ``T ℓ |ė| / μ² < 1`` (T the control
+            period, |ė| the level's target speed, ℓ = dσ/dθ the rate at which σ grows with the
+            joint's angle θ away from the extremum). The shortcut and the runs of equality
+            levels are exact solves: with a damped level, the levels go through the active set
+            and ``warm_start`` is not used.
 
     Returns:
         The joint velocity, the per-level reports (slack, active rows), the free
@@ -296,7 +319,7 @@ def solve_hqp(
         ValueError: a level that is not a pair or a triple, shapes that disagree, NaN
             or Inf in a Jacobian or a target, NaN in a bound or ``lower > upper`` (the
             message names the level, its name, and the row), names of the wrong
-            number, or a bad ``rank_threshold`` / ``tolerance``. Nothing else: an active
+            number, or a bad ``rank_threshold`` / ``tolerance`` / ``damping``. Nothing else: an active
             set that does not settle (:meth:`_ActiveSet._minimise`: Bland's rule, then a
             last-resort guard) gives the iterate it reached, named in ``unsettled``, not
             an error; a controller that stops its robot on a crash would rather hold it.
@@ -305,16 +328,22 @@ def solve_hqp(
         rank_threshold = nonnegative("rank_threshold", rank_threshold)
         tolerance = validation.positive("tolerance", tolerance)
         checked, level_names = _validate_hqp(levels, names)
+        mus = _dampings(damping, level_names)
     else:
         checked = [(lv[0], lv[1], lv[1]) if len(lv) == 2 else tuple(lv) for lv in levels]
         level_names = tuple(names) if names is not None else tuple(str(i) for i in range(len(checked)))
+        mus = _dampings(damping, level_names, validate=False)
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
-    fast = _guessed(
-        checked,
-        rank_threshold,
-        tolerance,
-        None if warm_start is None else _binding(warm_start, checked, level_names),
+    fast = (
+        None
+        if any(mus)
+        else _guessed(
+            checked,
+            rank_threshold,
+            tolerance,
+            None if warm_start is None else _binding(warm_start, checked, level_names),
+        )
     )
     if fast is not None:
         qdot, free_dims = fast
@@ -331,14 +360,15 @@ def solve_hqp(
     i = 0
     while i < len(checked):
         run = i
-        while run < len(checked) and checked[run][1] is checked[run][2]:  # equality levels (J, t, t)
+        # exact equality levels (J, t, t)
+        while run < len(checked) and checked[run][1] is checked[run][2] and not mus[run]:
             run += 1
         if run - i >= 2:
             i += solver.equality_run(checked[i:run], free_dims)
             if i == run:
                 continue
         J, lower, upper = checked[i]
-        solver.level(J, lower, upper, level_names[i])
+        solver.level(J, lower, upper, level_names[i], mus[i])
         free_dims.append(solver.free_dims)
         i += 1
     solver.regularise()
@@ -351,6 +381,22 @@ def solve_hqp(
         problem=checked,
         tolerance=tolerance,
     )
+
+
+def _dampings(
+    damping: float | Mapping[str, float], names: tuple[str, ...], validate: bool = True
+) -> list[float]:
+    """Per level, its μ: ``damping`` for every level, or, from a mapping, the μ of the levels it
+    names (0 for the others). ``validate``: ValueError for a μ that is not finite >= 0 (naming its
+    level) or a name that is no level's (listing the levels)."""
+    if not isinstance(damping, Mapping):
+        return [nonnegative("damping", damping) if validate else damping] * len(names)
+    if validate:
+        unknown = sorted(set(damping) - set(names))
+        if unknown:
+            raise ValueError(f"damping names {unknown}, not levels; levels: {', '.join(names)}")
+        return [nonnegative(f"damping[{name!r}]", damping.get(name, 0.0)) for name in names]
+    return [damping.get(name, 0.0) for name in names]
 
 
 def _binding(
@@ -680,18 +726,21 @@ class _ActiveSet:
     def free_dims(self) -> int:
         return self.n if self.Z is None else self.Z.shape[1]
 
-    def level(self, J: np.ndarray, lower: np.ndarray, upper: np.ndarray, name: str) -> None:
-        """Solve one level, then fix its equality and violated rows and keep the others as hard rows."""
+    def level(
+        self, J: np.ndarray, lower: np.ndarray, upper: np.ndarray, name: str, damping: float = 0.0
+    ) -> None:
+        """Solve one level (damped by ``damping`` μ when > 0: :meth:`_finish`), then fix its
+        equality and violated rows and keep the others as hard rows."""
         if self.Z is not None and not self.Z.shape[1]:
             return  # nothing left to move: the level cannot act, nor its rows change
         if lower is upper:
             # An equality level given as (J, target, target) (StackOfTasks' form): no bound to compare.
             # Its zero rows are kept: a zero row of J Z changes neither the SVD's kept part nor the step.
-            first = self._equality_step(J, upper)
-            if first is not None:
+            first = None if damping else self._equality_step(J, upper)
+            if first is not None or damping:
                 equality = np.ones(J.shape[0], dtype=bool)
                 side = np.full(J.shape[0], 2, dtype=np.int8)
-                self._finish(J, lower, upper, equality, side, _NO_ROWS, name, first)
+                self._finish(J, lower, upper, equality, side, _NO_ROWS, name, first, damping)
             return
         equality = lower == upper
         if not equality.any():
@@ -715,7 +764,7 @@ class _ActiveSet:
             if not J.shape[0]:
                 return
         first = None
-        if equality.all():
+        if equality.all() and not damping:
             first = self._equality_step(J, upper)
             if first is None:
                 return
@@ -726,7 +775,7 @@ class _ActiveSet:
             Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])
             value = Js @ self.x
             side[soft] = np.where(value > us + self.tol, 1, np.where(value < ls - self.tol, -1, 0))
-        self._finish(J, lower, upper, equality, side, soft, name, first)
+        self._finish(J, lower, upper, equality, side, soft, name, first, damping)
 
     def _finish(
         self,
@@ -738,9 +787,33 @@ class _ActiveSet:
         soft: np.ndarray,
         name: str,
         first: tuple[SvdSplit, np.ndarray] | None,
+        damping: float = 0.0,
     ) -> None:
-        """The active set of a level that needs one (:meth:`_minimise`), then its rows fixed or made hard."""
-        last, iterations = self._minimise(J, lower, upper, side, soft, name, first)
+        """The active set of a level that needs one (:meth:`_minimise`), then its rows fixed or made hard.
+
+        With ``damping`` μ > 0 the level's least squares is damped (Tikhonov): the rows
+        ``μ Zᵀ (q̇ - q̇_start)`` = 0 (``q̇_start`` the q̇ the level starts from) join it as
+        equality rows for its active set only, so its step is, in each working set,
+        ``(AᵀA + μ² I)⁻¹ Aᵀ b``: ``σ / (σ² + μ²)`` per singular value σ instead of ``1/σ``; they
+        are neither fixed nor hard for the levels below."""
+        if damping:
+            self.min_norm = False
+            m = J.shape[0]
+            D = damping * (np.eye(self.n) if self.Z is None else self.Z.T)
+            start = D @ self.x
+            side_damped = np.concatenate((side, np.full(D.shape[0], 2, dtype=np.int8)))
+            _, iterations = self._minimise(
+                np.vstack((J, D)),
+                np.concatenate((lower, start)),
+                np.concatenate((upper, start)),
+                side_damped,
+                soft,
+                name,
+            )
+            side[:] = side_damped[:m]
+            last = None
+        else:
+            last, iterations = self._minimise(J, lower, upper, side, soft, name, first)
         # The level's optimum: its equality rows and violated rows keep their values below.
         if soft.size:
             Js, ls, us = (J, lower, upper) if soft.size == J.shape[0] else (J[soft], lower[soft], upper[soft])

@@ -320,6 +320,16 @@ def test_an_inequality_broken_at_the_equality_solution_goes_to_the_active_set():
     assert np.abs(reference).max() == pytest.approx(0.5 * np.abs(free).max())
 
 
+@settings(max_examples=100, deadline=None)
+@given(stacks(), st.sampled_from([0.05, 0.5]))
+def test_damped_equalities_give_solve_strict_s_damped_solution(stack, damping):
+    """With equalities only and every level damped, q̇ is solve_strict's with the same damping (its
+    levels' steps ``σ / (σ² + μ²)`` along each kept singular value, the null spaces unchanged)."""
+    strict = solve_strict(stack.levels, damping=damping).qdot
+    hqp_qdot = solve_hqp(stack.levels, damping=damping).qdot
+    np.testing.assert_allclose(hqp_qdot, strict, rtol=0.0, atol=1e-9 * scale(strict))
+
+
 # --- b) by hand ---------------------------------------------------------------------------
 
 
@@ -330,6 +340,33 @@ def test_a_velocity_bound_on_top_caps_a_task_below():
     assert result.level("limits").active_upper == (0,) and result.level("limits").active_lower == ()
     np.testing.assert_allclose(result.level("task").slack, [-2.0], atol=1e-14)
     assert result.level("limits").violation == 0.0
+
+
+def test_a_damped_level_below_a_bound_is_the_damped_least_squares_that_keeps_it():
+    """Level 1: q̇₀ <= 0.1. Level 2: q̇₀ + q̇₁ = 1, damped by μ: min (q̇₀ + q̇₁ - 1)² + μ² ||q̇||²
+    with q̇₀ <= 0.1. Without the bound its optimum is q̇₀ = q̇₁ = 1 / (2 + μ²) > 0.1, so the bound
+    binds and q̇₁ minimises (q̇₁ - 0.9)² + μ² q̇₁²: 0.9 / (1 + μ²); undamped, 0.9. The same with
+    μ given to every level (the bound's level holds where it starts: nothing to damp) or by name."""
+    levels = [(np.array([[1.0, 0.0]]), [-np.inf], [0.1]), (np.array([[1.0, 1.0]]), [1.0])]
+    names = ["limits", "task"]
+    mu = 0.5
+    expected = [0.1, 0.9 / (1.0 + mu * mu)]
+    for damping in (mu, {"task": mu}):
+        result = solve_hqp(levels, names=names, damping=damping)
+        np.testing.assert_allclose(result.qdot, expected, atol=1e-12)
+        assert result.level("limits").active_upper == (0,)
+    np.testing.assert_allclose(solve_hqp(levels, names=names).qdot, [0.1, 0.9], atol=1e-12)
+    # Only the named level is damped: the bound's level above would not change, the task below is exact.
+    np.testing.assert_allclose(
+        solve_hqp(levels, names=names, damping={"limits": mu}).qdot, [0.1, 0.9], atol=1e-12
+    )
+
+
+def test_a_damped_step_along_a_tiny_singular_value_stays_below_one_over_two_mu():
+    """J = [1e-4 0], ė = 1: the exact step is 1e4; damped by μ = 0.1, σ / (σ² + μ²) ≈ 0.01 (<= 1/(2μ))."""
+    level = (np.array([[1e-4, 0.0]]), [1.0])
+    np.testing.assert_allclose(solve_hqp([level]).qdot, [1e4, 0.0], rtol=1e-12)
+    np.testing.assert_allclose(solve_hqp([level], damping=0.1).qdot, [1e-4 / (1e-8 + 0.01), 0.0], rtol=1e-12)
 
 
 def test_an_inequality_is_met_with_the_smallest_velocity():
@@ -809,6 +846,17 @@ def test_a_guess_whose_row_the_tall_last_level_does_not_hold_on_is_declined():
         ([(np.eye(1), [0.0])], {"names": [""]}, r"names\[0\] = '': must be a non-empty string"),
         ([(np.eye(1), [0.0])], {"tolerance": 0.0}, "tolerance = 0.0: must be finite and > 0"),
         ([(np.eye(1), [0.0])], {"rank_threshold": np.nan}, "rank_threshold = nan: must be finite"),
+        ([(np.eye(1), [0.0])], {"damping": -1.0}, "damping = -1.0: must be finite and >= 0"),
+        (
+            [(np.eye(1), [0.0])],
+            {"names": ["task"], "damping": {"task": np.nan}},
+            r"damping\['task'\] = nan: must be finite and >= 0",
+        ),
+        (
+            [(np.eye(1), [0.0])],
+            {"names": ["task"], "damping": {"hand": 0.1}},
+            r"damping names \['hand'\], not levels; levels: task",
+        ),
     ],
 )
 def test_invalid_input_names_the_level_and_row(levels, kwargs, message):

@@ -17,7 +17,7 @@ dynamics of the reference), loggers and (optionally) a recorded Meshcat replay.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -108,6 +108,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
         solver: str = "svd",
         wire_solver: Callable[[StackOfTasks], None] | None = None,
         command_server: bool = False,
+        damping: float | Mapping[str, float] = 0.0,
     ) -> HumanoidSoT:
         """Wire every task into a ``StackOfTasks`` holding ``stack`` and close the loop.
 
@@ -133,6 +134,8 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 holds the desired pose of each ``FeaturePoint6d`` task whose ``position_des`` no
                 other system feeds (clients write its position, ``TASK.position_des``; set it with
                 :meth:`HumanoidSoT.set_desired`).
+            damping: the ``StackOfTasks``' damped least squares (its ``damping``: one μ for every
+                task, or, with ``solver="hqp"``, μ by task name); 0, exact.
         """
         b = self.builder
         period = self.control_period
@@ -145,6 +148,7 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 period=period,
                 stack=stack,
                 solver=solver,
+                damping=damping,
                 commands_input=self._server is not None,
             )
         )

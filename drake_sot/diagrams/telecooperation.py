@@ -62,16 +62,29 @@ hierarchy at a joint limit:
   foot's single support (the right foot swinging), the chest leans 0.41 rad instead of 0.6
   and the right elbow reaches its bound (-0.03 rad: its limit 0, the straight arm, less the
   margin);
-- with the elbow held at its bound, the hand's position task (e_fr) chatters through the wrist
-  and the shoulder's yaw: the right wrist's pitch and yaw, the shoulder's yaw change their
-  velocity by 5.5, 4.1 and 3.1 rad/s RMS from a tick to the next (0.01 before the burst).
+- with the elbow held at its bound, the wrists and the shoulders' yaw chatter: the right
+  wrist's pitch and yaw, the shoulder's yaw change their velocity by 5.5, 4.1 and 3.1 rad/s RMS
+  from a tick to the next (0.01 before the burst).
+
+The chattering level is not the hands': the solver's problems of the ticks of the burst at 7 s,
+replayed, give the wrists' velocities jumping between their limits (±5 rad/s) from a tick to
+the next, and they stay below 1 rad/s when ``taskComZ`` alone is damped
+(:func:`~drake_sot.hqp.solve_hqp`'s ``damping``, μ = 0.1 m/rad), not when the hands' tasks are.
+With an elbow held, the levels above (the feet, the CoM's x and y, the waist, the hands, the
+head) leave the CoM's height almost only to the wrists, a singular value of that level near
+zero: its exact least squares asks for them at full speed, the sign flipping each tick. Damping
+``taskComZ`` (μ = 0.1 m/rad, the other levels exact) removes the bursts at 7-23 s with the
+co-operator leading (the ripple's largest 1 s window 2.2 and 4.3 times its median at the right
+and the left wrist, the left's at 43-44 s; 17.6 and 19.5 times before, at 15 s), but it is not
+used: the stabilizer's CoM offset then sits at its bound 56 % of that walk (37 % without), and
+with μ = 0.01 or 0.03 that walk fell at 54.6 or 52.8 s.
 
 Varied one at a time on the same run: without the nod (the head's pitch 0) the bursts at 7-23 s
 are gone, one is left at 9 s (the left elbow at its bound, 9 times the median; that run fell
 at 56.9 s, the co-operator-led balance being marginal); with the elbows held 0.3 rad bent by
 another joint-limit level under taskJL, the chatter moved to that bound and went on through the
-walk (the median ripple 3.9 N). The chatter is the hand task against an active joint bound in
-the solver, not the straight arm's singularity, nor physics. The operator leading has one such
+walk (the median ripple 3.9 N). The chatter is a level that an active joint bound leaves
+singular, in the solver, not the straight arm's singularity, nor physics. The operator leading has one such
 burst, at 6.5-7.5 s (the left elbow at its bound, 11 times the median of 0.21 N). Milder ones
 (3-9 times the median, 2-6 Hz) come with the feet late in the walk: the swing foot touching
 down before the planned landing (48 and 57 s with the co-operator leading, 46 s with the

@@ -192,8 +192,12 @@ class StackOfTasks(LeafSystem):
             checked against it (``λ·period <= 1``, :data:`drake_sot.gains.MAX_GAIN_PERIOD`).
         rank_threshold: singular values at or below it are treated as zero (finite, >= 0;
             see :func:`~drake_sot.hierarchy.solve_strict`).
-        damping: damped least-squares factor (finite, >= 0; 0 is the exact pseudo-inverse);
-            ``solver="svd"`` only.
+        damping: damped least-squares factor μ (finite, >= 0, in the units of the tasks'
+            Jacobians; 0 is the exact pseudo-inverse): with ``solver="svd"``
+            :func:`~drake_sot.hierarchy.solve_strict`'s, every task damped; with
+            ``solver="hqp"`` :func:`~drake_sot.hqp.solve_hqp`'s, every task damped, or a mapping
+            from task names to their μ (the others exact): e.g. a hand's position task that an
+            arm's joint limit above it leaves singular (``solve_hqp`` says why).
         stack: the initial active tasks, highest priority first.
         name: the system's name.
         solver: ``"svd"`` (:func:`~drake_sot.hierarchy.solve_strict`) or ``"hqp"``
@@ -207,7 +211,8 @@ class StackOfTasks(LeafSystem):
             the period, ...); an initial stack
             naming an unknown task raises :class:`~drake_sot.stack.UnknownTaskError`
             (a ValueError and a KeyError) listing the known tasks; an inequality task with
-            ``solver="svd"``, a damping with ``solver="hqp"``, an unknown solver. At the tick, a
+            ``solver="svd"``, a damping per task with ``solver="svd"`` or naming an unknown
+            task, an unknown solver. At the tick, a
             RuntimeError naming the task when its signal carries another task's name,
             has the wrong sizes (e, J or ė*; or the bounds), holds NaN/Inf (NaN only, in
             bounds), has a lower bound above its upper one (naming the row), or is an
@@ -223,7 +228,7 @@ class StackOfTasks(LeafSystem):
         *,
         period: float = 0.005,
         rank_threshold: float = 1e-6,
-        damping: float = 0.0,
+        damping: float | Mapping[str, float] = 0.0,
         stack: Sequence[str] = (),
         name: str = "sot",
         solver: str = "svd",
@@ -267,9 +272,7 @@ class StackOfTasks(LeafSystem):
             if isinstance(task, Task):  # its gain's range depends on the period (drake_sot.gains)
                 task.use_period(self._period)
         self._rank_threshold = validation.nonnegative(f"{where}: rank_threshold", rank_threshold)
-        self._damping = validation.nonnegative(f"{where}: damping", damping)
-        if self._damping and solver == "hqp":
-            raise ValueError(f"{where}: damping = {damping!r}: solver='hqp' solves exactly (damping 0)")
+        self._damping = _damping(where, damping, solver, {task_name for task_name, _ in pairs})
         self._dims = dims
         #: The shapes of (error, J, ė*) each equality task's signal must have.
         self._shapes = {task_name: ((m,), (m, nv), (m,)) for task_name, m in dims.items()}
@@ -589,7 +592,12 @@ class StackOfTasks(LeafSystem):
                 warm = {task_name: previous[self._slices[task_name]] for task_name in bounded}
                 # An active set that does not settle gives its last iterate (solve_hqp's unsettled).
                 result = solve_hqp(
-                    levels, names=active, rank_threshold=self._rank_threshold, validate=False, warm_start=warm
+                    levels,
+                    names=active,
+                    rank_threshold=self._rank_threshold,
+                    validate=False,
+                    warm_start=warm,
+                    damping=self._damping,
                 )
                 for task_name in bounded:
                     J, lower, upper = signals[task_name]
@@ -669,3 +677,23 @@ class StackOfTasks(LeafSystem):
             except ValueError as error:
                 raise RuntimeError(str(error)) from None
         return J, lower, upper
+
+
+def _damping(
+    where: str, damping: float | Mapping[str, float], solver: str, tasks: set[str]
+) -> float | dict[str, float]:
+    """``damping`` checked: a finite float >= 0, or (``solver="hqp"``) a mapping from known task
+    names to finite floats >= 0; ValueError naming the bad value and what is accepted."""
+    if not isinstance(damping, Mapping):
+        return validation.nonnegative(f"{where}: damping", damping)
+    if solver != "hqp":
+        raise ValueError(
+            f"{where}: a damping per task needs solver='hqp' (solver={solver!r}); or give one float"
+        )
+    unknown = sorted(set(damping) - tasks)
+    if unknown:
+        raise ValueError(f"{where}: damping of unknown tasks {unknown}; the tasks are {sorted(tasks)}")
+    return {
+        task_name: validation.nonnegative(f"{where}: damping[{task_name!r}]", mu)
+        for task_name, mu in damping.items()
+    }
