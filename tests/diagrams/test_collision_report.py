@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import io
 
+import collision_queries
 import numpy as np
 import pytest
 from replay_html import replay_messages
@@ -20,7 +21,6 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
 from drake_sot.models import half_sitting_configuration
 from drake_sot.robots import make_robot_control_model
-from drake_sot.systems.self_collision import make_collision_model
 
 NAME = "fold_arm"
 TASK = "taskSelfCollision"
@@ -45,43 +45,20 @@ def _build(meshcat) -> ScenarioSetup:
     return ScenarioSetup(b.build(stack=[TASK, "taskPosture"], solver="hqp"), [], 0.2)
 
 
-class Query:
-    """Drake's signed-distance query on a collision model of the test's own."""
+class Query(collision_queries.Query):
+    """The shared query on the embedded robot on a fixed base, its pairs within D_I as a list."""
 
     def __init__(self) -> None:
-        model = make_collision_model("embedded", fixed_base=True)
-        self.plant, scene_graph = model.plant, model.scene_graph
-        self.context = model.diagram.CreateDefaultContext()
-        self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
-        self.port = scene_graph.get_query_output_port()
-        self.scene_context = scene_graph.GetMyContextFromRoot(self.context)
-        self.inspector = scene_graph.model_inspector()
+        super().__init__("embedded", fixed_base=True)
 
     def near(self, q: np.ndarray) -> list[tuple[float, frozenset, frozenset, np.ndarray, np.ndarray]]:
         """The pairs closer than D_I at ``q``, closest first: (distance, the shapes' names, the
-        bodies' names, the witness points on A and on B in world). None is within 1e-6 m of D_I
-        (whether the query keeps a pair at its ``max_distance`` exactly varies from one model to
-        another)."""
-        self.plant.SetPositions(self.plant_context, q)
-        query = self.port.Eval(self.scene_context)
-        pairs = query.ComputeSignedDistancePairwiseClosestPoints(max_distance=D_I + 0.01)
-        assert all(abs(p.distance - D_I) > 1e-6 for p in pairs)
-        name = self.inspector.GetName
-
-        def body(g) -> str:
-            return self.plant.GetBodyFromFrameId(self.inspector.GetFrameId(g)).name()
-
-        return sorted(
-            (
-                p.distance,
-                frozenset((name(p.id_A), name(p.id_B))),
-                frozenset((body(p.id_A), body(p.id_B))),
-                query.GetPoseInWorld(p.id_A) @ p.p_ACa,
-                query.GetPoseInWorld(p.id_B) @ p.p_BCb,
-            )
-            for p in pairs
-            if p.distance < D_I
-        )
+        bodies' names, the witness points on A and on B in world)."""
+        pairs = []
+        for shapes, (distance, points) in super().near(q, D_I).items():
+            (a, (body_a, p_a)), (b, (body_b, p_b)) = points.items()  # A's, then B's
+            pairs.append((distance, shapes, frozenset((body_a, body_b)), p_a, p_b))
+        return sorted(pairs, key=lambda pair: (pair[0], sorted(pair[1])))
 
 
 @pytest.fixture(scope="module")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from collision_queries import random_configuration
 from pydrake.multibody.tree import JacobianWrtVariable
 from robot_data import robot_or_skip
 
@@ -55,15 +56,6 @@ class Distances:
     def every_pair(self, q: np.ndarray) -> dict[frozenset, float]:
         """Each candidate pair's signed distance, asked pair by pair."""
         return {frozenset((a, b)): self.pair(q, a, b) for a, b, _, _ in self.candidates}
-
-
-def random_configuration(plant, rng) -> np.ndarray:
-    """Joint angles uniform within their limits, the base where the model puts it."""
-    q = plant.GetPositions(plant.CreateDefaultContext())
-    low, high = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
-    bounded = np.isfinite(low) & np.isfinite(high)
-    q[bounded] = rng.uniform(low[bounded], high[bounded])
-    return q
 
 
 def rows(task, q):
