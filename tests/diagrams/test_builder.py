@@ -195,3 +195,25 @@ def test_features_are_named_as_the_sot_scripts_name_them(task, feature):
     builder = HumanoidSoTBuilder()
     builder.add_com_task(task)
     assert builder.features[task].get_name() == feature
+
+
+def test_the_builders_damping_reaches_the_stack():
+    """``build(damping=)``: a posture task alone (its Jacobian selects the actuated joints, σ = 1)
+    damped by μ gives the undamped first-tick q̇ divided by 1 + μ² (damped least squares,
+    σ / (σ² + μ²)), for one μ and for μ by task name; the floating base does not move."""
+    mu = 0.5
+
+    def first_qdot(**damping) -> np.ndarray:
+        b = HumanoidSoTBuilder()
+        b.add_posture_task("taskPosture", desired=b.q0 + np.where(np.arange(len(b.q0)) >= 7, 0.1, 0.0))
+        built = b.build(stack=["taskPosture"], solver="hqp", **damping)
+        simulator = built.create_simulator()
+        simulator.AdvanceTo(0.001)  # the event at t = 0
+        return built.sot.GetOutputPort("qdot").Eval(built.sot.GetMyContextFromRoot(simulator.get_context()))
+
+    exact = first_qdot()
+    assert np.abs(exact[6:]).min() > 0.05 and np.allclose(exact[:6], 0.0, atol=1e-12)
+    np.testing.assert_allclose(first_qdot(damping=mu), exact / (1.0 + mu**2), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        first_qdot(damping={"taskPosture": mu}), exact / (1.0 + mu**2), rtol=1e-9, atol=1e-12
+    )
