@@ -30,6 +30,7 @@ def test_list_names_the_scenarios_then_the_studies():
         "look_and_reach",
         "priority_switching",
         "reach",
+        "reach_around",
         "table_pounding",
         "telecoop_slave",
         "telecooperation",
