@@ -56,11 +56,9 @@ HAND_GAIN = AdaptiveGain.from_limits(at_zero=3.0, at_infinity=0.3, slope_at_zero
 #: [m/s] the damper's ξ, stiffer than the default: the hand pulled into the body slides along
 #: its boxes, and with 0.2 m/s the reference went 5 mm inside the margin (the embedded
 #: humanoid; ``benchmarks/README.md``, bench_self_collision.py, on the damper's first order).
-#: Not much stiffer: with 3 m/s a pair closing at 0.25 m/s is stopped within a few mm of the
-#: margin, and the simulated body, slower than its reference, went 1 cm further.
-XI = 1.0
+XI = 3.0
 #: [m] the damper's activation distance, larger than the default: the rows then slow a closing
-#: pair from further away (ḋ >= -ξ (d - d_s) / (d_i - d_s), 14 /s instead of 25 /s).
+#: pair from further away (ḋ >= -ξ (d - d_s) / (d_i - d_s)).
 D_I = 0.08
 START = 0.5  # [s] the first target
 DWELL = 4.0  # [s] between two targets
