@@ -30,6 +30,7 @@ def test_list_names_the_scenarios_then_the_studies():
         "look_and_reach",
         "priority_switching",
         "reach",
+        "reach_around",
         "table_pounding",
         "telecoop_slave",
         "telecooperation",
@@ -86,7 +87,7 @@ def test_run_writes_every_artefact(recorded_run):
     t = logs["time"]
     assert t[0] == 0.0 and t[-1] == pytest.approx(1.2, abs=0.01)
     assert logs["q"].shape == (t.size, 37)
-    for task in reach.STACK + ("taskLH",):
+    for task in reach.STACK + ("taskLH", "taskSelfCollision"):
         assert logs[f"error/{task}"].shape[0] == t.size
     assert list(logs["event_label"]) == ["taskRH target +25 cm x, +20 cm z"]
 

@@ -22,7 +22,15 @@ from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import MAX_LINE, ProtocolError, decode_vector, encode, parse_request
 
 TOKEN = "s3cret-token"
-STACK_OF_REACH = ("taskJL", "taskLF", "taskRF", "taskCom", "taskRH", "taskPosture")  # its docstring
+STACK_OF_REACH = (
+    "taskJL",
+    "taskSelfCollision",
+    "taskLF",
+    "taskRF",
+    "taskCom",
+    "taskRH",
+    "taskPosture",
+)  # its docstring
 
 
 # --- the protocol, pure --------------------------------------------------------------------
@@ -345,7 +353,7 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     )
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    assert lines[0].split()[:4] == ["taskJL", "taskLF", "taskRF", "taskCom"]
+    assert lines[0].split()[:4] == list(STACK_OF_REACH[:4])
     com = [float(x) for x in lines[1].split()]
     assert len(com) == 3 and 0.5 < com[2] < 1.0  # the CoM of a standing humanoid, about 0.8 m up
     assert lines[2].startswith("error:") and "unknown writable signal" in lines[2]

@@ -5,6 +5,7 @@ from drake_sot.diagrams import (
     look_and_reach,
     priority_switching,
     reach,
+    reach_around,
     table_pounding,
     telecoop_master,
     telecoop_slave,
@@ -21,6 +22,7 @@ SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
         reach.SCENARIO,
+        reach_around.SCENARIO,
         walk.SCENARIO,
         walk_long.SCENARIO,
         walk_random.SCENARIO,

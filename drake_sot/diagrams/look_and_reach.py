@@ -7,7 +7,8 @@ feature family of Mansard et al. 2009) keeps its image at the centre of the head
 above the hand; the object's velocity is fed forward. Stack (highest priority first, solved
 by ``solve_hqp``): joint position and velocity limits (an inequality: velocity bounds over
 the control period that stop each joint 0.02 rad inside its limits, clipped to its velocity
-limits), left foot 6D, right foot 6D, CoM xy, gaze (2 rows), posture. Script:
+limits), self-collision avoidance (``taskSelfCollision``, unless ``self_collision`` is off),
+left foot 6D, right foot 6D, CoM xy, gaze (2 rows), posture. Script:
 
 - t = 0 s: the object is below and to the right of the line of sight: the head (and the
   chest) turn to it;
@@ -32,7 +33,7 @@ from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.look_and_reach_plots import plot_look_and_reach
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import Scenario, ScenarioHandles, ScenarioSetup
+from drake_sot.diagrams.scenario import SELF_COLLISION, Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.world import BuiltHumanoid
 from drake_sot.gains import AdaptiveGain
 from drake_sot.systems.marker import MeshcatMarker
@@ -83,10 +84,14 @@ OBJECT_PATH = Lissajous(
 
 
 def build(
-    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), command_server: bool = False
+    meshcat: Meshcat | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    command_server: bool = False,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
-    """Build the ``look_and_reach`` diagram and its script, with ``pushes`` on the robot;
-    ``command_server``: see :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    """Build the ``look_and_reach`` diagram and its script, with ``pushes`` on the robot, with
+    or without the self-collision task; ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes)
     target = b.builder.AddSystem(
         MovingPoint(OBJECT_PATH, orientation=b.initial_pose("right_hand").rotation(), name="object")
@@ -109,7 +114,8 @@ def build(
     if meshcat is not None:  # the object in the replay
         marker = b.builder.AddSystem(MeshcatMarker(meshcat, "/drake_sot/object", radius=0.03))
         b.builder.Connect(target.GetOutputPort("position"), marker.GetInputPort("position"))
-    built = b.build(stack=STACK, solver="hqp", command_server=command_server)
+    stack = b.below_joint_limits(STACK, self_collision)
+    built = b.build(stack=stack, solver="hqp", command_server=command_server)
     sot = built.sot
 
     def reach(context) -> None:
@@ -169,5 +175,6 @@ SCENARIO = Scenario(
     description="the head keeps a moving object centred in its camera image; the right hand reaches for it",
     build=build,
     extra_plots=write_plots,
+    parameters=(SELF_COLLISION,),
     servable=True,
 )

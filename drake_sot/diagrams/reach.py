@@ -2,7 +2,8 @@
 
 Stack (highest priority first, solved by ``solve_hqp``): joint position and velocity
 limits (an inequality: velocity bounds over the control period that stop each joint
-0.02 rad inside its limits, clipped to its velocity limits), left foot 6D, right foot
+0.02 rad inside its limits, clipped to its velocity limits), self-collision avoidance
+(``taskSelfCollision``, unless ``self_collision`` is off), left foot 6D, right foot
 6D, CoM xy, right hand 6D, posture. Script:
 
 - t = 1 s: the right-hand target moves 25 cm forward and 20 cm up from where the hand
@@ -25,7 +26,7 @@ from pydrake.math import RigidTransform
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, SELF_COLLISION, Scenario, ScenarioSetup
 
 RIGHT_HAND_OFFSET = np.array([0.25, 0.0, 0.20])  # [m] from the initial hand position, world frame
 LEFT_HAND_OFFSET = np.array([0.20, 0.0, 0.15])
@@ -41,10 +42,11 @@ def build(
     pushes: Sequence[ExternalPush] = (),
     robot: str = "embedded",
     command_server: bool = False,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
     """Build the ``reach`` diagram and its script, with ``pushes`` on ``robot`` (a name of
-    ``drake_sot.robots.ROBOTS``); ``command_server``: see
-    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    ``drake_sot.robots.ROBOTS``), with or without the self-collision task; ``command_server``:
+    see :func:`~drake_sot.diagrams.scenario.build_scenario`."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     target_rh = _shifted(b.initial_pose("right_hand"), RIGHT_HAND_OFFSET)
     target_lh = _shifted(b.initial_pose("left_hand"), LEFT_HAND_OFFSET)
@@ -55,7 +57,8 @@ def build(
     b.add_op_point_task("taskRH", "right_hand", gain=2.5)
     b.add_op_point_task("taskLH", "left_hand", gain=2.5, desired=target_lh)
     b.add_posture_task("taskPosture", gain=1.0)
-    built = b.build(stack=STACK, solver="hqp", command_server=command_server)
+    stack = b.below_joint_limits(STACK, self_collision)
+    built = b.build(stack=stack, solver="hqp", command_server=command_server)
     sot = built.sot
     commands = [
         TimedCommand(
@@ -77,6 +80,6 @@ SCENARIO = Scenario(
     name="reach",
     description="stand, reach with the right hand (t=1 s), push then rm a left-hand task (t=3 s, t=5 s)",
     build=build,
-    parameters=(ROBOT,),
+    parameters=(ROBOT, SELF_COLLISION),
     servable=True,
 )

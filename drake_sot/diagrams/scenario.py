@@ -173,6 +173,13 @@ ROBOT = Parameter(
     paths=ROBOT_PATH_SUFFIXES,
 )
 
+#: The self-collision avoidance task just below the joint limits of a kinematic scenario
+#: (:meth:`~drake_sot.diagrams.tasks.HumanoidTaskBuilder.below_joint_limits`), on unless
+#: switched off.
+SELF_COLLISION = Parameter(
+    "self_collision", "bool", True, "the self-collision avoidance task, just below the joint limits"
+)
+
 Runner = Callable[..., RunResult]
 """Runs a built scenario: ``runner(setup, simulator, duration, progress=, guard=)`` -> RunResult."""
 

@@ -53,7 +53,7 @@ from drake_sot.systems.inequalities import (
 from drake_sot.systems.kinematics import FRAME_SUFFIX, RobotKinematics
 from drake_sot.systems.partner import ConstantForce, Partner
 from drake_sot.systems.replay_view import Arrow, ArrowGroup, FollowCamera, ForceArrows, PairLines, SoleForces
-from drake_sot.systems.self_collision import SelfCollisionAvoidance
+from drake_sot.systems.self_collision import Obstacle, SelfCollisionAvoidance, add_obstacles
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive, vector
 
@@ -75,6 +75,8 @@ PUSH_SCALE = 500.0
 SOLE_ARROW_GAP = 0.03
 #: The fall criteria every floating-base builder monitors by default.
 FALL_CRITERIA = FallCriteria()
+#: The self-collision task of the kinematic scenarios (:meth:`HumanoidTaskBuilder.below_joint_limits`).
+SELF_COLLISION_TASK = "taskSelfCollision"
 
 
 def feature_name(task_name: str) -> str:
@@ -115,6 +117,8 @@ class HumanoidTaskBuilder:
         q0: (nq,) the initial and reference configuration of the control model (the
             simulated robot starts there, at rest; the posture task's default goal); None:
             the robot's half-sitting configuration.
+        obstacles: boxes fixed in the simulated world (a table; after ``before_finalize``),
+            which :meth:`add_self_collision_task` also keeps the robot away from.
 
     Raises:
         ValueError: a period or step that is NaN, infinite or not > 0 (checked before
@@ -138,8 +142,16 @@ class HumanoidTaskBuilder:
         fall_criteria: FallCriteria | None = FALL_CRITERIA,
         robot: str | RobotDescription = "embedded",
         q0: np.ndarray | None = None,
+        obstacles: Sequence[Obstacle] = (),
     ) -> None:
         control_period = positive("control_period", control_period, unit="s")
+        self.obstacles = tuple(obstacles)
+
+        def add_to_world(plant: MultibodyPlant, info: HumanoidInfo) -> None:
+            if before_finalize is not None:
+                before_finalize(plant, info)
+            add_obstacles(plant, self.obstacles)
+
         if fall_criteria is not None and not isinstance(fall_criteria, FallCriteria):
             raise ValueError(f"fall_criteria = {fall_criteria!r}: must be a FallCriteria or None")
         self.fixed_base = fixed_base
@@ -150,7 +162,7 @@ class HumanoidTaskBuilder:
             time_step=time_step,
             pd_gains=self.POSITION_CONTROLLED,
             fixed_base=fixed_base,
-            before_finalize=before_finalize,
+            before_finalize=add_to_world,
             robot=self.robot,
         )
         self.pushes = check_pushes(pushes, self.info.frames)
@@ -655,12 +667,15 @@ class HumanoidTaskBuilder:
         d_i: float = 0.05,
         xi: float = 0.2,
         max_pairs: int = 16,
+        leg_pairs: bool = True,
     ) -> SelfCollisionAvoidance:
         """Every pair of the robot's collision shapes that may collide kept ``d_s`` apart, with
         rows for the pairs closer than ``d_i`` (``SelfCollisionAvoidance``, on this builder's
-        robot and base). Reads the reference q. An inequality task. Its rows' distances and pairs
-        are logged (``collision/<task_name>/...``, see :mod:`~drake_sot.diagrams.collision_log`)
-        and, with Meshcat, drawn (:class:`~drake_sot.systems.replay_view.PairLines`)."""
+        robot and base, and its ``obstacles``; without ``leg_pairs``, none between the two
+        legs, which a footstep plan keeps apart). Reads the reference q. An inequality task. Its
+        rows' distances and pairs are logged (``collision/<task_name>/...``, see
+        :mod:`~drake_sot.diagrams.collision_log`) and, with Meshcat, drawn
+        (:class:`~drake_sot.systems.replay_view.PairLines`)."""
         task = self._add_inequality(
             SelfCollisionAvoidance(
                 self.robot,
@@ -670,6 +685,8 @@ class HumanoidTaskBuilder:
                 xi=xi,
                 max_pairs=max_pairs,
                 name=task_name,
+                obstacles=self.obstacles,
+                leg_pairs=leg_pairs,
             )
         )
         self.use_reference_q(task.GetInputPort("q"))
@@ -681,6 +698,32 @@ class HumanoidTaskBuilder:
         :mod:`~drake_sot.diagrams.collision_log`); the replay draws its pairs (``_add_replay_view``)."""
         self.log(distance_log(task.get_name()), task.GetOutputPort("distances"))
         self.log(pair_log(task.get_name()), task.GetOutputPort("pair_indices"))
+
+    def below_joint_limits(
+        self, stack: Sequence[str], self_collision: bool = True, **parameters: float | bool
+    ) -> tuple[str, ...]:
+        """``stack`` with the self-collision task :data:`SELF_COLLISION_TASK` (added here by
+        :meth:`add_self_collision_task` with ``parameters``: ``d_s``, ``d_i``, ``xi``,
+        ``max_pairs``, ``leg_pairs``, its defaults when not given) just below its first level,
+        the joint limits, as every kinematic scenario has it; ``stack`` as it is when not
+        ``self_collision``. The stack needs ``build(..., solver="hqp")``.
+
+        Raises:
+            ValueError: ``stack``'s first task is not a ``JointPositionLimits`` task of this
+                builder (naming it); a task named :data:`SELF_COLLISION_TASK` exists already;
+                what :meth:`add_self_collision_task` raises.
+            TypeError: a parameter :meth:`add_self_collision_task` does not take.
+        """
+        stack = tuple(stack)
+        if not self_collision:
+            return stack
+        if not stack or not isinstance(self.tasks.get(stack[0]), JointPositionLimits):
+            raise ValueError(
+                f"stack = {stack!r}: the self-collision task goes below the joint limits, its first "
+                "level must be a task of add_joint_position_limits_task"
+            )
+        self.add_self_collision_task(SELF_COLLISION_TASK, **parameters)
+        return (stack[0], SELF_COLLISION_TASK, *stack[1:])
 
     def _wire_op_point(self, frame_key: str, system, suffix: str = "") -> None:
         """The pose and Jacobian of the operational point on ``frame_key`` into ``system``'s

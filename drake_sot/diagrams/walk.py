@@ -1,7 +1,8 @@
 """Scenario ``walk``: the humanoid walks in physics on pattern-generator references.
 
 Stack (highest priority first, solved by ``solve_hqp``): joint position and velocity
-limits (an inequality task), left foot 6D, right foot 6D (references
+limits (an inequality task), self-collision avoidance (``taskSelfCollision``, unless
+``self_collision`` is off), left foot 6D, right foot 6D (references
 and velocity feed-forward from the pattern generator), CoM xy (preview-control CoM),
 waist orientation (yaw midway between the feet), both hands held relative to the
 waist, posture. Script: at t = 0.5 s, 8 steps of 0.2 m forward, then 4 steps turning
@@ -17,7 +18,7 @@ from collections.abc import Sequence
 from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, SELF_COLLISION, Scenario, ScenarioSetup
 from drake_sot.diagrams.walking import STABILIZER, build_walk, forward_steps, zmp_plot_writer
 from drake_sot.footsteps import Footstep, alternating_steps
 
@@ -38,10 +39,11 @@ def build(
     stabilizer: bool = True,
     robot: str = "embedded",
     command_server: bool = False,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
     """Build the ``walk`` diagram and its script, with ``pushes`` on ``robot`` (a name of
-    ``drake_sot.robots.ROBOTS``), with or without the balance stabilizer; ``command_server``: see
-    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    ``drake_sot.robots.ROBOTS``), with or without the balance stabilizer and the self-collision
+    task; ``command_server``: see :func:`~drake_sot.diagrams.scenario.build_scenario`."""
     return build_walk(
         walk_steps,
         meshcat=meshcat,
@@ -49,6 +51,7 @@ def build(
         stabilizer=stabilizer,
         robot=robot,
         command_server=command_server,
+        self_collision=self_collision,
     )
 
 
@@ -60,6 +63,6 @@ SCENARIO = Scenario(
     description="8 steps of 0.2 m forward, 4 steps turning 90°, stop in double support (ZMP preview control)",
     build=build,
     extra_plots=write_plots,
-    parameters=(STABILIZER, ROBOT),
+    parameters=(STABILIZER, ROBOT, SELF_COLLISION),
     servable=True,
 )

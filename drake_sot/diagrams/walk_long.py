@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import SELF_COLLISION, Scenario, ScenarioSetup
 from drake_sot.diagrams.walking import build_walk, zmp_plot_writer
 from drake_sot.footsteps import Footstep, other_side, relative_steps, stance_width
 
@@ -69,12 +69,21 @@ def long_walk_steps(left: Footstep, right: Footstep) -> list[Footstep]:
 
 
 def build(
-    meshcat: Meshcat | None = None, pushes: Sequence[ExternalPush] = (), command_server: bool = False
+    meshcat: Meshcat | None = None,
+    pushes: Sequence[ExternalPush] = (),
+    command_server: bool = False,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
-    """Build the ``walk_long`` diagram and its script, with ``pushes`` on the robot;
-    ``command_server``: see :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    """Build the ``walk_long`` diagram and its script, with ``pushes`` on the robot, with or
+    without the self-collision task; ``command_server``: see
+    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
     setup = build_walk(
-        long_walk_steps, meshcat=meshcat, pushes=pushes, anchored=True, command_server=command_server
+        long_walk_steps,
+        meshcat=meshcat,
+        pushes=pushes,
+        anchored=True,
+        command_server=command_server,
+        self_collision=self_collision,
     )
     setup.duration += SETTLE
     return setup
@@ -85,5 +94,6 @@ SCENARIO = Scenario(
     description="30 steps: forward, turning left and right, sideways, backward, stop (ZMP preview control)",
     build=build,
     extra_plots=zmp_plot_writer("walk_long"),
+    parameters=(SELF_COLLISION,),
     servable=True,
 )

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import ROBOT, Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import ROBOT, SELF_COLLISION, Scenario, ScenarioSetup
 from drake_sot.diagrams.walking import build_walk, zmp_plot_writer
 from drake_sot.footsteps import Footstep, StepLimits, stance_width
 from drake_sot.parameters import Parameter
@@ -60,10 +60,11 @@ def build(
     seed: int = 0,
     robot: str = "embedded",
     command_server: bool = False,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
     """Build the ``walk_random`` diagram: the random walk of ``seed`` (an integer >= 0) on
-    ``robot``, with ``pushes``; ``command_server``: see
-    :func:`~drake_sot.diagrams.scenario.build_scenario`."""
+    ``robot``, with ``pushes``, with or without the self-collision task; ``command_server``:
+    see :func:`~drake_sot.diagrams.scenario.build_scenario`."""
 
     def source(left: Footstep, right: Footstep, limits: StepLimits) -> RandomSteps:
         home = tuple(0.5 * (left.xy + right.xy))
@@ -77,6 +78,7 @@ def build(
         robot=robot,
         command_server=command_server,
         footstep_source=source,
+        self_collision=self_collision,
     )
     setup.duration = DURATION
     return setup
@@ -87,6 +89,6 @@ SCENARIO = Scenario(
     description="random reachable steps (forward, backward, sideways, turning, stops), as long as asked",
     build=build,
     extra_plots=zmp_plot_writer("walk_random"),
-    parameters=(SEED, ROBOT),
+    parameters=(SEED, ROBOT, SELF_COLLISION),
     servable=True,
 )

@@ -1,7 +1,9 @@
 """Scenario ``walk_then_interact``: the case study of Mansard et al. 2009 (IV-B, IV-D).
 
 The robot walks 4 steps to a meeting point under the walking tasks (joint position and
-velocity limits on top, an inequality solved by ``solve_hqp``; feet, CoM and waist
+velocity limits on top, an inequality solved by ``solve_hqp``; self-collision avoidance
+just below them, ``taskSelfCollision``, unless ``self_collision`` is off, without rows
+between the legs, which the footsteps keep apart; feet, CoM and waist
 references from the pattern generator, hands carried in the waist frame).
 A ``TaskSequencer`` plays the paper's DecisionServer: every 1 s it checks whether the
 pattern generator still provides references (its ``in_process`` flag); once the walk
@@ -24,7 +26,14 @@ from pydrake.systems.framework import OutputPort
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
 from drake_sot.diagrams.run import TimedCommand
-from drake_sot.diagrams.scenario import ROBOT, RemoteDecision, Scenario, ScenarioHandles, ScenarioSetup
+from drake_sot.diagrams.scenario import (
+    ROBOT,
+    SELF_COLLISION,
+    RemoteDecision,
+    Scenario,
+    ScenarioHandles,
+    ScenarioSetup,
+)
 from drake_sot.diagrams.tasks import HAND_SCALE, PARTNER_COLOUR
 from drake_sot.diagrams.walk_then_interact_plots import plot_interaction
 from drake_sot.diagrams.walking import STABILIZER, add_walking, forward_steps
@@ -83,9 +92,10 @@ def build(
     stabilizer: bool = True,
     robot: str = "embedded",
     command_server: bool = False,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
     """Build the ``walk_then_interact`` diagram and its script, with ``pushes`` on ``robot`` (a
-    name of ``drake_sot.robots.ROBOTS``); ``command_server``: see
+    name of ``drake_sot.robots.ROBOTS``), with or without the self-collision task; ``command_server``: see
     :func:`~drake_sot.diagrams.scenario.build_scenario` (``decision="remote"`` has one whatever it
     says).
 
@@ -98,8 +108,10 @@ def build(
     and the CoM task (see ``walking.add_walking``)."""
     decision = DECISION.check(decision)
     if decision == "remote":
-        return _build_remote(meshcat, pushes, stabilizer, robot)
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
+        return _build_remote(meshcat, pushes, stabilizer, robot, self_collision)
+    b, pg, left, right, admittances, stack = _walking_and_hands(
+        meshcat, pushes, stabilizer, robot, self_collision
+    )
 
     # The DecisionServer: every 1 s, is the pattern generator still walking?
     switch = (*SWITCH, SetValue("force_active", np.ones(1)))
@@ -112,7 +124,7 @@ def build(
             ],
             "standing",
             tasks=list(b.tasks),
-            stack=STACK,
+            stack=stack,
             period=1.0,
             values={"force_active": np.zeros(1)},
             name="decision_server",
@@ -129,14 +141,22 @@ def build(
         left,
         right,
         admittances,
+        stack,
         sequencer.GetOutputPort("stack"),
         ScenarioHandles(sequencer=sequencer),
         command_server=command_server,
     )
 
 
-def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool, robot: str):
-    """The builder with the walking tasks, both admittance-controlled hand tasks and the posture."""
+def _walking_and_hands(
+    meshcat: Meshcat | None,
+    pushes: Sequence[ExternalPush],
+    stabilizer: bool,
+    robot: str,
+    self_collision: bool,
+):
+    """The builder with the walking tasks, both admittance-controlled hand tasks and the posture,
+    and the initial stack: ``STACK`` with the self-collision task when ``self_collision``."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b, stabilizer=stabilizer)
     admittances = {
@@ -144,20 +164,26 @@ def _walking_and_hands(meshcat: Meshcat | None, pushes: Sequence[ExternalPush], 
         "taskForceLH": b.add_admittance_task("taskForceLH", "left", **ADMITTANCE),
     }
     b.add_posture_task("taskPosture", gain=1.0)
-    return b, pg, left, right, admittances
+    return b, pg, left, right, admittances, b.below_joint_limits(STACK, self_collision, leg_pairs=False)
 
 
 def _build_remote(
-    meshcat: Meshcat | None, pushes: Sequence[ExternalPush], stabilizer: bool, robot: str
+    meshcat: Meshcat | None,
+    pushes: Sequence[ExternalPush],
+    stabilizer: bool,
+    robot: str,
+    self_collision: bool,
 ) -> ScenarioSetup:
-    b, pg, left, right, admittances = _walking_and_hands(meshcat, pushes, stabilizer, robot)
+    b, pg, left, right, admittances, stack = _walking_and_hands(
+        meshcat, pushes, stabilizer, robot, self_collision
+    )
     active = b.declare_writable("force_active", 1, "1 on, 0 off", np.zeros(1), bound=1.0)
     for admittance in admittances.values():
         b.builder.Connect(active, admittance.GetInputPort("active"))
     decision = RemoteDecision(
         signal="pg.in_process", period=1.0, run=SWITCH_LINES, write=("remote.force_active=1",)
     )
-    return _finish(b, pg, left, right, admittances, None, ScenarioHandles(decision=decision))
+    return _finish(b, pg, left, right, admittances, stack, None, ScenarioHandles(decision=decision))
 
 
 def _finish(
@@ -166,13 +192,14 @@ def _finish(
     left: Footstep,
     right: Footstep,
     admittances: dict,
+    stack: tuple[str, ...],
     stack_source: OutputPort | None,
     extras: ScenarioHandles,
     *,
     command_server: bool = False,
 ) -> ScenarioSetup:
-    """The partner, the logs and the build, common to both decision layers; ``extras``: the
-    decision layer's handles, completed here."""
+    """The partner, the logs and the build of the initial ``stack``, common to both decision
+    layers; ``extras``: the decision layer's handles, completed here."""
     # The partner holds the bodies below the wrist sensors (the hands).
     hands = [
         b.plant.GetJointByName(b.info.force_sensors[f"{side}_wrist"]).child_body().name()
@@ -205,7 +232,7 @@ def _finish(
         b.log(f"fault/{task_name}", admittance.GetOutputPort("fault"))
     b.log("in_process", pg.GetOutputPort("in_process"))
     built = b.build(
-        stack=STACK,
+        stack=stack,
         load=pg.GetOutputPort("load"),
         dynamic_feedforward=True,
         stack_source=stack_source,
@@ -265,6 +292,6 @@ SCENARIO = Scenario(
     description="walk 4 steps, a decision rule switches to admittance-controlled hands, a partner pulls them",
     build=build,
     extra_plots=write_plots,
-    parameters=(DECISION, STABILIZER, ROBOT),
+    parameters=(DECISION, STABILIZER, ROBOT, SELF_COLLISION),
     servable=True,
 )

@@ -168,6 +168,7 @@ def build_walk(
     robot: str = "embedded",
     command_server: bool = False,
     footstep_source: Callable[[Footstep, Footstep, StepLimits], System] | None = None,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
     """A walking diagram (the ``walk`` stack, the ZMP estimator, logs) and its script: at
     ``START`` the steps ``steps_of(left, right)`` (made from the initial footprints) are given
@@ -176,7 +177,9 @@ def build_walk(
     :func:`~drake_sot.diagrams.scenario.build_scenario`. ``footstep_source(left, right, limits)``:
     a system that decides the footprints as the walk goes (its ``planned_feet`` input is fed the
     generator's, its ``next_footprint`` output feeds the generator's; ``limits`` are the robot's
-    step limits)."""
+    step limits). ``self_collision``: the self-collision task just below the joint limits (see
+    :meth:`~drake_sot.diagrams.tasks.HumanoidTaskBuilder.below_joint_limits`), without rows
+    between the legs: the pattern generator's footprints keep them apart."""
     b = HumanoidSoTBuilder(meshcat=meshcat, pushes=pushes, robot=robot)
     pg, left, right = add_walking(b, anchored=anchored, stabilizer=stabilizer)
     if footstep_source is not None:
@@ -195,7 +198,7 @@ def build_walk(
     ):
         b.log(name, port)
     built = b.build(
-        stack=STACK,
+        stack=b.below_joint_limits(STACK, self_collision, leg_pairs=False),
         load=pg.GetOutputPort("load"),
         dynamic_feedforward=True,
         solver="hqp",

@@ -10,6 +10,7 @@ from pydrake.math import RigidTransform
 
 from drake_sot.diagrams import reach
 from drake_sot.diagrams.run import RunFailed, RunResult, TimedCommand, fall_causes, simulate
+from drake_sot.diagrams.tasks import SELF_COLLISION_TASK
 from drake_sot.systems.fall_monitor import Fall
 
 LIFT = 1.5  # [m] up, from the left foot's target (a stance foot)
@@ -40,7 +41,8 @@ def test_the_fall_keeps_the_task_errors_of_the_step_before_it(lifted):
     when, errors = result.errors_before_fall
     assert result.fell.time - 0.1 - 1e-9 <= when <= result.fell.time  # one step of the run before (0.1 s)
     names = [task for task, _ in errors]
-    assert sorted(names) == sorted(reach.STACK)  # the stack before the left hand's push at 3 s
+    # the stack before the left hand's push at 3 s, the self-collision task on by default
+    assert sorted(names) == sorted((*reach.STACK, SELF_COLLISION_TASK))
     assert [norm for _, norm in errors] == sorted((norm for _, norm in errors), reverse=True)
     # against the errors logged by the diagram's own logger at the last tick at or before `when`
     context = simulator.get_context()

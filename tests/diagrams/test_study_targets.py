@@ -102,11 +102,12 @@ def test_a_delay_and_jitter_over_the_links_largest_delay_is_refused_naming_them(
 
 
 #: Where reach's tasks have metres and radians in their errors, by their kind: 6D operational
-#: points [p - p*; rotation vector], the CoM's ground projection, joint limits and posture (the
-#: embedded humanoid's joints are all revolute).
+#: points [p - p*; rotation vector], the CoM's ground projection, the self-collision task's
+#: distances, joint limits and posture (the embedded humanoid's joints are all revolute).
 REACH_UNITS = {
     **{task: {"m": slice(0, 3), "rad": slice(3, 6)} for task in ("taskLF", "taskRF", "taskRH", "taskLH")},
     "taskCom": {"m": slice(None)},
+    "taskSelfCollision": {"m": slice(None)},
     "taskJL": {"rad": slice(None)},
     "taskPosture": {"rad": slice(None)},
 }

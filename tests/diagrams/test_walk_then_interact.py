@@ -19,6 +19,7 @@ from served import DRAKE_SOT, REPO
 
 from drake_sot.diagrams import walk_then_interact as wti
 from drake_sot.diagrams.scenario import run_scenario
+from drake_sot.diagrams.tasks import SELF_COLLISION_TASK
 
 #: [s] the long run, past the 20 s of executed samples the pattern generator keeps.
 LONG = 25.0
@@ -52,7 +53,11 @@ def test_walking_tasks_removed_and_force_tasks_pushed_after_the_walk(case_study)
     output, _ = case_study
     arrays = output.arrays
     stacks = _stacks(arrays)
-    assert stacks[0][1] == list(wti.STACK)  # walking
+    assert stacks[0][1] == [
+        wti.STACK[0],
+        SELF_COLLISION_TASK,
+        *wti.STACK[1:],
+    ]  # walking, the task on by default
     t_switch, after = stacks[-1]
     for task in wti.WALKING_TASKS:
         assert task not in after
