@@ -148,8 +148,8 @@ def test_a_parameter_added_to_a_declaration_is_an_option_without_touching_the_cl
         cli.main(["run", "reach", "--gain", "1"])
     assert exit_.value.code == 2
     assert (
-        "reach takes no --gain (it takes --duration, --out, --no-record, --fixed-camera, --push, --robot)"
-        in (capsys.readouterr().err)
+        "reach takes no --gain (it takes --duration, --out, --no-record, --fixed-camera, --push, --robot, "
+        "--no-self-collision)" in (capsys.readouterr().err)
     )
 
 

@@ -306,10 +306,12 @@ class SelfCollisionAvoidance(InequalityTask):
         body_frames = [plant.GetBodyFromFrameId(inspector.GetFrameId(g)).body_frame() for g in geometries]
         unique = {int(frame.index()): frame for frame in body_frames}  # in the order first seen
         self._frames = list(unique.values())
-        self._body = np.array([list(unique).index(int(frame.index())) for frame in body_frames])
+        self._body = np.array([list(unique).index(int(frame.index())) for frame in body_frames], dtype=int)
         poses = [inspector.GetPoseInFrame(g) for g in geometries]
-        self._R_BG = np.array([X.rotation().matrix() for X in poses])
-        self._p_BG = np.array([X.translation() for X in poses])
+        # Shaped even when no pair may collide (a drafted robot's soles only, legs apart): then
+        # every tick has no row, and the tables are indexed by an empty list.
+        self._R_BG = np.array([X.rotation().matrix() for X in poses]).reshape(len(poses), 3, 3)
+        self._p_BG = np.array([X.translation() for X in poses]).reshape(len(poses), 3)
         self._q = self.DeclareVectorInputPort("q", plant.num_positions())
         self._declare_task({self.all_input_ports_ticket()})
         self._declare_reports()

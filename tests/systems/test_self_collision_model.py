@@ -3,12 +3,18 @@ out, and the builder's default level just below the joint limits (embedded robot
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
+import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.tasks import SELF_COLLISION_TASK
-from drake_sot.systems.self_collision import Obstacle, make_collision_model
+from drake_sot.robots.description_file import load_description
+from drake_sot.robots.draft import draft_description
+from drake_sot.systems.self_collision import Obstacle, SelfCollisionAvoidance, make_collision_model
 
 TABLE = Obstacle("table", (0.4, 0.4, 0.04), RigidTransform([0.5, 0.0, 0.7]))
 
@@ -65,3 +71,21 @@ def test_the_builder_puts_the_task_just_below_the_joint_limits_or_leaves_the_sta
     other.add_posture_task("taskPosture")
     with pytest.raises(ValueError, match="below the joint limits"):
         other.below_joint_limits(("taskPosture",))
+
+
+def test_a_robot_with_no_pair_that_may_collide_gets_no_row(tmp_path):
+    """The draft of the shipped URDF gives the soles' contact spheres only: without the legs'
+    pairs nothing may collide, and the task's rows (all ``max_pairs`` of them) bound nothing."""
+    example = Path(__file__).resolve().parents[2] / "examples" / "robot"
+    shutil.copy(example / "humanoid.urdf", tmp_path / "drafted.urdf")
+    (tmp_path / "drafted.toml").write_text(draft_description(tmp_path / "drafted.urdf").text)
+    robot = load_description(tmp_path / "drafted.toml")
+    task = SelfCollisionAvoidance(robot, leg_pairs=False, max_pairs=4)
+    assert not _pairs(task.model)  # nothing may collide
+    context = task.CreateDefaultContext()
+    task.GetInputPort("q").FixValue(
+        context, task.model.plant.GetPositions(task.model.plant.CreateDefaultContext())
+    )
+    rows = task.GetOutputPort("task").Eval(context)
+    assert rows.jacobian.shape[0] == 4 and not rows.jacobian.any()
+    assert np.isneginf(rows.lower).all() and np.isposinf(rows.upper).all()
