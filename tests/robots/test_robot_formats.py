@@ -475,3 +475,20 @@ def test_a_fuzzed_mjcf_is_drafted_or_refused_in_one_line_naming_it(tmp_path, ele
     assert_mutated_model_is_drafted_or_refused(
         EXAMPLE / "humanoid.xml", tmp_path / "fuzzed.xml", element, attribute, value
     )
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    element=st.integers(0, 10_000),
+    attribute=st.sampled_from(["name", "type", "relative_to", "version"]),  # the ones the file has
+    value=st.none()
+    | st.sampled_from(["", "pelvis", "l_foot", "world", "__model__", "fixed", "revolute", "true", "1e999"])
+    | st.text(max_size=6),
+)
+def test_a_fuzzed_sdf_is_drafted_or_refused_in_one_line_naming_it(tmp_path, element, attribute, value):
+    """One attribute of one element of the shipped SDF (a name, a joint's type, a pose's frame,
+    the format's version) deleted (None) or set to anything: the draft is a text or a
+    RobotFileError naming the file, never an error from deep inside."""
+    assert_mutated_model_is_drafted_or_refused(
+        EXAMPLE / "humanoid.sdf", tmp_path / "fuzzed.sdf", element, attribute, value
+    )
