@@ -291,6 +291,11 @@ class Collisions:
     it finds no ``collisions.json``) less the SRDF's ``disable_collisions`` (by its reasons:
     adjacent links, pairs never in collision, pairs in contact at the default pose), which PlaCo
     does not read: it is given the remaining pairs by link name through its ``load_collision_pairs``.
+
+    Args: the ``pinocchio`` and ``coal`` modules; ``model``, TALOS's Pinocchio model (the drake_sot
+    side's); ``collision_text``, the URDF text of :func:`with_collisions`; ``srdf``, the SRDF's text;
+    ``q0``, the configuration at which the meshes' and the hulls' least distances are measured.
+    Raises what Pinocchio raises for a mesh it cannot load or an SRDF naming a link it lacks.
     """
 
     def __init__(self, pin, coal, model, collision_text: str, srdf: str, q0: np.ndarray):
