@@ -164,11 +164,11 @@ def test_a_signal_read_is_published_after_each_tick_before_the_replies(served):
         task: [rows.start, rows.stop] for task, rows in built.sot.error_slices().items()
     }
     context = simulator.get_context()
-    t, values, layout = network.published["dyn.com"]
+    t, values, beside = network.published["dyn.com"]
     dyn = built.dyn
-    assert t == context.get_time() and layout is None
+    assert t == context.get_time() and beside == {}
     np.testing.assert_array_equal(values, dyn.GetOutputPort("com").Eval(dyn.GetMyContextFromRoot(context)))
-    assert network.published["sot.errors"][2] == network.reply(2)["layout"]
+    assert network.published["sot.errors"][2] == {"layout": network.reply(2)["layout"]}
     network.order.clear()
     network.put(Request("list", 3))
     ticks(simulator, serving, 1)
