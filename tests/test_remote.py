@@ -29,6 +29,7 @@ from drake_sot.remote.protocol import (
     encode,
     parse_request,
 )
+from drake_sot.remote.shell import execute
 
 TOKEN = "s3cret-token"
 STACK_OF_REACH = (
@@ -398,7 +399,8 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     _, host, port = server
     proc = subprocess.run(
         [*DRAKE_SOT, "shell", "--port", str(port)],
-        input="sot.list\nread dyn.com\nwrite dyn.com 1 2 3\nget nothing.here\nhelp\nquit\n",
+        input="sot.list\nread dyn.com\nwrite dyn.com 1 2 3\nget nothing.here\nhelp\n"
+        "pairs taskSelfCollision\npairs taskRH\nquit\n",
         capture_output=True,
         text=True,
         cwd=REPO,
@@ -412,6 +414,24 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     assert lines[2].startswith("error:") and "unknown writable signal" in lines[2]
     assert lines[3].startswith("error:") and "nothing.here" in lines[3]
     assert "SOT.push" in proc.stdout.split("server:")[1] and "(SOT: sot)" in proc.stdout  # help: both
+    # pairs: one line per row, "DISTANCE m  SHAPE_A (BODY_A)  SHAPE_B (BODY_B)", then the refusal
+    assert "taskRH.distances" in lines[-1] and lines[-1].startswith("error:")
+    rows = [re.fullmatch(r"(\S+) m  (\S+) \((\S+)\)  (\S+) \((\S+)\)", line) for line in lines[:-1]]
+    rows = [row for row in rows if row is not None]
+    # within d_i = 5 cm (printed to 6 digits: 0.049999999999999996 shows as 0.05), shapes in order
+    assert rows and all(float(row.group(1)) <= 0.05 and row.group(2) < row.group(4) for row in rows)
+
+
+def test_the_shell_says_so_when_no_row_of_the_task_has_a_pair():
+    class NoPairs:  # what the shell uses of a Client: read_pairs, and t of the last reply
+        t = 2.5
+
+        def read_pairs(self, task):
+            return []
+
+    assert execute(NoPairs(), "pairs taskSelfCollision") == (
+        "taskSelfCollision: no pair within its activation distance at t = 2.500 s"
+    )
 
 
 # --- the token --------------------------------------------------------------------------
