@@ -252,7 +252,9 @@ def test_the_self_collision_rows_are_read_and_streamed_by_name(server):
     with Client(host, port) as client:
         stream = client.subscribe_pairs("taskSelfCollision", period=0.05)
         read = [client.read_pairs("taskSelfCollision"), *(rows for _, rows in itertools.islice(stream, 3))]
-        stream.close()
+        stream.close()  # unsubscribes
+        with pytest.raises(RemoteError, match="'taskSelfCollision.distances' is not subscribed"):
+            client.request("unsubscribe", signal="taskSelfCollision.distances")
         for rows in read:
             distances = [row.distance for row in rows]
             assert rows and distances == sorted(distances) and max(distances) < 0.05, rows

@@ -17,6 +17,7 @@ import json
 import socket
 from collections import deque
 from collections.abc import Iterator, Sequence
+from contextlib import closing
 from typing import Any
 
 from drake_sot.errors import DrakeSotError
@@ -161,8 +162,9 @@ class Client:
     def subscribe(self, signal: str, period: float) -> Iterator[tuple[float, list[float]]]:
         """``(t, value)`` of ``signal`` every ``period`` simulated seconds, until the iterator
         is closed (then it unsubscribes)."""
-        for message in self._stream(signal, period):
-            yield message["t"], decode_vector(message["value"])
+        with closing(self._stream(signal, period)) as messages:  # closed with this iterator
+            for message in messages:
+                yield message["t"], decode_vector(message["value"])
 
     def subscribe_pairs(self, task: str, period: float) -> Iterator[tuple[float, list[PairRow]]]:
         """``(t, rows)`` of the self-collision task ``task`` every ``period`` simulated seconds,
@@ -174,8 +176,9 @@ class Client:
             ProtocolError: a stream message names no pairs or malformed ones
                 (:func:`~drake_sot.remote.protocol.decode_pairs`).
         """
-        for message in self._stream(f"{task}.distances", period):
-            yield message["t"], decode_pairs(message.get("pairs"), decode_vector(message["value"]))
+        with closing(self._stream(f"{task}.distances", period)) as messages:  # closed with this iterator
+            for message in messages:
+                yield message["t"], decode_pairs(message.get("pairs"), decode_vector(message["value"]))
 
     def _stream(self, signal: str, period: float) -> Iterator[dict[str, Any]]:
         """The stream messages of ``signal`` every ``period`` simulated seconds, until the
