@@ -71,6 +71,11 @@ def test_a_read_of_the_rows_names_the_pairs_drakes_query_finds_at_that_tick(quer
     assert distances_reply["pairs"][len(rows) :] == [None] * (max_pairs - len(rows))
     expected = sorted(d for d, _ in near.values())[:max_pairs]
     np.testing.assert_allclose([row.distance for row in rows], expected, atol=1e-9)
+    # the task's own report of that tick, row by row (closest first, ties in the task's order)
+    closest = task.GetOutputPort("closest_pairs").Eval(task.GetMyContextFromRoot(simulator.get_context()))
+    assert [({r.shape_a, r.shape_b}, r.distance) for r in rows] == [
+        ({p.shape_a, p.shape_b}, p.distance) for p in closest
+    ]
     for row in rows:
         distance, shapes = near[frozenset((row.shape_a, row.shape_b))]
         assert row.shape_a < row.shape_b  # alphabetical
