@@ -1,6 +1,9 @@
 """A served scenario in another process, for the tests that drive ``drake-sot serve`` as a client
-does: :func:`start` it (its address read from its first line), :func:`stop` it."""
+does: :func:`start` it (its address read from its first line), :func:`stop` it; or in this one,
+for the tests of the serving loop alone: a :class:`FakeNetwork` in place of the socket thread,
+and :func:`ticks` run as ``serve_run`` runs them."""
 
+import math
 import re
 import subprocess
 import sys
@@ -41,3 +44,37 @@ def stop(proc):
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
+
+
+class FakeNetwork:
+    """What ``Serving`` uses of the network thread: the queue it drains, the replies sent, and the
+    values published for reads answered at once (kept, not served)."""
+
+    def __init__(self):
+        self.queued, self.sent, self.published, self.order = [], [], {}, []
+
+    def publish(self, snapshot):
+        self.published = snapshot
+        self.order.append("publish")
+
+    def put(self, *requests):
+        self.queued += [(0, r) for r in requests]
+
+    def drain(self):
+        items, self.queued = self.queued, []
+        return items
+
+    def send(self, connection, message):
+        self.sent.append(message)
+        self.order.append("send")
+
+    def reply(self, request_id):
+        return next(m for m in self.sent if m.get("id") == request_id)
+
+
+def ticks(simulator, serving, n):
+    """Run ``n`` more control ticks, the host's hook after each, as ``serve_run`` does."""
+    for _ in range(n):
+        k = math.floor(simulator.get_context().get_time() / serving.period + 0.5 + 1e-6)
+        simulator.AdvanceTo((k + 0.5) * serving.period)  # past the tick at k·period, before the next
+        serving.after_tick(simulator.get_context().get_time(), 10.0, 0.0)

@@ -1,5 +1,6 @@
 """Property tests of the front door's parsers (hypothesis): the protocol's
-:func:`~drake_sot.remote.protocol.parse_request` and the script dialect's parsers
+:func:`~drake_sot.remote.protocol.parse_request`, its client's
+:func:`~drake_sot.remote.protocol.decode_pairs` (a reply's ``pairs``), and the script dialect's parsers
 (:func:`~drake_sot.script.parse_line`, :func:`~drake_sot.script.parse_script`,
 :func:`~drake_sot.script.parse_value`, a script file read by
 :func:`~drake_sot.diagrams.script_session.load_script`, the stack commands'
@@ -12,11 +13,11 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, reject, settings
 from hypothesis import strategies as st
 
 from drake_sot.diagrams.script_session import SessionError, load_script
-from drake_sot.remote.protocol import OPS, ProtocolError, Request, parse_request
+from drake_sot.remote.protocol import OPS, PAIR_FIELDS, ProtocolError, Request, decode_pairs, parse_request
 from drake_sot.script import (
     KEYWORDS,
     Call,
@@ -109,6 +110,41 @@ def test_parse_request_of_arbitrary_json_raises_only_protocol_errors(message):
     assert request.period is None or isinstance(request.period, float)
     for time in (request.sent_at, request.horizon):
         assert time is None or math.isfinite(time)
+
+
+pair_entries = (
+    st.none()
+    | st.fixed_dictionaries({name: texts for name in PAIR_FIELDS})
+    | st.fixed_dictionaries({}, optional={name: json_values for name in PAIR_FIELDS})
+    | json_values
+)
+
+
+replies = st.lists(st.tuples(pair_entries, st.floats()), max_size=5).map(
+    lambda rows: ([pair for pair, _ in rows], [distance for _, distance in rows])
+) | st.tuples(json_values, st.lists(st.floats(), max_size=5))  # (pairs, distances): aligned, or anything
+
+
+@SETTINGS
+@given(replies)
+def test_decode_pairs_of_an_arbitrary_reply_raises_only_protocol_errors(reply):
+    """A reply's ``pairs`` as the client reads it (``json.loads``), beside any distances: the rows
+    it names, or a ProtocolError."""
+    pairs, distances = reply
+    try:
+        pairs = json.loads(dump(pairs))
+    except (RecursionError, ValueError):  # not JSON the client reads: never reaches decode_pairs
+        reject()
+    try:
+        rows = decode_pairs(pairs, distances)
+    except ProtocolError:
+        return
+    # what it accepted names a pair of each row that has one, as Unicode text, at a finite distance
+    assert len(rows) == sum(pair is not None for pair in pairs) and len(pairs) == len(distances)
+    for row in rows:
+        for name in PAIR_FIELDS:
+            getattr(row, name).encode("utf-8")
+        assert math.isfinite(row.distance)
 
 
 # --- the script dialect --------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 driven by a client in another process (push, read, write, subscribe, malformed lines, token),
 and ``drake-sot shell``."""
 
+import itertools
 import json
 import math
 import os
@@ -13,13 +14,22 @@ import time
 
 import numpy as np
 import pytest
+from collision_queries import Query
 from served import DRAKE_SOT, REPO
 from served import start as _start
 from served import stop as _stop
 
 from drake_sot.remote import Client, RemoteError
 from drake_sot.remote.network import NetworkThread
-from drake_sot.remote.protocol import MAX_LINE, ProtocolError, decode_vector, encode, parse_request
+from drake_sot.remote.protocol import (
+    MAX_LINE,
+    PairRow,
+    ProtocolError,
+    decode_vector,
+    encode,
+    parse_request,
+)
+from drake_sot.remote.shell import execute
 
 TOKEN = "s3cret-token"
 STACK_OF_REACH = (
@@ -120,20 +130,27 @@ def test_a_read_of_a_published_signal_is_answered_at_once_unless_the_connection_
     """The socket thread answers a read from the values the serving loop published after the last
     tick, without queueing it, once per tick and connection (a second read of the same value waits
     for the next tick: a polling loop is paced by the ticks); a connection with a request still
-    unanswered queues its read behind it (its order kept); a signal not published is queued."""
+    unanswered queues its read behind it (its order kept); a signal not published is queued. The
+    fields naming the rows (a stacked signal's layout, a self-collision task's pairs) go with it."""
+    pair = {"shape_a": "a::hand", "shape_b": "a::torso", "body_a": "hand", "body_b": "torso"}
     network.publish(
-        {"dyn.com": (1.25, [0.1, float("nan"), 0.6], None), "sot.errors": (1.25, [1.0, 2.0], {"a": [0, 2]})}
+        {
+            "dyn.com": (1.25, [0.1, float("nan"), 0.6], {}),
+            "sot.errors": (1.25, [1.0, 2.0], {"layout": {"a": [0, 2]}}),
+            "taskSelfCollision.distances": (1.25, [0.03, float("nan")], {"pairs": [pair, None]}),
+        }
     )
     with Client(*network.address) as client:
         com = client.read("dyn.com")
         assert com[0] == 0.1 and math.isnan(com[1]) and client.t == 1.25
         assert client.read_stacked("sot.errors") == {"a": [1.0, 2.0]}
+        assert client.read_pairs("taskSelfCollision") == [PairRow(**pair, distance=0.03)]
         assert _queued(network, wait=0.2) == []  # none reached the serving loop
-        network.publish({"sot.errors": (1.255, [3.0, 4.0], {"a": [0, 2]})})  # the next tick
+        network.publish({"sot.errors": (1.255, [3.0, 4.0], {"layout": {"a": [0, 2]}})})  # the next tick
         assert client.read_stacked("sot.errors") == {"a": [3.0, 4.0]} and client.t == 1.255
         client.send_raw(b'{"id": 0, "op": "read", "signal": "sot.errors"}\n')
         assert [r.id for _, r in _queued(network)] == [0]  # the same tick's value again: waits a tick
-    network.publish({"dyn.com": (1.26, [0.2, 0.0, 0.6], None)})
+    network.publish({"dyn.com": (1.26, [0.2, 0.0, 0.6], {})})
     with Client(*network.address) as client:
         client.send_raw(b'{"id": 1, "op": "list"}\n{"id": 2, "op": "read", "signal": "dyn.com"}\n')
         assert [r.id for _, r in _queued(network)] == [1, 2]  # the list waits: the read queues after it
@@ -144,6 +161,21 @@ def test_a_read_of_a_published_signal_is_answered_at_once_unless_the_connection_
     with Client(*network.address) as client:
         client.send_raw(b'{"id": 4, "op": "read", "signal": "dyn.com"}\n')
         assert [r.id for _, r in _queued(network)] == [4]  # nothing published: queued
+
+
+def test_the_client_refuses_a_reply_whose_pairs_are_malformed_or_missing(network):
+    pair = {"shape_a": "a::hand", "shape_b": "a::torso", "body_a": "hand", "body_b": "torso"}
+    network.publish(
+        {
+            "taskSelfCollision.distances": (1.0, [0.03, 0.04], {"pairs": [pair]}),  # 1 entry, 2 rows
+            "taskRH.distances": (1.0, [0.03], {}),  # a signal that names no pairs
+        }
+    )
+    with Client(*network.address) as client:
+        with pytest.raises(ProtocolError, match=re.escape("pairs: a list of 2 entries (one per row), got 1")):
+            client.read_pairs("taskSelfCollision")
+        with pytest.raises(ValueError, match="'taskRH' is not a self-collision task"):
+            client.read_pairs("taskRH")
 
 
 def test_a_non_loopback_address_needs_a_token():
@@ -209,6 +241,30 @@ def test_a_read_of_the_stacked_errors_says_whose_rows_are_which(server):
             assert np.allclose(named[task], feature, atol=0.02), task
         with pytest.raises(ValueError, match="'dyn.com' is not a stacked signal"):
             client.read_stacked("dyn.com")
+
+
+def test_the_self_collision_rows_are_read_and_streamed_by_name(server):
+    """``read_pairs`` names each row's pair of shapes, closest first, among the pairs the collision
+    filters leave (a collision model of the test's own); standing, the soles' shapes are 4 cm
+    apart, within the activation distance (5 cm); a task with no such rows is refused by name."""
+    _, host, port = server
+    candidates = Query("embedded").candidates()
+    with Client(host, port) as client:
+        stream = client.subscribe_pairs("taskSelfCollision", period=0.05)
+        read = [client.read_pairs("taskSelfCollision"), *(rows for _, rows in itertools.islice(stream, 3))]
+        stream.close()  # unsubscribes
+        with pytest.raises(RemoteError, match="'taskSelfCollision.distances' is not subscribed"):
+            client.request("unsubscribe", signal="taskSelfCollision.distances")
+        for rows in read:
+            distances = [row.distance for row in rows]
+            assert rows and distances == sorted(distances) and max(distances) < 0.05, rows
+            assert all(frozenset((row.shape_a, row.shape_b)) in candidates for row in rows), rows
+        with pytest.raises(RemoteError, match=re.escape("unknown vector output 'taskRH.distances'")):
+            client.read_pairs("taskRH")
+        client.send_raw(b'{"id": "i", "op": "read", "signal": "taskSelfCollision.pair_indices"}\n')
+        reply = client.receive()
+        named = [i for i, pair in zip(reply["result"], reply["pairs"], strict=True) if pair is not None]
+        assert named and all(i >= 0 for i in named)  # a row named is a row with a pair
 
 
 def _hold_the_right_hand(client):
@@ -345,7 +401,8 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     _, host, port = server
     proc = subprocess.run(
         [*DRAKE_SOT, "shell", "--port", str(port)],
-        input="sot.list\nread dyn.com\nwrite dyn.com 1 2 3\nget nothing.here\nhelp\nquit\n",
+        input="sot.list\nread dyn.com\nwrite dyn.com 1 2 3\nget nothing.here\nhelp\n"
+        "pairs taskSelfCollision\npairs taskRH\nquit\n",
         capture_output=True,
         text=True,
         cwd=REPO,
@@ -359,6 +416,24 @@ def test_the_shell_runs_script_lines_and_its_own_commands(server):
     assert lines[2].startswith("error:") and "unknown writable signal" in lines[2]
     assert lines[3].startswith("error:") and "nothing.here" in lines[3]
     assert "SOT.push" in proc.stdout.split("server:")[1] and "(SOT: sot)" in proc.stdout  # help: both
+    # pairs: one line per row, "DISTANCE m  SHAPE_A (BODY_A)  SHAPE_B (BODY_B)", then the refusal
+    assert "taskRH.distances" in lines[-1] and lines[-1].startswith("error:")
+    rows = [re.fullmatch(r"(\S+) m  (\S+) \((\S+)\)  (\S+) \((\S+)\)", line) for line in lines[:-1]]
+    rows = [row for row in rows if row is not None]
+    # within d_i = 5 cm (printed to 6 digits: 0.049999999999999996 shows as 0.05), shapes in order
+    assert rows and all(float(row.group(1)) <= 0.05 and row.group(2) < row.group(4) for row in rows)
+
+
+def test_the_shell_says_so_when_no_row_of_the_task_has_a_pair():
+    class NoPairs:  # what the shell uses of a Client: read_pairs, and t of the last reply
+        t = 2.5
+
+        def read_pairs(self, task):
+            return []
+
+    assert execute(NoPairs(), "pairs taskSelfCollision") == (
+        "taskSelfCollision: no pair within its activation distance at t = 2.500 s"
+    )
 
 
 # --- the token --------------------------------------------------------------------------

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 from pydrake.math import RigidTransform
+from served import FakeNetwork, ticks
 
 from drake_sot import script
 from drake_sot.app.serving import Serving
@@ -17,32 +18,6 @@ from drake_sot.validation import REACH_BOUND, WORKSPACE_RADIUS
 
 UNITS = "m, world frame"
 STEP = np.array([0.0, 0.0, 0.10])  # [m] the written target: 10 cm above the held one
-
-
-class FakeNetwork:
-    """What ``Serving`` uses of the network thread: the queue it drains, the replies sent, and the
-    values published for reads answered at once (kept, not served)."""
-
-    def __init__(self):
-        self.queued, self.sent, self.published, self.order = [], [], {}, []
-
-    def publish(self, snapshot):
-        self.published = snapshot
-        self.order.append("publish")
-
-    def put(self, *requests):
-        self.queued += [(0, r) for r in requests]
-
-    def drain(self):
-        items, self.queued = self.queued, []
-        return items
-
-    def send(self, connection, message):
-        self.sent.append(message)
-        self.order.append("send")
-
-    def reply(self, request_id):
-        return next(m for m in self.sent if m.get("id") == request_id)
 
 
 @pytest.fixture(scope="module")
@@ -64,14 +39,6 @@ def served(built):
     network = FakeNetwork()
     serving = Serving(simulator, built.remote, network, realtime=1e9)  # no pacing
     return built, simulator, serving, network
-
-
-def _ticks(simulator, serving, n):
-    """Run ``n`` more control ticks, the host's hook after each, as ``serve_run`` does."""
-    for _ in range(n):
-        k = math.floor(simulator.get_context().get_time() / serving.period + 0.5 + 1e-6)
-        simulator.AdvanceTo((k + 0.5) * serving.period)  # past the tick at k·period, before the next
-        serving.after_tick(simulator.get_context().get_time(), 10.0, 0.0)
 
 
 def _target(built, context):
@@ -126,7 +93,7 @@ def test_each_run_line_is_parsed_once(served, monkeypatch):
         Request("run", 2, cmd="sot.rm taskPosture"),
         Request("run", 3, cmd="get featureRH.error"),
     )
-    _ticks(simulator, serving, 3)
+    ticks(simulator, serving, 3)
     assert all(network.reply(i)["ok"] for i in (1, 2, 3)), network.sent
     assert sorted(parsed) == sorted(["taskRH.controlGain 3", "sot.rm taskPosture", "get featureRH.error"])
 
@@ -146,10 +113,10 @@ def test_each_run_line_is_parsed_once(served, monkeypatch):
 )
 def test_a_bad_target_is_refused_naming_the_value_and_the_bound_and_changes_nothing(served, value, named):
     built, simulator, serving, network = served
-    _ticks(simulator, serving, 2)
+    ticks(simulator, serving, 2)
     before = RigidTransform(built.features["taskRH"].desired(simulator.get_context()))  # a copy
     network.put(Request("write", 1, signal="taskRH.position_des", value=value))
-    _ticks(simulator, serving, 3)
+    ticks(simulator, serving, 3)
     reply = network.reply(1)
     assert not reply["ok"] and reply["error"] == f"taskRH.position_des: {named}"
     after = built.features["taskRH"].desired(simulator.get_context())
@@ -158,7 +125,7 @@ def test_a_bad_target_is_refused_naming_the_value_and_the_bound_and_changes_noth
 
 def test_a_timed_target_acts_at_its_time_and_the_hosts_own_target_keeps_working(served):
     built, simulator, serving, network = served
-    _ticks(simulator, serving, 2)
+    ticks(simulator, serving, 2)
     context = simulator.get_mutable_context()
     t, before = context.get_time(), RigidTransform(built.features["taskRH"].desired(context))
     at = t + 10 * serving.period
@@ -172,10 +139,10 @@ def test_a_timed_target_acts_at_its_time_and_the_hosts_own_target_keeps_working(
             at=at,
         )
     )
-    _ticks(simulator, serving, 5)
+    ticks(simulator, serving, 5)
     assert network.reply(1)["ok"]
     assert built.features["taskRH"].desired(context).IsExactlyEqualTo(before)  # not yet
-    _ticks(simulator, serving, 6)
+    ticks(simulator, serving, 6)
     after = built.features["taskRH"].desired(context)
     np.testing.assert_array_equal(after.translation(), before.translation() + STEP)
     assert np.array_equal(after.rotation().matrix(), before.rotation().matrix())  # the orientation kept
@@ -189,20 +156,20 @@ def test_a_signal_read_is_published_after_each_tick_before_the_replies(served):
     """Once read, a signal's value at each tick is published for the socket thread (which answers
     later reads of it at once) before that tick's replies go out, with its layout when stacked."""
     built, simulator, serving, network = served
-    _ticks(simulator, serving, 2)
+    ticks(simulator, serving, 2)
     assert network.published == {}  # nothing read yet: nothing published
     network.put(Request("read", 1, signal="dyn.com"), Request("read", 2, signal="sot.errors"))
-    _ticks(simulator, serving, 2)  # taken at the first tick, answered after it; published after both
+    ticks(simulator, serving, 2)  # taken at the first tick, answered after it; published after both
     assert network.reply(1)["ok"] and network.reply(2)["layout"] == {
         task: [rows.start, rows.stop] for task, rows in built.sot.error_slices().items()
     }
     context = simulator.get_context()
-    t, values, layout = network.published["dyn.com"]
+    t, values, beside = network.published["dyn.com"]
     dyn = built.dyn
-    assert t == context.get_time() and layout is None
+    assert t == context.get_time() and beside == {}
     np.testing.assert_array_equal(values, dyn.GetOutputPort("com").Eval(dyn.GetMyContextFromRoot(context)))
-    assert network.published["sot.errors"][2] == network.reply(2)["layout"]
+    assert network.published["sot.errors"][2] == {"layout": network.reply(2)["layout"]}
     network.order.clear()
     network.put(Request("list", 3))
-    _ticks(simulator, serving, 1)
+    ticks(simulator, serving, 1)
     assert network.order[0] == "publish" and "send" in network.order  # published, then answered

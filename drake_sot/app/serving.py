@@ -15,10 +15,13 @@ control period per step (:func:`serve_run`), so that a served run handles timed 
 signals, a failure and a fall as any run does. After each tick it answers the requests the
 server took at that tick: the stack commands with the solver's ``command_results``, reads
 and subscriptions with the values at the tick (any vector output port, ``<system>.<port>``:
-``sot.errors``, ``dyn.com``, ``device.q``…), and it applies the script lines that set another
-system's parameter — the run-time commands of a scenario's tasks and pattern generator as the
-script dialect has them (``taskRH.controlGain 5``, ``pg.parsecmd :stepseq …``), and, when a script
-is served, all its run-time lines through
+``sot.errors``, ``dyn.com``, ``device.q``…; beside the values of a solver's ``errors``, its
+tasks' rows, ``layout``; beside those of a self-collision task's ``distances`` and
+``pair_indices``, each row's pair of shapes and their bodies, ``pairs``, named from the task's
+``candidate_pairs``, one entry per row: at most ``max_pairs``), and it applies the script lines
+that set another system's parameter — the run-time commands of a scenario's tasks and pattern
+generator as the script dialect has them (``taskRH.controlGain 5``, ``pg.parsecmd :stepseq …``),
+and, when a script is served, all its run-time lines through
 :meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too), each as the server
 parsed it. Those act at the next tick and are answered after it (the server holds what came after
 them until then, so that the changes act in arrival order). Then it sleeps to hold ``realtime`` ×
@@ -66,13 +69,14 @@ from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, P
 from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.errors import UnknownNameError
 from drake_sot.remote.network import NetworkThread
-from drake_sot.remote.protocol import Request, error, ok
+from drake_sot.remote.protocol import PAIR_FIELDS, Request, error, ok
 from drake_sot.script import Call, Get, Statement
 from drake_sot.stack import VERBS
 from drake_sot.systems.command_server import DONE, STACK, RemoteCommandServer, TakenRequest, Writable
 from drake_sot.systems.inequalities import InequalityTask
 from drake_sot.systems.pattern_generator import PatternGenerator
 from drake_sot.systems.search import systems_of_type
+from drake_sot.systems.self_collision import SelfCollisionAvoidance
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.task import Task
 from drake_sot.validation import positive
@@ -147,6 +151,13 @@ class Serving:
             f"{name}.errors": {task: [rows.start, rows.stop] for task, rows in sot.error_slices().items()}
             for name, sot in self._sots.items()
         }
+        #: The signals whose rows are pairs of collision shapes, sent by name: each self-collision
+        #: task's ``distances`` and ``pair_indices``, by the task.
+        self._paired = {
+            f"{task.get_name()}.{port}": task
+            for task in systems_of_type(diagram, SelfCollisionAvoidance)
+            for port in ("distances", "pair_indices")
+        }
         commanded = [s for s in self._sots.values() if s.HasInputPort("commands")]
         if not commanded:
             raise ValueError(
@@ -171,7 +182,7 @@ class Serving:
         now = context.get_time()
         # the signals read lately, for the network thread to answer at once (before the replies)
         self._network.publish(
-            {signal: (now, self._read(signal), self._layouts.get(signal)) for signal in self._watched}
+            {signal: (now, self._read(signal), self._beside(signal)) for signal in self._watched}
         )
         for cid, request_id, result, message in self._answers:
             self._reply(cid, request_id, result, message, now)
@@ -187,7 +198,9 @@ class Serving:
             for signal, sub in subscriptions.items():
                 if now >= sub.due - 1e-9:
                     sub.due += sub.period * max(1, math.floor((now - sub.due) / sub.period + 1e-9) + 1)
-                    self._network.send(cid, {"signal": signal, "t": now, "value": self._read(signal)})
+                    self._network.send(
+                        cid, {"signal": signal, "t": now, "value": self._read(signal), **self._beside(signal)}
+                    )
         ahead = now / self._realtime - wall
         if ahead > 0:  # paced: wait first, so that what arrives meanwhile is taken at the next tick
             wallclock.sleep(ahead)
@@ -235,14 +248,12 @@ class Serving:
         message: str | None,
         now: float,
         *,
-        layout: dict[str, list[int]] | None = None,
+        beside: dict[str, Any] | None = None,
     ) -> None:
         if message is not None:
             reply = error(request_id, message)
         else:
-            reply = ok(request_id, _resolve(result), now)
-            if layout is not None:  # a stacked signal: which rows are whose, beside the values
-                reply["layout"] = layout
+            reply = {**ok(request_id, _resolve(result), now), **(beside or {})}
         self._network.send(cid, reply)
 
     def _answer(self, item: TakenRequest, context: Context, tick: float, now: float) -> None:
@@ -271,8 +282,8 @@ class Serving:
             self.events.append((now, request.cmd.strip()))
             self._answers.append((cid, request.id, result, None))
         else:
-            layout = self._layouts.get(request.signal) if request.op == "read" else None
-            self._reply(cid, request.id, result, None, now, layout=layout)
+            beside = self._beside(request.signal) if request.op == "read" else None
+            self._reply(cid, request.id, result, None, now, beside=beside)
 
     def _apply(
         self, cid: int, request: Request, statement: Statement | None, context: Context
@@ -312,6 +323,19 @@ class Serving:
         self._watched[signal] = None
         while len(self._watched) > WATCHED:
             del self._watched[next(iter(self._watched))]
+
+    def _beside(self, signal: str) -> dict[str, Any]:
+        """The fields sent beside the value of ``signal`` that name its rows at the last tick: a
+        stacked signal's ``layout``, a self-collision task's ``pairs`` (the pair of each of its
+        rows, None for a row without one); none for another signal."""
+        if signal in self._layouts:
+            return {"layout": self._layouts[signal]}
+        task = self._paired.get(signal)
+        if task is None:
+            return {}
+        indices = task.GetOutputPort("pair_indices").Eval(task.GetMyContextFromRoot(self.context))
+        pairs = [None if k < 0 else task.candidate_pairs[int(k)] for k in indices]
+        return {"pairs": [None if p is None else {f: getattr(p, f) for f in PAIR_FIELDS} for p in pairs]}
 
     def _port(self, signal: str):
         if signal not in self._readable:

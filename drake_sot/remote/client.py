@@ -5,6 +5,8 @@ Example::
     with Client("127.0.0.1", port) as c:
         c.run("sot.push taskLH")
         errors = c.read("sot.errors")
+        for row in c.read_pairs("taskSelfCollision"):  # the closest pairs of collision shapes
+            print(row.shape_a, row.shape_b, row.distance)
         for t, value in c.subscribe("dyn.com", period=0.05):
             ...
 """
@@ -15,10 +17,11 @@ import json
 import socket
 from collections import deque
 from collections.abc import Iterator, Sequence
+from contextlib import closing
 from typing import Any
 
 from drake_sot.errors import DrakeSotError
-from drake_sot.remote.protocol import decode_vector, encode
+from drake_sot.remote.protocol import PairRow, decode_pairs, decode_vector, encode
 
 
 class RemoteError(DrakeSotError, RuntimeError):
@@ -131,6 +134,23 @@ class Client:
         values = decode_vector(reply["result"])
         return {name: values[start:stop] for name, (start, stop) in reply["layout"].items()}
 
+    def read_pairs(self, task: str) -> list[PairRow]:
+        """The rows of the self-collision task ``task`` at the last tick, by name: each row's pair
+        of collision shapes, their bodies and signed distance [m], closest first (the rows
+        without a pair left out); one read of ``TASK.distances``, whose reply names the pairs.
+
+        Raises:
+            RemoteError: ``TASK.distances`` is refused (no such task: the message names the signal).
+            ValueError: its reply names no pairs (``task`` is not a self-collision task).
+            ProtocolError: the reply's ``pairs`` is malformed
+                (:func:`~drake_sot.remote.protocol.decode_pairs`).
+        """
+        signal = f"{task}.distances"
+        reply = self._reply("read", signal=signal)
+        if "pairs" not in reply:
+            raise ValueError(f"{signal!r} names no pairs: {task!r} is not a self-collision task (use read)")
+        return decode_pairs(reply["pairs"], decode_vector(reply["result"]))
+
     def write(self, signal: str, value: Sequence[float]) -> None:
         """Write an allowlisted signal; applied at the next control tick."""
         self.request("write", signal=signal, value=[float(x) for x in value])
@@ -142,11 +162,32 @@ class Client:
     def subscribe(self, signal: str, period: float) -> Iterator[tuple[float, list[float]]]:
         """``(t, value)`` of ``signal`` every ``period`` simulated seconds, until the iterator
         is closed (then it unsubscribes)."""
+        with closing(self._stream(signal, period)) as messages:  # closed with this iterator
+            for message in messages:
+                yield message["t"], decode_vector(message["value"])
+
+    def subscribe_pairs(self, task: str, period: float) -> Iterator[tuple[float, list[PairRow]]]:
+        """``(t, rows)`` of the self-collision task ``task`` every ``period`` simulated seconds,
+        the rows as :meth:`read_pairs` returns them, until the iterator is closed (then it
+        unsubscribes).
+
+        Raises:
+            RemoteError: ``TASK.distances`` is refused (no such task: the message names the signal).
+            ProtocolError: a stream message names no pairs or malformed ones
+                (:func:`~drake_sot.remote.protocol.decode_pairs`).
+        """
+        with closing(self._stream(f"{task}.distances", period)) as messages:  # closed with this iterator
+            for message in messages:
+                yield message["t"], decode_pairs(message.get("pairs"), decode_vector(message["value"]))
+
+    def _stream(self, signal: str, period: float) -> Iterator[dict[str, Any]]:
+        """The stream messages of ``signal`` every ``period`` simulated seconds, until the
+        iterator is closed (then it unsubscribes)."""
         self.request("subscribe", signal=signal, period=period)
         try:
             while True:
                 message = self._streams.popleft() if self._streams else self.receive()
                 if message.get("signal") == signal and "value" in message:
-                    yield message["t"], decode_vector(message["value"])
+                    yield message
         finally:
             self.request("unsubscribe", signal=signal)

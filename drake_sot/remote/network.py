@@ -115,8 +115,9 @@ class NetworkThread:
         self._horizons: dict[int, float] = {}  # connection -> the largest horizon it wrote [s]
         self._pacer_left: int | None = None  # a connection that wrote a horizon, then closed
         self._resting_until: float | None = None  # accept failed: the listener is back at this time
-        #: signal -> (t, values, layout) at the last tick, answered here (see :meth:`publish`)
-        self._snapshot: dict[str, tuple[float, list, dict | None]] = {}
+        #: signal -> (t, values, the fields naming its rows) at the last tick, answered here
+        #: (see :meth:`publish`)
+        self._snapshot: dict[str, tuple[float, list, dict[str, Any]]] = {}
 
     def start(self) -> None:
         self._selector.register(self._listener, selectors.EVENT_READ, "listen")
@@ -135,9 +136,10 @@ class NetworkThread:
         self._wake_r.close()
         self._wake_w.close()
 
-    def publish(self, snapshot: dict[str, tuple[float, list, dict | None]]) -> None:
+    def publish(self, snapshot: dict[str, tuple[float, list, dict[str, Any]]]) -> None:
         """Replace the values this thread answers a ``read`` with, without the serving loop: signal
-        → ``(t, values, layout)`` at the last tick (``layout``: a stacked signal's rows, or None).
+        → ``(t, values, beside)`` at the last tick (``beside``: the reply's fields naming the
+        rows, a stacked signal's ``layout`` or a self-collision task's ``pairs``; empty for others).
         A read of a signal in it, from a connection with no request waiting for the loop, is
         answered at once (the same value as after the next tick's wait, a tick earlier; a
         connection that waits for a reply keeps its order: its read queues behind), once per
@@ -322,12 +324,9 @@ class NetworkThread:
             # once per tick: a second read of the same value waits for the next tick, so that a
             # client polling in a loop is paced by the ticks (not stopped by the rate limit)
             if held is not None and conn.answered.get(request.signal) != held[0]:
-                t, values, layout = held
+                t, values, beside = held
                 conn.answered[request.signal] = t
-                reply = ok(request.id, values, t)
-                if layout is not None:
-                    reply["layout"] = layout
-                self._reply(cid, reply)
+                self._reply(cid, {**ok(request.id, values, t), **beside})
                 return
         conn.unanswered += 1
         self.requests.put((cid, request))

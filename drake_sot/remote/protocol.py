@@ -26,12 +26,20 @@ Replies::
 
     {"id": ID, "ok": true, "result": ..., "t": <simulated time [s]>}
     {"id": ID, "ok": true, "result": [...], "t": ..., "layout": {"<task>": [start, stop], ...}}
+    {"id": ID, "ok": true, "result": [...], "t": ..., "pairs": [{"shape_a": A, "shape_b": B,
+        "body_a": BA, "body_b": BB} or null, ...]}
     {"id": ID, "ok": false, "error": "<message naming the bad part>"}
 
 The second is the reply to a ``read`` of a stacked signal (a solver's ``errors``): ``layout``
-names whose rows ``result[start:stop]`` are.
+names whose rows ``result[start:stop]`` are. The third is the reply to a ``read`` of a
+self-collision task's rows, ``TASK.distances`` [m] or ``TASK.pair_indices``: ``pairs[k]`` names
+row ``k``'s pair of collision shapes (their SceneGraph names, ``shape_a`` before ``shape_b`` in
+alphabetical order, and the names of the bodies they are fixed on), null for a row without a pair;
+as many entries as the task has rows (its ``max_pairs``), closest pair first
+(:func:`decode_pairs` reads it).
 
-and stream messages of a subscription ``{"signal": ..., "t": ..., "value": [...]}``.
+and stream messages of a subscription ``{"signal": ..., "t": ..., "value": [...]}``, with the
+``layout`` or ``pairs`` of the signal's rows beside the value as its read's reply has them.
 Numbers that are not finite (the NaN of an inactive task's error) travel as ``null``:
 JSON has no NaN; :func:`decode_vector` turns them back into NaN.
 """
@@ -59,6 +67,10 @@ OPS: dict[str, tuple[str, ...]] = {
     "list": (),
     "auth": ("token",),
 }
+
+
+#: The fields naming a row's pair in the ``pairs`` of a self-collision task's reply.
+PAIR_FIELDS = ("shape_a", "shape_b", "body_a", "body_b")
 
 
 class ProtocolError(DrakeSotError, ValueError):
@@ -241,3 +253,45 @@ def error(request_id: Any, message: str) -> dict[str, Any]:
 def decode_vector(values: list[float | None]) -> list[float]:
     """A vector as sent (null for a non-finite number) with NaN in place of null."""
     return [math.nan if x is None else float(x) for x in values]
+
+
+@dataclass(frozen=True)
+class PairRow:
+    """One row of a self-collision task at a tick, by name: its pair of collision shapes (their
+    SceneGraph names, ``shape_a`` before ``shape_b`` in alphabetical order), the bodies they are
+    fixed on, and their signed distance [m] (negative when they interpenetrate)."""
+
+    shape_a: str
+    shape_b: str
+    body_a: str
+    body_b: str
+    distance: float
+
+
+def decode_pairs(pairs: Any, distances: list[float]) -> list[PairRow]:
+    """The rows that have a pair, in row order (closest first), from a reply's ``pairs`` and its
+    rows' ``distances`` [m] (its ``result`` as :func:`decode_vector` returns it).
+
+    Raises:
+        ProtocolError: ``pairs`` is not a list of one entry per distance, or an entry is neither
+            null nor an object whose :data:`PAIR_FIELDS` are Unicode strings, or a row with a pair
+            has no finite distance; the message names the entry (other fields are ignored).
+    """
+    if not isinstance(pairs, list) or len(pairs) != len(distances):
+        shown = f"{len(pairs)} entries" if isinstance(pairs, list) else _shown(pairs)
+        raise ProtocolError(f"pairs: a list of {len(distances)} entries (one per row), got {shown}")
+    rows = []
+    for k, (pair, distance) in enumerate(zip(pairs, distances, strict=True)):
+        if pair is None:
+            continue
+        if not isinstance(pair, dict):
+            raise ProtocolError(
+                f"pairs[{k}] = {_shown(pair)}: an object of {', '.join(PAIR_FIELDS)}, or null"
+            )
+        for name in PAIR_FIELDS:
+            if not isinstance(pair.get(name), str) or not _is_unicode(pair[name]):
+                raise ProtocolError(f"pairs[{k}].{name} = {_shown(pair.get(name))}: a name (Unicode text)")
+        if not math.isfinite(distance):
+            raise ProtocolError(f"pairs[{k}] names a pair, but its distance is {distance!r}, not finite")
+        rows.append(PairRow(*(pair[name] for name in PAIR_FIELDS), distance=distance))
+    return rows

@@ -1,8 +1,8 @@
 """``drake-sot shell``: the interactive coshell of a ``drake-sot serve`` server.
 
 Each line is a script command sent with ``run`` (``sot.push taskLH``, ``get dyn.com``),
-except the shell's own: ``read SIGNAL``, ``write SIGNAL V1 V2 ...``, ``list``, ``help``,
-``quit``. History is kept with readline (in ``~/.drake_sot_history``) when available.
+except the shell's own: ``read SIGNAL``, ``pairs TASK``, ``write SIGNAL V1 V2 ...``, ``list``,
+``help``, ``quit``. History is kept with readline (in ``~/.drake_sot_history``) when available.
 """
 
 from __future__ import annotations
@@ -21,6 +21,8 @@ TOKEN_ENV = "DRAKE_SOT_TOKEN"
 
 HELP = """shell commands:
   read SIGNAL            the value of SYSTEM.PORT at the last tick (e.g. read sot.errors)
+  pairs TASK             a self-collision task's rows by name: distance [m], shapes (bodies)
+                         (e.g. pairs taskSelfCollision)
   write SIGNAL V1 V2 ... write an allowlisted signal (e.g. write taskRH.position_des 0.3 -0.2 1.0)
   list                   systems, readable and writable signals, commands
   help                   this text, then the server's commands
@@ -36,6 +38,15 @@ def execute(client: Client, line: str) -> str:
     try:
         if words[0] == "read" and len(words) == 2:
             return " ".join(f"{x:.6g}" for x in client.read(words[1]))
+        if words[0] == "pairs" and len(words) == 2:
+            rows = client.read_pairs(words[1])
+            return (
+                "\n".join(
+                    f"{row.distance:.6g} m  {row.shape_a} ({row.body_a})  {row.shape_b} ({row.body_b})"
+                    for row in rows
+                )
+                or f"{words[1]}: no pair within its activation distance at t = {client.t:.3f} s"
+            )
         if words[0] == "write" and len(words) >= 2:
             client.write(words[1], [float(x) for x in words[2:]])
             return f"written at t = {client.t:.3f} s"
