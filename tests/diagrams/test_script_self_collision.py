@@ -1,14 +1,16 @@
-"""``new TaskSelfCollision`` in a script: the self-collision inequality task (``SelfCollisionAvoidance``)
-made, set and read by script lines, pushed below the joint limits. The embedded humanoid standing
-on its feet pulls its right hand into its chest: with the task no shape of the arm comes closer
-to the body than the margin ``d_s``, without it the arm goes into the torso, both measured by
-Drake's signed-distance query on a collision model of the test's own at every logged reference
-configuration and on the session's simulated plant; ``get`` and ``pairs`` agree with that query;
-bad settings are refused naming them."""
+"""``new TaskSelfCollision`` in a script: the self-collision inequality task
+(``SelfCollisionAvoidance``) made, set and read by script lines, pushed below the joint limits. In
+``examples/self_collision.sot`` the embedded humanoid standing on its feet pulls its right hand into
+its chest: with the task no shape of the arm comes closer to the body than the margin ``d_s``,
+without it the arm goes into the torso, both measured by Drake's signed-distance query on a
+collision model of the test's own at every logged reference configuration and on the session's
+simulated plant; ``get`` and ``pairs`` agree with that query; bad settings are refused naming
+them."""
 
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import collision_queries
 import numpy as np
@@ -25,72 +27,27 @@ from drake_sot.diagrams.script_session import ScriptSession, SessionError
 from drake_sot.script import Call, Name, Set, Signal, Vector, parse_value
 
 TASK = "taskSelfCollision"
-#: [m, m, m/s] the script's settings (not the defaults); d_i clear of the feet's pairs, 4, 5 and 6 cm
-#: apart (``Query.near``).
-D_S, D_I, XI = 0.015, 0.055, 1.0
-#: The right hand's target: 4 cm inside the front of the chest's box (its front face at x = 0.12 m
-#: at half-sitting), level with its lower part.
-TARGET = "[3](0.08,-0.12,1.05)"
-DURATION = 1.5  # [s] simulated
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "self_collision.sot"
+#: [m, m, m/s] the example's settings (not the defaults); d_i clear of the feet's pairs, 4, 5 and 6
+#: cm apart (``Query.near``).
+D_S, D_I, XI = 0.02, 0.065, 1.0
 ARM = ("r_forearm", "r_hand", "r_finger")
-
-SCRIPT = """
-dyn.createOpPoint rh right_hand
-dyn.createOpPoint lf left_foot
-dyn.createOpPoint rf right_foot
-new FeatureJointLimits featureJl
-new Task taskJl
-taskJl.add featureJl
-taskJl.controlGain 10
-{task}
-new FeaturePoint6d featureLF
-plug dyn.lf_frame featureLF.frame
-new Task taskLF
-taskLF.add featureLF
-taskLF.controlGain 5
-new FeaturePoint6d featureRF
-plug dyn.rf_frame featureRF.frame
-new Task taskRF
-taskRF.add featureRF
-taskRF.controlGain 5
-new FeatureCoM featureCom
-set featureCom.selec 110
-new Task taskCom
-taskCom.add featureCom
-taskCom.controlGain 3
-new FeaturePoint6d featureRH
-plug dyn.rh_frame featureRH.frame
-set featureRH.selec 111000
-new Task taskRH
-taskRH.add featureRH
-taskRH.controlGain 4
-sot.push taskJl
-{push}
-sot.push taskLF
-sot.push taskRF
-sot.push taskCom
-sot.push taskRH
-set featureRH.position_des {target}
-run {duration}
-"""
-
-WITH_TASK = f"""new TaskSelfCollision {TASK}
-set {TASK}.d_s {D_S}
-set {TASK}.d_i {D_I}
-set {TASK}.xi {XI}
-set {TASK}.maxPairs 32"""
 
 
 def _session(with_task: bool) -> ScriptSession:
+    """The example script run (1.5 s), or without its lines that name the task."""
+    text = EXAMPLE.read_text()
+    for line in (
+        f"set {TASK}.d_s {D_S}",
+        f"set {TASK}.d_i {D_I}",
+        f"set {TASK}.xi {XI}",
+        f"set {TASK}.maxPairs 32",
+    ):
+        assert line in text
+    if not with_task:
+        text = "\n".join(line for line in text.splitlines() if TASK not in line)
     session = ScriptSession()
-    session.run_script(
-        SCRIPT.format(
-            task=WITH_TASK if with_task else "",
-            push=f"sot.push {TASK}" if with_task else "",
-            target=TARGET,
-            duration=DURATION,
-        )
-    )
+    session.run_script(text, source=EXAMPLE.name)
     return session
 
 
@@ -149,12 +106,13 @@ def _simulated_arm_distances(session: ScriptSession) -> list[float]:
 
 
 def test_the_task_stops_the_arm_at_the_margin_and_without_it_the_arm_goes_into_the_torso(runs, query):
-    """The damper is first order: the reference may get a little inside d_s (2 mm allowed). The
-    simulated arm lags its reference (by 1 cm as the hand sweeps past the pelvis, 0.2 s in): it
-    never touches the body, and ends at the margin with its reference. Without the task the
-    reference arm ends 3 cm and more inside the torso and the simulated one in contact with it."""
+    """The damper is first order: as the hand slides past the pelvis's edge (0.2 s in) the
+    reference gets about 2 mm inside d_s (``benchmarks/README.md``, bench_self_collision.py: 1-3 mm
+    on boxes sliding along each other), 5 mm allowed. The simulated arm lags its reference (1 cm
+    there): it never touches the body, and ends at the margin with its reference. Without the task
+    the reference arm ends 3 cm and more inside the torso and the simulated one in contact with it."""
     with_task = [_arm_distance(query, q) for q in _reference(runs[True])]
-    assert min(with_task) > D_S - 0.002
+    assert min(with_task) > D_S - 0.005
     assert abs(with_task[-1] - D_S) < 0.002
     simulated = _simulated_arm_distances(runs[True])
     assert min(simulated) > 0.0
