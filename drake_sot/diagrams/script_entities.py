@@ -11,6 +11,7 @@ needs made first (``dependencies``), and how its system is made (``construct``) 
 from __future__ import annotations
 
 import enum
+import inspect
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
@@ -22,6 +23,7 @@ from pydrake.systems.framework import Context, InputPort, OutputPort, System
 from drake_sot import validation
 from drake_sot.diagrams.artifacts import WRITE_ERRORS
 from drake_sot.diagrams.signal_graph import write_graph
+from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.diagrams.walking import add_pattern_generator
 from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.gains import AdaptiveGain, Gain, validate_gain
@@ -874,24 +876,23 @@ class SelfCollisionEntity(StackedEntity):
     )
     INEQUALITY = True
     WIRED = {"q": "the reference configuration the loop integrates (the device's q)"}
-    #: The settings: script name -> (SelfCollisionAvoidance's argument, what it is).
+    #: The settings: script name -> (``add_self_collision_task``'s argument, what it is).
     SETTINGS = {
-        "d_s": ("d_s", f"the safety margin [m], in [0, {MAX_COLLISION_DISTANCE:g}] (0.01)"),
-        "d_i": ("d_i", f"the activation distance [m], > d_s and <= {MAX_COLLISION_DISTANCE:g} (0.05)"),
-        "xi": ("xi", f"ξ, the approach speed allowed at d_i [m/s], in (0, {MAX_APPROACH_SPEED:g}] (0.2)"),
-        "maxPairs": ("max_pairs", f"the number of rows, an integer in [1, {MAX_COLLISION_PAIRS}] (16)"),
-        "legPairs": ("leg_pairs", "1: rows between one leg's shapes and the other's; 0: none (1)"),
+        "d_s": ("d_s", f"the safety margin [m], in [0, {MAX_COLLISION_DISTANCE:g}]"),
+        "d_i": ("d_i", f"the activation distance [m], > d_s and <= {MAX_COLLISION_DISTANCE:g}"),
+        "xi": ("xi", f"ξ, the approach speed allowed at d_i [m/s], in (0, {MAX_APPROACH_SPEED:g}]"),
+        "maxPairs": ("max_pairs", f"the number of rows, an integer in [1, {MAX_COLLISION_PAIRS}]"),
+        "legPairs": ("leg_pairs", "1: rows between one leg's shapes and the other's; 0: none"),
+    }
+    #: The settings' values when not set: ``add_self_collision_task``'s defaults.
+    DEFAULTS = {
+        argument: inspect.signature(HumanoidTaskBuilder.add_self_collision_task).parameters[argument].default
+        for argument, _ in SETTINGS.values()
     }
 
     def __init__(self, session: ScriptSession, name: str, statement: Statement | None) -> None:
         super().__init__(session, name, statement)
-        self.settings: dict[str, float | int | bool] = {
-            "d_s": 0.01,
-            "d_i": 0.05,
-            "xi": 0.2,
-            "max_pairs": 16,
-            "leg_pairs": True,
-        }
+        self.settings: dict[str, float | int | bool] = dict(self.DEFAULTS)
 
     def inputs(self) -> tuple[str, ...]:
         return ("q",)
@@ -900,7 +901,10 @@ class SelfCollisionEntity(StackedEntity):
         return ("task", "closest_pairs", "distances", "pair_indices")
 
     def parameters(self) -> dict[str, str]:
-        return {name: f"{doc} (before the build)" for name, (_, doc) in self.SETTINGS.items()}
+        return {
+            name: f"{doc} ({float(self.DEFAULTS[argument]):g} unless set before the build)"
+            for name, (argument, doc) in self.SETTINGS.items()
+        }
 
     def set_phase(self, signal: str) -> Phase:
         return Phase.BUILD if signal in self.SETTINGS else Phase.BOTH

@@ -244,6 +244,8 @@ def test_the_solver_is_the_hqp_with_the_task_and_stays_the_svd_without():
     with_task = ScriptSession()
     with_task.run_script("new FeatureCoM f\nnew Task c\nc.add f\nnew TaskSelfCollision t\nsot.push t")
     assert with_task.built.sot.solver == "hqp"
+    task = with_task.system("t")  # nothing set: add_self_collision_task's defaults
+    assert (task.d_s, task.d_i, task.GetOutputPort("distances").size()) == (0.01, 0.05, 16)
     without = ScriptSession()
     without.run_script("new FeatureCoM f\nnew Task c\nc.add f\nsot.push c")
     assert without.built.sot.solver == "svd"
