@@ -156,7 +156,20 @@ numbers = st.one_of(
     st.sampled_from(["1e400", "-1e400", "1e308", ".5", "+3", "1e", "--1", "0x10", "nan", "inf"]),
 )
 pieces = st.one_of(
-    st.sampled_from([*KEYWORDS, "sot.push", "sot.up", "sot.clear", "pg.parsecmd", "taskRH.controlGain"]),
+    st.sampled_from(
+        [
+            *KEYWORDS,
+            "sot.push",
+            "sot.up",
+            "sot.clear",
+            "pg.parsecmd",
+            "taskRH.controlGain",
+            "TaskSelfCollision",
+            "taskSelfCollision.pairs",
+            "taskSelfCollision.maxPairs",
+            "taskSelfCollision.legPairs",
+        ]
+    ),
     st.sampled_from(
         ["a.b", "taskLH", ":verb", '"str"', '"\\"', "#", "[", "]", "(", ")", ",", "[3]", "[2,2]"]
     ),

@@ -11,6 +11,7 @@ needs made first (``dependencies``), and how its system is made (``construct``) 
 from __future__ import annotations
 
 import enum
+import inspect
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
@@ -22,6 +23,7 @@ from pydrake.systems.framework import Context, InputPort, OutputPort, System
 from drake_sot import validation
 from drake_sot.diagrams.artifacts import WRITE_ERRORS
 from drake_sot.diagrams.signal_graph import write_graph
+from drake_sot.diagrams.tasks import HumanoidTaskBuilder
 from drake_sot.diagrams.walking import add_pattern_generator
 from drake_sot.errors import DrakeSotError, UnknownNameError
 from drake_sot.gains import AdaptiveGain, Gain, validate_gain
@@ -59,6 +61,7 @@ from drake_sot.systems.features import (
     check_desired_pose,
 )
 from drake_sot.systems.kinematics import FRAME_SUFFIX
+from drake_sot.systems.self_collision import ClosestPair
 from drake_sot.systems.sequencer import TaskSequencer
 from drake_sot.systems.task import Task
 
@@ -204,8 +207,9 @@ def _flags(value: Value, what: str) -> str:
 
 def format_signal_value(value: object) -> str:
     """A signal's value as ``get`` writes it: the script's syntax for numbers, vectors and
-    matrices (a pose as its ``[4,4]`` homogeneous matrix), names separated by spaces, and
-    one ``field value`` line per field of a feature or task signal."""
+    matrices (a pose as its ``[4,4]`` homogeneous matrix), names separated by spaces, one
+    ``field value`` line per field of a feature or task signal, and one line per pair of
+    shapes of a self-collision task's ``closest_pairs`` (``A (body) and B (body): d m``)."""
     if isinstance(value, np.ndarray):
         if value.ndim == 1:
             return str(Vector(tuple(float(x) for x in value)))
@@ -217,6 +221,11 @@ def format_signal_value(value: object) -> str:
     if isinstance(value, (FeatureSignal, TaskSignal)):
         fields = [f for f in ("name", "error", "jacobian", "feedforward", "edot_des") if hasattr(value, f)]
         return "\n".join(f"{f} {format_signal_value(getattr(value, f))}" for f in fields)
+    if isinstance(value, tuple) and value and all(isinstance(v, ClosestPair) for v in value):
+        return "\n".join(
+            f"{p.shape_a} ({p.body_a}) and {p.shape_b} ({p.body_b}): {format_value(p.distance)} m"
+            for p in value
+        )
     if isinstance(value, tuple) and all(isinstance(v, str) for v in value):
         return " ".join(value)
     if isinstance(value, str):
@@ -459,7 +468,7 @@ class PoolEntity(Entity):
     @_command(Phase.INFO, "listTask", "the tasks")
     def listTask(self, args: tuple[Value, ...], context: Context | None) -> str:
         _arity(args, "listTask", 0)
-        return "\n".join(e.name for e in self.session.entities() if isinstance(e, TaskEntity))
+        return "\n".join(e.name for e in self.session.entities() if isinstance(e, StackedEntity))
 
     @_command(Phase.INFO, "listClass", "the classes `new` makes")
     def listClass(self, args: tuple[Value, ...], context: Context | None) -> str:
@@ -770,7 +779,15 @@ class JointLimitsEntity(JointFeatureEntity):
         )
 
 
-class TaskEntity(Entity):
+class StackedEntity(Entity):
+    """An entity the solver stacks: its ``task`` output is wired into the solver (``sot.push``
+    takes its name)."""
+
+    #: True for an inequality task: the solver is then the HQP (:meth:`SotEntity.solver`).
+    INEQUALITY: ClassVar[bool] = False
+
+
+class TaskEntity(StackedEntity):
     CLASS = "Task"
     DOC = "the features it adds, e = [e1; e2; …], ė* = -λ e (Mansard et al. 2009, eq. 3 and 10)"
 
@@ -843,12 +860,114 @@ class TaskEntity(Entity):
         return task
 
 
+#: The bounds of the self-collision task's settings (finite ones past them reach Drake's query and
+#: the solver as nonsense): distances [m] within a humanoid's reach of one body from another, the
+#: approach speed [m/s] of a hand's fastest motion and the rows a tick's solve takes.
+MAX_COLLISION_DISTANCE = 1.0
+MAX_APPROACH_SPEED = 10.0
+MAX_COLLISION_PAIRS = 1000
+
+
+class SelfCollisionEntity(StackedEntity):
+    CLASS = "TaskSelfCollision"
+    DOC = (
+        "every pair of the robot's collision shapes closer than d_i kept d_s apart, an inequality task"
+        " (SelfCollisionAvoidance; the SoT has no such entity); the solver is then the HQP"
+    )
+    INEQUALITY = True
+    WIRED = {"q": "the reference configuration the loop integrates (the device's q)"}
+    #: The settings: script name -> (``add_self_collision_task``'s argument, what it is).
+    SETTINGS = {
+        "d_s": ("d_s", f"the safety margin [m], in [0, {MAX_COLLISION_DISTANCE:g}]"),
+        "d_i": ("d_i", f"the activation distance [m], > d_s and <= {MAX_COLLISION_DISTANCE:g}"),
+        "xi": ("xi", f"ξ, the approach speed allowed at d_i [m/s], in (0, {MAX_APPROACH_SPEED:g}]"),
+        "maxPairs": ("max_pairs", f"the number of rows, an integer in [1, {MAX_COLLISION_PAIRS}]"),
+        "legPairs": ("leg_pairs", "1: rows between one leg's shapes and the other's; 0: none"),
+    }
+    #: The settings' values when not set: ``add_self_collision_task``'s defaults.
+    DEFAULTS = {
+        argument: inspect.signature(HumanoidTaskBuilder.add_self_collision_task).parameters[argument].default
+        for argument, _ in SETTINGS.values()
+    }
+
+    def __init__(self, session: ScriptSession, name: str, statement: Statement | None) -> None:
+        super().__init__(session, name, statement)
+        self.settings: dict[str, float | int | bool] = dict(self.DEFAULTS)
+
+    def inputs(self) -> tuple[str, ...]:
+        return ("q",)
+
+    def outputs(self) -> tuple[str, ...]:
+        return ("task", "closest_pairs", "distances", "pair_indices")
+
+    def parameters(self) -> dict[str, str]:
+        return {
+            name: f"{doc} ({float(self.DEFAULTS[argument]):g} unless set before the build)"
+            for name, (argument, doc) in self.SETTINGS.items()
+        }
+
+    def set_phase(self, signal: str) -> Phase:
+        return Phase.BUILD if signal in self.SETTINGS else Phase.BOTH
+
+    def set_parameter(self, signal: str, value: Value, context: Context | None) -> None:
+        """A setting, before the build (the session refuses ``set`` on one after it).
+
+        Raises:
+            ValueError: a value out of its range (NaN, ±inf, negative, past its bound, not a
+                number), naming the setting and the value.
+        """
+        what = f"{self.name}.{signal}"
+        if signal == "maxPairs":
+            count = validation.positive_int(what, value)
+            if not count <= MAX_COLLISION_PAIRS:
+                raise SessionError(
+                    f"{what} = {validation.shown(value)}: must be an integer in [1, {MAX_COLLISION_PAIRS}]"
+                )
+            setting: float | int | bool = count
+        elif signal == "legPairs":
+            if isinstance(value, bool) or value not in (0, 1):
+                raise SessionError(f"{what} = {format_value(value)}: must be 1 (rows between the legs) or 0")
+            setting = value == 1
+        else:
+            number = _number(value, what)
+            if signal == "xi":
+                setting = validation.positive(what, number, unit="m/s")
+                limit, unit = MAX_APPROACH_SPEED, "m/s"
+            else:
+                setting = validation.nonnegative(what, number, unit="m")
+                limit, unit = MAX_COLLISION_DISTANCE, "m"
+            if not setting <= limit:
+                raise SessionError(f"{what} = {format_value(value)} {unit}: must be at most {limit:g} {unit}")
+        self.settings[self.SETTINGS[signal][0]] = setting
+
+    def get_parameter(self, signal: str, context: Context) -> object:
+        value = self.settings[self.SETTINGS[signal][0]]
+        return int(value) if isinstance(value, bool) else value
+
+    @_command(Phase.RUN, "pairs", "the rows' pairs of shapes (bodies) closest first, with their distance [m]")
+    def pairs(self, args: tuple[Value, ...], context: Context | None) -> str:
+        _arity(args, "pairs", 0)
+        pairs = self.get("closest_pairs", context)
+        if not pairs:
+            return f"no pair closer than d_i = {format_value(self.settings['d_i'])} m"
+        return format_signal_value(pairs)
+
+    def construct(self) -> System:
+        return self.session.builder.add_self_collision_task(self.name, **self.settings)
+
+
 class SotEntity(Entity):
     CLASS = "SOT"
     DOC = "the solver: its stack of tasks, in strict priority (eq. 8); every task is wired into it"
 
     def _tasks(self) -> list[str]:
-        return [e.name for e in self.session.entities() if isinstance(e, TaskEntity)]
+        return [e.name for e in self.session.entities() if isinstance(e, StackedEntity)]
+
+    def solver(self) -> str:
+        """The ``StackOfTasks`` solver: ``"hqp"`` when an inequality task
+        (``TaskSelfCollision``) exists, else ``"svd"`` (equality tasks)."""
+        inequality = any(isinstance(e, StackedEntity) and e.INEQUALITY for e in self.session.entities())
+        return "hqp" if inequality else "svd"
 
     def inputs(self) -> tuple[str, ...]:
         return ("stack", *self._tasks())
@@ -1149,7 +1268,7 @@ class SequencerEntity(Entity):
         return " ".join(self.system.stack(context))
 
     def dependencies(self) -> Iterable[str]:
-        return tuple(e.name for e in self.session.entities() if isinstance(e, TaskEntity))
+        return tuple(e.name for e in self.session.entities() if isinstance(e, StackedEntity))
 
     def construct(self) -> System:
         if not self.states:
@@ -1181,6 +1300,7 @@ CLASSES: dict[str, type[Entity]] = {
         PostureEntity,
         JointLimitsEntity,
         TaskEntity,
+        SelfCollisionEntity,
         SotEntity,
         PatternGeneratorEntity,
         AdmittanceEntity,

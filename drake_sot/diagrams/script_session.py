@@ -22,7 +22,10 @@ diagram is fixed once built, so a :class:`ScriptSession` has two phases:
 The session starts with ``dyn`` (the robot model: ``com``, ``Jcom`` and the operational
 points created with ``dyn.createOpPoint``; the paper's ``dyn2`` is another name for
 it) and ``pool``. The solver is ``new SOT NAME``; when the script declares none, the
-build adds one named ``sot`` (so ``sot.push taskCom`` works as printed in the paper).
+build adds one named ``sot`` (so ``sot.push taskCom`` works as printed in the paper). It solves
+the stack by strict priority with SVDs (equality tasks, the paper's eq. 8), or, once the script
+makes an inequality task (``new TaskSelfCollision``), by the hierarchical QP
+(:func:`~drake_sot.hqp.solve_hqp`, equalities and inequalities at any level).
 
 Classes for ``new`` and the script's signals (the paper's names where it gives them):
 
@@ -38,6 +41,10 @@ class                            signals (in → out), commands
 ``FeaturePosture``               q (the reference q unless plugged), sdes → feature, error; selec
 ``FeatureJointLimits``           q (idem) → feature, error; ``margin``
 ``Task``                         gain → task; ``add``, ``controlGain``, ``controlGainAdaptive``
+``TaskSelfCollision``            → task, closest_pairs, distances, pair_indices; ``d_s``, ``d_i``, ``xi``,
+                                 ``maxPairs``, ``legPairs`` (``set`` before the build); ``pairs``. Not
+                                 an entity of the SoT: the inequality task of self-collision avoidance
+                                 (``SelfCollisionAvoidance``), which makes the solver the HQP
 ``SOT``                          stack → qdot, errors, stack; ``push``, ``pop``, ``rm``, ``up``,
                                  ``down``, ``clear`` (each with an optional time [s]), ``list``
 ``PatternGenerator``             → com, com_vel, left_foot, right_foot, waist, zmp_ref, …,
@@ -652,6 +659,7 @@ class ScriptSession:
                 load=pg.system.GetOutputPort("load") if pg else None,
                 dynamic_feedforward=pg is not None,
                 stack_source=self._port(stack_feed.how.source) if stack_feed else None,
+                solver=sot.solver(),
                 wire_solver=wire_solver,
                 command_server=self._command_server,
             )
