@@ -139,6 +139,11 @@ def test_distance_rows_by_hand():
         ineq.distance_rows(
             np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3, 1)), np.zeros((3, 3, 1)), d_s, gain, 2
         )
+    # With a recovery gain, only the pair inside the margin changes: 200/s × the 5 mm lost.
+    _, J_r, lower_r, upper_r = ineq.distance_rows(distances, normals, J_a, J_b, d_s, gain, 4, 200.0)
+    np.testing.assert_allclose(lower_r[:2], [-0.2 * 0.02 / 0.04, 200.0 * 0.005])
+    np.testing.assert_array_equal(J_r, J)
+    assert np.isneginf(lower_r[2:]).all() and np.isposinf(upper_r).all()
 
 
 @pytest.mark.parametrize(

@@ -668,11 +668,13 @@ class HumanoidTaskBuilder:
         xi: float = 0.2,
         max_pairs: int = 16,
         leg_pairs: bool = True,
+        recovery: float | None = None,
     ) -> SelfCollisionAvoidance:
         """Every pair of the robot's collision shapes that may collide kept ``d_s`` apart, with
         rows for the pairs closer than ``d_i`` (``SelfCollisionAvoidance``, on this builder's
         robot and base, and its ``obstacles``; without ``leg_pairs``, none between the two
-        legs, which a footstep plan keeps apart). Reads the reference q. An inequality task. Its
+        legs, which a footstep plan keeps apart; a pair inside ``d_s`` asked back at ``recovery``
+        [1/s], by default 1 / the control period). Reads the reference q. An inequality task. Its
         rows' distances and pairs are logged (``collision/<task_name>/...``, see
         :mod:`~drake_sot.diagrams.collision_log`) and, with Meshcat, drawn
         (:class:`~drake_sot.systems.replay_view.PairLines`)."""
@@ -687,6 +689,7 @@ class HumanoidTaskBuilder:
                 name=task_name,
                 obstacles=self.obstacles,
                 leg_pairs=leg_pairs,
+                recovery=1.0 / self.control_period if recovery is None else recovery,
             )
         )
         self.use_reference_q(task.GetInputPort("q"))
@@ -704,7 +707,7 @@ class HumanoidTaskBuilder:
     ) -> tuple[str, ...]:
         """``stack`` with the self-collision task :data:`SELF_COLLISION_TASK` (added here by
         :meth:`add_self_collision_task` with ``parameters``: ``d_s``, ``d_i``, ``xi``,
-        ``max_pairs``, ``leg_pairs``, its defaults when not given) just below its first level,
+        ``max_pairs``, ``leg_pairs``, ``recovery``, its defaults when not given) just below its first level,
         the joint limits, as every kinematic scenario has it; ``stack`` as it is when not
         ``self_collision``. The stack needs ``build(..., solver="hqp")``.
 

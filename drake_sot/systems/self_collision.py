@@ -25,7 +25,13 @@ motion, most where a box's edge or corner takes over the closest points as a bod
 along another, and a pair that comes from beyond ``d_i`` to below ``d_s`` in one period is
 seen too late. ``d_s`` absorbs it when the motion per period is small against ``d_s`` and
 the shapes' curvature; how far a hand pulled into the torso gets inside ``d_s`` at which
-speeds is measured in ``benchmarks/README.md`` (section ``bench_self_collision.py``).
+speeds is measured in ``benchmarks/README.md`` (section ``bench_self_collision.py``). A pair
+pressed and sliding along another (a hand pushed into the body by a task below) loses such
+distance at every period and settles where the damper's push back, ``λ (d_s - d) T`` over a
+period T, makes up for it: inside ``d_s`` by the loss over ``λ T``. With ``recovery`` the rows
+of a pair inside ``d_s`` have their own gain, ``ḋ >= recovery (d_s - d)`` (1/T: the distance
+lost asked back within one period), and the pair settles inside by about one period's loss
+(:func:`~drake_sot.inequalities.distance_rows`).
 
 The distances and witness points come from Drake's signed-distance query
 (``QueryObject.ComputeSignedDistancePairwiseClosestPoints(max_distance=d_i)``) on the robot's
@@ -261,10 +267,14 @@ class SelfCollisionAvoidance(InequalityTask):
             excepted; :func:`make_collision_model`).
         leg_pairs: rows for the pairs of one leg's shapes and the other's (False: none, where
             a footstep plan keeps the legs apart; :func:`make_collision_model`).
+        recovery: [1/s] the gain of a row whose pair is inside the margin: its bound is then
+            ``recovery (d_s - d)``, the distance lost asked back at that rate (1/T, one control
+            period T: back in one period to first order); None: the damper's
+            ``ξ / (d_i - d_s)`` there too (module docstring, on the second order).
 
     Raises:
         ValueError: naming the bad parameter and its value (NaN, ±inf, ``d_s < 0``,
-            ``d_i <= d_s``, ``xi <= 0``, ``max_pairs < 1``); what
+            ``d_i <= d_s``, ``xi <= 0``, ``max_pairs < 1``, ``recovery <= 0``); what
             :func:`make_collision_model` raises.
     """
 
@@ -280,10 +290,14 @@ class SelfCollisionAvoidance(InequalityTask):
         name: str = "taskSelfCollision",
         obstacles: Sequence[Obstacle] = (),
         leg_pairs: bool = True,
+        recovery: float | None = None,
     ) -> None:
         rows = validation.positive_int(f"{name!r}: max_pairs", max_pairs)
         super().__init__(name, rows, "m")
         self._gain = ineq.distance_damper_gain(repr(name), d_s, d_i, xi)
+        self._recovery = (
+            None if recovery is None else validation.positive(f"{name!r}: recovery", recovery, unit="1/s")
+        )
         self._d_s, self._d_i = float(d_s), float(d_i)
         self.model = make_collision_model(
             robot, fixed_base=fixed_base, obstacles=obstacles, leg_pairs=leg_pairs
@@ -376,6 +390,7 @@ class SelfCollisionAvoidance(InequalityTask):
             self._d_s,
             self._gain,
             self._m,
+            self._recovery,
         )
 
     # --- what the rows hold, by name: the reports ---------------------------------------------

@@ -222,6 +222,8 @@ def test_the_task_is_a_level_of_the_hqp_stack():
         ({"xi": -0.2}, "ξ = -0.2 m/s: must be finite and > 0"),
         ({"xi": float("inf")}, "ξ = inf m/s: must be finite and > 0"),
         ({"max_pairs": 0}, "max_pairs = 0: must be an integer >= 1"),
+        ({"recovery": float("nan")}, "recovery = nan 1/s: must be finite and > 0"),
+        ({"recovery": 0.0}, "recovery = 0.0 1/s: must be finite and > 0"),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_value(arguments, message):
