@@ -92,15 +92,10 @@ def runs(request, tmp_path_factory) -> dict[bool, Run]:
     return {on: _run(request.param, on, tmp_path_factory) for on in (True, False)}
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="not met yet: with the task the simulated shapes came closer than 8 mm: the embedded "
-    "humanoid's left hand and left thigh to 6.8 mm, TALOS's left gripper and left thigh to 5.2 mm "
-    "(earlier settings: the right hand sliding along the pelvis, 6.4 mm); the G1's right hand "
-    "and pelvis to 0.2 mm, the hand sliding along the pelvis on its way up; the hands hang within "
-    "d_i of the thighs, and the actuators' tracking adds to the reference's distance",
-)
 def test_with_the_task_no_pair_comes_closer_than_the_margin_less_2_mm(runs):
+    """The simulated shapes, not the reference's: the reference kept d_s apart, plus what the
+    actuators lag behind it. (Closest on 2026-11-27: the embedded humanoid 8.9 mm, TALOS 9.9 mm,
+    the G1 8.6 mm, its right hand against its torso at the unreachable target.)"""
     run = runs[True]
     assert run.output.result.completed, run.output.result.failure
     assert run.closest.distance >= D_S - SLACK, f"with the task: {run.closest}"
