@@ -30,11 +30,12 @@ class Closest:
     pair: tuple[str, str]
 
 
-def closest_pairs(output: ScenarioOutput) -> Closest:
+def closest_pairs(output: ScenarioOutput, configuration: str = "q") -> Closest:
     """The least signed distance of the pairs the simulated plant's SceneGraph may collide
     (its collision filters), but the ground's (the soles stand on it) and the soles' against the
     table, at every logged sample: the logged state put in a context of the built diagram, the
-    distances asked of the SceneGraph's own query port."""
+    distances asked of the SceneGraph's own query port. ``configuration``: the log of the
+    simulated q (``"q"``), or of the reference (``"q_ref"``)."""
     built, arrays = output.setup.built, output.arrays
     plant = built.plant
     scene_graph = built.diagram.GetSubsystemByName("scene_graph")
@@ -50,7 +51,7 @@ def closest_pairs(output: ScenarioOutput) -> Closest:
         )
     }
     best = Closest(np.inf, np.nan, ("", ""))
-    for t, q in zip(arrays["time"], arrays["q"], strict=True):
+    for t, q in zip(arrays["time"], arrays[configuration], strict=True):
         plant.SetPositions(plant_context, built.info.model_instance, q)
         query = scene_graph.get_query_output_port().Eval(scene_context)
         for p in query.ComputeSignedDistancePairwiseClosestPoints(max_distance=D_S):
