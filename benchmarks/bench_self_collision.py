@@ -6,7 +6,8 @@
 Both diagrams are ``reach`` at t = 3 s, the right hand near its target (+25 cm x, +20 cm z,
 moved at t = 1 s), ticked as ``bench_sot.reach_tick`` does (a new configuration, then
 ``StackOfTasks``' periodic update); the second has the task (``d_s`` = 1 cm, ``d_i`` = 5 cm,
-16 rows) second in its stack, under the joint limits. Their ticks alternate in blocks in one
+16 rows) second in its stack, under the joint limits, as ``reach`` has it by default (the first
+is ``reach`` with ``self_collision=False``). Their ticks alternate in blocks in one
 process, so that both see the same load; the ratio is the median of the per-block ratios.
 Also printed: the rows the task fills at that posture (the pairs closer than ``d_i``) out of
 the pairs of shapes that may collide, and the task's own evaluation (Drake's query and the
@@ -19,7 +20,6 @@ import statistics
 import sys
 import time
 from pathlib import Path
-from unittest import mock
 
 import numpy as np
 
@@ -28,20 +28,12 @@ from bench_sot import print_table, ticker
 
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams import reach
-from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+from drake_sot.diagrams.tasks import SELF_COLLISION_TASK
 from drake_sot.robots import ROBOTS, RobotDataMissing, get_robot
 
-TASK = "taskSelfCollision"
+TASK = SELF_COLLISION_TASK
 #: When the ticks are timed [s]: the right hand, moved at 1 s, is near its target.
 AT = 3.0
-
-
-class _WithSelfCollision(HumanoidSoTBuilder):
-    """``reach``'s builder with the self-collision task second in the stack (under the limits)."""
-
-    def build(self, stack, **kwargs):
-        self.add_self_collision_task(TASK)
-        return super().build((stack[0], TASK, *stack[1:]), **kwargs)
 
 
 def _times(tick, n: int) -> list[float]:
@@ -56,9 +48,8 @@ def _times(tick, n: int) -> list[float]:
 
 def bench(robot: str, blocks: int = 30, block: int = 10) -> dict[str, float]:
     """Tick medians [µs] without and with the task, their ratio, the task's rows and evaluation."""
-    off, _ = ticker(reach.build(None, robot=robot), AT)
-    with mock.patch.object(reach, "HumanoidSoTBuilder", _WithSelfCollision):
-        setup = reach.build(None, robot=robot)
+    off, _ = ticker(reach.build(None, robot=robot, self_collision=False), AT)
+    setup = reach.build(None, robot=robot)  # the task on, as the scenario has it by default
     on, context = ticker(setup, AT)
     for tick in (off, on):
         _times(tick, 30)  # warm-up
