@@ -80,6 +80,8 @@ def _run(robot: str, self_collision: bool, tmp_path_factory) -> Run:
     output = run_scenario(
         reach_around.SCENARIO,
         tmp_path_factory.mktemp(f"reach_around_{robot}_{self_collision}"),
+        # Without the task only the first target's time: the hand goes into the chest at once.
+        duration=None if self_collision else reach_around.START + reach_around.DWELL,
         record=False,
         parameters={"robot": robot, "self_collision": self_collision},
         log_window=None,
@@ -103,8 +105,8 @@ def test_with_the_task_no_pair_comes_closer_than_the_margin_less_2_mm(runs):
 
 
 def test_without_the_task_shapes_touch(runs):
-    """The same script without the task: the hand goes into the body, shapes come inside the
-    margin less 2 mm (the simulated contact keeps them from going deep)."""
+    """The same script without the task, up to the second target: the hand goes into the body,
+    shapes come inside the margin less 2 mm (the simulated contact keeps them from going deep)."""
     assert runs[False].closest.distance < D_S - SLACK, f"without the task: {runs[False].closest}"
 
 
