@@ -100,6 +100,7 @@ _WORD = re.compile(r"[A-Za-z_./][A-Za-z0-9_./-]*\Z")
 _ATOM_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_./+-")
 _BLANK = " \t"
 _FOUND_MAX = 30  # characters of the offending text quoted in a message
+FLOAT_BITS = 1024  # an integer of more bits is beyond float range (±1.8e308)
 
 
 class ScriptError(DrakeSotError, ValueError):
@@ -194,8 +195,12 @@ Value = int | float | str | Name | Verb | Vector | Matrix
 
 
 def _number_text(x: float) -> str:
-    """The shortest text that reads back as ``x`` (``repr``); integers without ``.0``."""
+    """The shortest text that reads back as ``x`` (``repr``); integers without ``.0``; an integer
+    beyond float range (which no script can hold: the parser refuses it) described by its digits,
+    as ``str`` would raise past 4300 of them."""
     if isinstance(x, int):
+        if x.bit_length() > FLOAT_BITS:
+            return f"<{'-' if x < 0 else ''}an integer of {x.bit_length()} bits, beyond float range>"
         return str(x)
     return repr(float(x))
 
@@ -208,8 +213,9 @@ def format_value(value: Value) -> str:
     """``value`` in the script's syntax (what :func:`parse_value` reads back to an equal value).
 
     Numbers, vectors and matrices are written with the shortest text that reads back as
-    the same floats; a ``str`` is quoted. Non-finite numbers are written ``nan``/``inf``,
-    which the grammar does not read (a script cannot ``set`` them).
+    the same floats; a ``str`` is quoted. Non-finite numbers are written ``nan``/``inf``, and an
+    integer beyond float range as a description of its size, which the grammar does not read (a
+    script cannot ``set`` them).
     """
     if isinstance(value, bool):
         raise TypeError(f"{value!r} is not a script value")

@@ -288,6 +288,25 @@ def test_format_value_writes_floats_that_read_back_exactly(xs):
     ]
 
 
+@settings(max_examples=100, deadline=None)
+@given(
+    st.integers(min_value=-(10**300), max_value=10**300)
+    | st.integers(min_value=1).map(lambda k: k * 10**309)
+    | st.integers(min_value=1).map(lambda k: -k * 10**5000)
+)
+def test_format_value_writes_any_integer_and_what_fits_a_float_reads_back(n):
+    """An integer within float range reads back equal; one beyond it (from Python: the parser
+    refuses it) is described, not written (Python's own text of it raises past 4300 digits),
+    and the parser refuses the description."""
+    text = format_value(n)
+    if abs(n) <= 10**300:
+        assert parse_value(text) == n
+    else:
+        assert "beyond float range" in text and len(text) < 80, text
+        with pytest.raises(ScriptError):
+            parse_value(text)
+
+
 def test_parse_value_reads_one_value_and_nothing_else():
     assert parse_value("[2](1,2)") == Vector((1.0, 2.0))
     assert parse_value("featureComDes") == Name("featureComDes")
