@@ -20,8 +20,8 @@ def test_leader_delay_admittance_jitter_loss_and_self_collision_are_telecooperat
 
 
 def test_no_self_collision_reaches_both_telecooperation_scenarios(monkeypatch):
-    """``--no-self-collision`` on the command line builds each without the task (the build's
-    parameters as the CLI passes them)."""
+    """``--no-self-collision`` on the command line reaches each scenario's build as
+    ``self_collision=False`` (what the build does with it: ``test_telecooperation_stack.py``)."""
     called = []
     monkeypatch.setattr(
         cli, "_run_scenario", lambda scenario, args, parameters: called.append(parameters) or 0
