@@ -6,9 +6,29 @@ from drake_sot.app import cli
 from drake_sot.diagrams import SCENARIOS
 
 
-def test_leader_delay_admittance_jitter_and_loss_are_telecooperation_options():
+def test_leader_delay_admittance_jitter_loss_and_self_collision_are_telecooperation_options():
     declared = SCENARIOS["telecooperation"].parameters
-    assert tuple(p.name for p in declared) == ("leader", "delay", "admittance", "jitter", "loss")
+    assert tuple(p.name for p in declared) == (
+        "leader",
+        "delay",
+        "admittance",
+        "jitter",
+        "loss",
+        "self_collision",
+    )
+    assert tuple(p.name for p in SCENARIOS["telecoop_slave"].parameters) == ("leader", "self_collision")
+
+
+def test_no_self_collision_reaches_both_telecooperation_scenarios(monkeypatch):
+    """``--no-self-collision`` on the command line reaches each scenario's build as
+    ``self_collision=False`` (what the build does with it: ``test_telecooperation_stack.py``)."""
+    called = []
+    monkeypatch.setattr(
+        cli, "_run_scenario", lambda scenario, args, parameters: called.append(parameters) or 0
+    )
+    for name in ("telecooperation", "telecoop_slave"):
+        assert cli.main(["run", name, "--no-self-collision"]) == 0
+    assert [c["self_collision"] for c in called] == [False, False]
 
 
 @pytest.mark.parametrize(

@@ -126,6 +126,10 @@ def test_every_declared_parameter_is_an_option_of_run_listed_in_its_help(capsys)
         "telecooperation, telecoop_master: one-way delay of the link; in [0, 0.3] s (default 0.14 s)" in shown
     )
     assert "walk, walk_then_interact: without the balance stabilizer (on by default)" in shown
+    assert (
+        "look_and_reach, reach, reach_around, telecoop_slave, telecooperation, walk, walk_long, "
+        "walk_random, walk_then_interact: without the self-collision avoidance task" in shown
+    )
 
 
 def test_a_parameter_added_to_a_declaration_is_an_option_without_touching_the_cli(monkeypatch, capsys):
@@ -187,7 +191,9 @@ def test_serve_takes_the_parameters_of_the_served_scenario_only(capsys):
     with pytest.raises(SystemExit) as exit_:
         cli.main(["serve", "telecoop_slave", "--delay", "0.1", "--port", "0"])
     assert exit_.value.code == 2
-    assert "serve: telecoop_slave takes no --delay (it takes --leader)" in capsys.readouterr().err
+    assert "serve: telecoop_slave takes no --delay (it takes --leader, --no-self-collision)" in (
+        capsys.readouterr().err
+    )
 
 
 def test_build_scenario_checks_the_values_before_building():

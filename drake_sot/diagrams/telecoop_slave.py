@@ -26,7 +26,7 @@ from pydrake.geometry import Meshcat
 
 from drake_sot.diagrams import telecooperation
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioSetup
+from drake_sot.diagrams.scenario import SELF_COLLISION, Scenario, ScenarioSetup
 from drake_sot.systems.telecoop import MASTER_SIGNALS
 
 #: What the master writes on the slave's server (``<server>.<name>``, size), in the order of
@@ -41,17 +41,25 @@ def build(
     leader: str = "operator",
     pushes: Sequence[ExternalPush] = (),
     command_server: bool = True,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
     """The slave side of ``telecooperation`` (``leader`` decides the co-operator's part: the
     lead, or following 1 s behind through a softer impedance); it always has its command server
-    (what the master writes reaches it there), whatever ``command_server`` says."""
-    return telecooperation.build(meshcat, leader=leader, pushes=pushes, remote=True)
+    (what the master writes reaches it there), whatever ``command_server`` says;
+    ``self_collision``: the self-collision task just below the joint limits, as in
+    ``telecooperation`` (the master has no robot, hence no such parameter).
+
+    Raises:
+        ValueError: ``leader`` is not one of ``telecooperation.LEADERS`` (naming it)."""
+    return telecooperation.build(
+        meshcat, leader=leader, pushes=pushes, remote=True, self_collision=self_collision
+    )
 
 
 SCENARIO = Scenario(
     name="telecoop_slave",
     description="telecooperation's slave side, to serve: the master (telecoop_master) writes its forces",
     build=build,
-    parameters=(telecooperation.LEADER,),
+    parameters=(telecooperation.LEADER, SELF_COLLISION),
     servable=True,
 )

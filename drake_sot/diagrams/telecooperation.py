@@ -11,26 +11,38 @@ arms on a base placed for the best manipulability; :class:`~drake_sot.systems.ma
 the operator's hands pulled by a spring-damper towards an intention, the body walking.
 
 **Slave site (III-E).** The stack, highest priority first: joint limits (an inequality),
-e_walk (``taskLF``, ``taskRF``: both feet 6D from the pattern generator), e_com (``taskCom``: x, y
-from the generator),
-the waist's orientation (``taskWaist``, from the generator), e_zr and e_zl (hand altitudes at
-their initial height, pushed by a sequencer when the pattern generator walks and removed when
-it stops), e_fr and e_fl (admittance-controlled hands, eq. 4, f = the wrist sensor's external
-wrench + the master's force), e_head (head orientation from the master), e_grip (the gripper
-joints to the master's aperture), the CoM's height (``taskComZ``, added here: the paper's e_com
-says nothing of z), the posture. The pattern generator is a planner fed by a
-:class:`~drake_sot.systems.hand_steps.StepDecider` (III-C, III-D): one footprint per executed
-step, four ahead, decided from the hands' error in the waist frame.
+self-collision avoidance (``taskSelfCollision``, an inequality, unless ``self_collision`` is
+off: see below), e_walk (``taskLF``, ``taskRF``: both feet 6D from the pattern generator), e_com
+(``taskCom``: x, y from the generator), the waist's orientation (``taskWaist``, from the
+generator), e_zr and e_zl (hand altitudes at their initial height, pushed by a sequencer when
+the pattern generator walks and removed when it stops), e_fr and e_fl (admittance-controlled
+hands, eq. 4, f = the wrist sensor's external wrench + the master's force), e_head (head
+orientation from the master), e_grip (the gripper joints to the master's aperture), the CoM's
+height (``taskComZ``, added here: the paper's e_com says nothing of z), the posture. The pattern
+generator is a planner fed by a :class:`~drake_sot.systems.hand_steps.StepDecider` (III-C,
+III-D): one footprint per executed step, four ahead, decided from the hands' error in the waist
+frame.
 
 **Remote site.** A light board (1.5 m long, as wide as the hands are apart, 2 kg), a free body
 held by both robot hands and, at its far end, by the co-operator, an impedance
 (:class:`~drake_sot.systems.partner.Hold`) to a trajectory of their own.
 
+**Self-collision.** ``taskSelfCollision`` keeps the robot's own collision shapes apart (the arms
+against the torso and the legs, the hands against each other, as in the other kinematic
+scenarios), without rows between the two legs, which the footsteps keep apart. It sees the
+robot's shapes only: the board is a model instance of its own in the simulated plant, not the
+robot's, and has no collision geometry, so neither the board nor the hands against it are rows
+(the hands hold it through the grasp's springs). In the whole walk at 140 ms, the pairs that come
+within ``d_i`` are the forearms and the torso (late in the walk, from 20 s on): with the
+co-operator leading, the left forearm comes to 4.7 mm of the torso at 48 s without the task,
+1.4 cm with it; with the operator leading, 1.9 cm either way (the simulated robot's shapes).
+
 What holds (``tests/diagrams/test_telecooperation_*.py``): standing interaction at 0, 140 and
 300 ms one way stays up and bounded, the hands within 2 cm of the operator's; walking at
 140 ms with either leader, no step is decided below the threshold and each one reduces the
-error, the board stays in the hands, the hands stay within 5 cm of the operator's, the altitude
-tasks are in the stack only while walking; 20 s of walking at 0 and 300 ms stay bounded. The
+error, the board stays in the hands, the hands stay within 5 cm of the operator's, the robot's
+shapes stay the self-collision margin (1 cm) apart, the altitude tasks are in the stack only
+while walking; 20 s of walking at 0 and 300 ms stay bounded. The
 whole walk holds with either leader. When the co-operator leads (pulling the board forward)
 the stabilizer takes the hands' measured wrenches (the LIPM with external forces,
 :mod:`drake_sot.stabilization` eq. 4-6); with the operator leading it does not
@@ -159,7 +171,7 @@ from drake_sot.channel import DEFAULT_DELAY, MAX_DELAY, LinkConfig
 from drake_sot.diagrams.balance import add_zmp_estimator, connect_hand_wrenches
 from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.pushes import ExternalPush
-from drake_sot.diagrams.scenario import Scenario, ScenarioHandles, ScenarioSetup
+from drake_sot.diagrams.scenario import SELF_COLLISION, Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.tasks import HAND_SCALE, PARTNER_COLOUR
 from drake_sot.diagrams.telecooperation_plots import plot_telecooperation
 from drake_sot.diagrams.walking import add_walking
@@ -581,6 +593,7 @@ def build(
     command_server: bool = False,
     config: TelecooperationConfig = DEFAULT_CONFIG,
     seed: int = 0,
+    self_collision: bool = True,
 ) -> ScenarioSetup:
     """Build the ``telecooperation`` diagram (its constants ``config``); ``leader`` is
     ``"operator"`` or ``"cooperator"``, ``delay`` the one-way delay [s] of both directions
@@ -592,7 +605,15 @@ def build(
     admittance, one of :data:`ADMITTANCES`; ``jitter`` [s], ``loss`` (a probability in [0, 1)):
     the link's, both directions (:func:`link_configs`, with ``seed``, an int >= 0, drawing their
     packets' jitter and loss); ``command_server``: see
-    :func:`~drake_sot.diagrams.scenario.build_scenario` (``remote=True`` has one whatever it says)."""
+    :func:`~drake_sot.diagrams.scenario.build_scenario` (``remote=True`` has one whatever it says);
+    ``self_collision``: the self-collision task just below the joint limits (see
+    :meth:`~drake_sot.diagrams.tasks.HumanoidTaskBuilder.below_joint_limits`), without rows
+    between the legs; the sequencer's stacks have it in every state.
+
+    Raises:
+        ValueError: ``leader``, ``admittance`` or ``delay`` out of what is accepted (naming the
+            value and the accepted ones), or a link value ``jitter``, ``loss``, ``seed`` that
+            :func:`link_configs` refuses."""
     leader, admittance, delay = LEADER.check(leader), ADMITTANCE.check(admittance), DELAY.check(delay)
     forward_link, backward_link = link_configs(delay, jitter, loss, seed)
     hands0 = _initial_hands(config)
@@ -648,9 +669,13 @@ def build(
             b.dyn.GetOutputPort(b.op_point(f"{side}_hand")), hand_positions.GetInputPort(f"{side}_hand")
         )
 
+    # The task's defaults (d_s = 1 cm, d_i = 5 cm, ξ = 0.2 m/s) hold the forearms off the torso in
+    # the walks (the module docstring); no leg pairs, the footsteps keep the legs apart.
+    stack = b.below_joint_limits(STACK, self_collision, leg_pairs=False)
+
     # e_zr, e_zl only while walking: pushed above the hands' admittance tasks, then removed.
     def raise_above_hands(task: str):
-        return (Push(task), *(Up(task) for _ in range(len(STACK) - STACK.index(HAND_TASKS[0]))))
+        return (Push(task), *(Up(task) for _ in range(len(stack) - stack.index(HAND_TASKS[0]))))
 
     sequencer = builder.AddSystem(
         TaskSequencer(
@@ -669,7 +694,7 @@ def build(
             ],
             "standing",
             tasks=list(b.tasks),
-            stack=STACK,
+            stack=stack,
             period=b.control_period,
             name="walking_switch",
         )
@@ -791,7 +816,7 @@ def build(
         b.log(f"reference_velocity/{task_name}", admittance_system.GetOutputPort("velocity_des"))
         b.log(f"virtual_mass/{task_name}", admittance_system.GetOutputPort("virtual_mass"))
     built = b.build(
-        stack=STACK,
+        stack=stack,
         load=pg.GetOutputPort("load"),
         dynamic_feedforward=True,
         stack_source=sequencer.GetOutputPort("stack"),
@@ -841,6 +866,6 @@ SCENARIO = Scenario(
     description="a remote operator (140 ms away) and a co-operator carry a board with the walking humanoid",
     build=build,
     extra_plots=write_plots,
-    parameters=(LEADER, DELAY, ADMITTANCE, JITTER, LOSS),
+    parameters=(LEADER, DELAY, ADMITTANCE, JITTER, LOSS, SELF_COLLISION),
     servable=True,
 )
