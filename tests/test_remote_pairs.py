@@ -129,3 +129,26 @@ def test_a_malformed_pairs_field_is_refused_naming_the_bad_entry(pairs, distance
     with pytest.raises(ProtocolError, match=re.escape(named)):
         decode_pairs(pairs, distances)
     assert set(PAIR) == set(PAIR_FIELDS)
+
+
+def test_a_served_scenarios_task_runs_the_scripts_pairs_command(query):
+    """``run taskSelfCollision.pairs`` on a served diagram (no script session) prints the rows the
+    read names, one line each, with their distances; ``help`` lists the command for the task."""
+    built, simulator, serving, network = _served(8)
+    ticks(simulator, serving, 2)
+    network.put(
+        Request("run", 1, cmd=f"{TASK}.pairs"),
+        Request("read", 2, signal=f"{TASK}.distances"),
+        Request("run", 3, cmd="help"),
+    )
+    ticks(simulator, serving, 2)
+    text = network.reply(1)["result"]
+    reply = network.reply(2)
+    rows = decode_pairs(reply["pairs"], decode_vector(reply["result"]))
+    lines = text.splitlines()
+    assert len(lines) == len(rows) == 6, text
+    for row in rows:
+        line = next(line for line in lines if row.shape_a in line and row.shape_b in line)
+        assert row.body_a in line and row.body_b in line
+        assert float(re.search(r": (\S+) m$", line).group(1)) == pytest.approx(row.distance, abs=1e-9)
+    assert f"TASK.pairs (TASK: {TASK})" in network.reply(3)["result"]

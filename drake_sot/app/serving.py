@@ -65,7 +65,14 @@ from drake_sot.app.status import MeshcatStatus, TaskErrorSampler
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, simulate
 from drake_sot.diagrams.scenario import NotServable, Runner, ScenarioSetup
-from drake_sot.diagrams.script_entities import Entity, PatternGeneratorEntity, Phase, TaskEntity
+from drake_sot.diagrams.script_entities import (
+    Entity,
+    PatternGeneratorEntity,
+    Phase,
+    SelfCollisionEntity,
+    StackedEntity,
+    TaskEntity,
+)
 from drake_sot.diagrams.script_session import ScriptSession
 from drake_sot.errors import UnknownNameError
 from drake_sot.remote.network import NetworkThread
@@ -391,7 +398,7 @@ class Serving:
         else:
             kinds: dict[str, list[str]] = {}
             for name, entity in self._entities.items():
-                label = "TASK" if isinstance(entity, TaskEntity) else "PG"
+                label = "TASK" if isinstance(entity, StackedEntity) else "PG"
                 kinds.setdefault(f"{label}.{'|'.join(_runnable(entity))}", []).append(name)
             dialect = "; ".join(
                 [
@@ -414,16 +421,23 @@ class Serving:
 
 
 def _scenario_entities(diagram: Diagram) -> dict[str, Entity]:
-    """The tasks and pattern generators of a scenario's diagram as the script's entities (their
-    run-time commands: ``controlGain``, ``parsecmd``...), by system name. They have no session:
-    a served scenario has none, and those commands need only their system."""
-    kinds = {Task: TaskEntity, PatternGenerator: PatternGeneratorEntity}
+    """The tasks, self-collision tasks and pattern generators of a scenario's diagram as the
+    script's entities (their run-time commands: ``controlGain``, ``pairs``, ``parsecmd``...), by
+    system name. They have no session: a served scenario has none, and those commands need only
+    their system (a self-collision task's ``pairs`` also its ``d_i``, taken from the system)."""
+    kinds = {
+        Task: TaskEntity,
+        PatternGenerator: PatternGeneratorEntity,
+        SelfCollisionAvoidance: SelfCollisionEntity,
+    }
     entities = {}
     for system in systems_of_type(diagram, LeafSystem):
         kind = kinds.get(type(system))
         if kind is not None:
             entity = kind(None, system.get_name(), None)
             entity.system = system
+            if isinstance(entity, SelfCollisionEntity):  # its settings are the built task's
+                entity.settings.update(d_s=system.d_s, d_i=system.d_i)
             entities[system.get_name()] = entity
     return entities
 
