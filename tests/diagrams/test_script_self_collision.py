@@ -261,9 +261,10 @@ SETTINGS = {
 anything = st.one_of(
     st.floats(),
     st.integers(),
-    st.integers(0, 4000).map(lambda digits: 10**digits),  # a script's numbers have at most 4300 digits
+    st.integers(0, 6000).map(lambda digits: 10**digits),  # past Python's 4300-digit text, from Python
     st.builds(Name, st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,8}", fullmatch=True)),
     st.text(max_size=8),
+    st.text(st.characters(categories=["Cs"]), min_size=1, max_size=3),  # lone surrogates
     st.builds(
         Vector, st.lists(st.floats(allow_nan=False, allow_infinity=False), min_size=1, max_size=3).map(tuple)
     ),
