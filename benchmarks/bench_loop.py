@@ -2,6 +2,7 @@
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_loop.py [--rounds 3] [--baseline COMMIT]
         [--scenarios walk_then_interact:15 walk:6 reach:4]
+    PYTHONPATH=. .venv/bin/python benchmarks/bench_loop.py --per-step
 
 For each ``SCENARIO:SECONDS``, one round runs, each in a fresh interpreter and one after the
 other (so that all see the same machine load): the humanoid's plant alone on constant PD set
@@ -13,6 +14,21 @@ the diagram's construction, in wall time and in the process's CPU time (the CPU 
 steadier figure on a shared machine). The table gives per-round ratios
 ``scenario RTF / plant-alone RTF`` (the controller's share of the loop is ``1 - ratio`` when
 the plant costs the same in both), their median and spread.
+
+The **floor** row bounds from above what any controller made of Python ``LeafSystem``s can
+reach on this Drake: the plant alone again, plus as many Python systems as the scenario has,
+which make as many Python callbacks per control tick as the scenario's systems do (counted
+once per scenario: calls of the package's functions made by Drake, from ``AdvanceTo`` or a
+port's ``Eval``/``HasValue``, under cProfile), each an empty periodic publish at the control
+period. No port is evaluated, nothing is computed, and the robot stands still on its PD set
+points: the scenario's systems do all of that work and more, so its ratio cannot exceed the
+floor's (the plant in a walking scenario costs more than standing, too). Each round's floor ratio
+is the median of 5 pairs (the plant alone, then with the empty systems, 3 s each) timed one after
+the other in one interpreter: steadier than ratios between interpreters on a shared machine.
+
+``--per-step`` times what a Python system costs per physics step while doing nothing: after
+every unrestricted update (the plant's step, with sampled output ports) Drake's simulator asks
+every system for its witness functions again, a call into Python for a Python system.
 """
 
 from __future__ import annotations
@@ -41,15 +57,34 @@ def _measure(kind: str, scenario: str, duration: float) -> dict[str, float]:
     def clocks() -> np.ndarray:
         return np.array([time.perf_counter(), time.process_time()])
 
-    if kind == "plant":
+    if kind in ("plant", "floor"):
         sys.path.insert(0, str(ROOT / "benchmarks"))
         from bench_sot import plant_alone_realtime
 
-        wall, cpu = plant_alone_realtime(duration, clock=clocks)
-        return {"wall": float(wall), "cpu": float(cpu)}
+        if kind == "plant":
+            wall, cpu = plant_alone_realtime(duration, clock=clocks)
+            return {"wall": float(wall), "cpu": float(cpu)}
+        # The floor beside the plant alone, alternately in this interpreter: FLOOR_PAIRS pairs.
+        add = _floor_systems(**json.loads(scenario))
+        floors, ratios = [], []
+        for _ in range(FLOOR_PAIRS):
+            plant = plant_alone_realtime(duration, clock=clocks)
+            floor = plant_alone_realtime(duration, clock=clocks, add_systems=add)
+            floors.append(floor)
+            ratios.append(floor / plant)
+        wall, cpu = np.median(floors, axis=0)
+        ratio_wall, ratio_cpu = np.median(ratios, axis=0)
+        return {
+            "wall": float(wall),
+            "cpu": float(cpu),
+            "ratio_wall": float(ratio_wall),
+            "ratio_cpu": float(ratio_cpu),
+        }
     from drake_sot.diagrams.run import simulate
 
     setup = importlib.import_module(f"drake_sot.diagrams.{scenario}").build(None)
+    if kind == "count":
+        return _count_callbacks(setup, duration)
     simulator = setup.built.create_simulator()
     t0 = clocks()
     result = simulate(simulator, duration, setup.commands)
@@ -57,6 +92,105 @@ def _measure(kind: str, scenario: str, duration: float) -> dict[str, float]:
         raise SystemExit(f"{scenario} failed: {result.failure}")
     wall, cpu = clocks() - t0
     return {"wall": duration / wall, "cpu": duration / cpu}
+
+
+def _python_leaves(diagram) -> list:
+    """The package's ``LeafSystem``s in ``diagram``, subdiagrams included."""
+    leaves = []
+    for system in diagram.GetSystems():
+        if hasattr(system, "GetSystems"):
+            leaves += _python_leaves(system)
+        elif type(system).__module__.startswith("drake_sot"):
+            leaves.append(system)
+    return leaves
+
+
+def _count_callbacks(setup, duration: float) -> dict[str, float]:
+    """The scenario's Python systems, its control period [s] (the shortest period of their
+    periodic discrete updates) and the Python callbacks Drake makes per control tick, over ``duration``."""
+    import cProfile
+    import pstats
+
+    from drake_sot.diagrams.run import simulate
+
+    simulator = setup.built.create_simulator()
+    leaves = _python_leaves(simulator.get_system())
+    attributes = [system.GetUniquePeriodicDiscreteUpdateAttribute() for system in leaves]
+    period = min(a.period_sec() for a in attributes if a is not None)
+    profile = cProfile.Profile()
+    profile.enable()
+    simulate(simulator, duration, setup.commands)
+    profile.disable()
+    calls = 0
+    for (filename, _, _), (_, _, _, _, callers) in pstats.Stats(profile).stats.items():
+        if "drake_sot" in filename:
+            calls += sum(c[1] for (f, _, name), c in callers.items() if f == "~" and "pydrake" in name)
+    return {"systems": len(leaves), "callbacks": round(calls * period / duration), "period": period}
+
+
+def _floor_systems(systems: int, callbacks: int, period: float):
+    """``add_systems`` for :func:`bench_sot.plant_alone_realtime`: ``systems`` Python
+    ``LeafSystem``s making ``callbacks`` empty periodic publishes in all every ``period`` [s]."""
+    from pydrake.systems.framework import EventStatus, LeafSystem
+
+    class Empty(LeafSystem):
+        def __init__(self, events: int) -> None:
+            super().__init__()
+            for _ in range(events):
+                self.DeclarePeriodicPublishEvent(period, 0.0, self._nothing)
+
+        def _nothing(self, context) -> EventStatus:
+            return EventStatus.Succeeded()
+
+    def add(builder) -> None:
+        each, extra = divmod(callbacks, systems)
+        for i in range(systems):
+            builder.AddSystem(Empty(each + (i < extra)))
+
+    return add
+
+
+def _per_step_costs(systems: int = 30, seconds: float = 2.0, rounds: int = 5) -> dict[tuple[str, int], float]:
+    """CPU µs per 1 ms step of a C++ zero-order hold alone and beside ``systems`` empty Python
+    ``LeafSystem``s (no port, no event), its step a periodic discrete update (a vector hold) or
+    an unrestricted one (an abstract hold, as the discrete ``MultibodyPlant``'s step with sampled
+    output ports): what being a Python system costs per physics step, doing nothing. Median of
+    ``rounds`` runs of ``seconds`` simulated, the four cases shuffled in each round."""
+    import random
+
+    import numpy as np
+    from pydrake.common.value import Value
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder, LeafSystem
+    from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, ZeroOrderHold
+
+    class Idle(LeafSystem):
+        """A Python system with nothing: no port, no state, no event."""
+
+    def run(step: str, n: int) -> float:
+        builder = DiagramBuilder()
+        if step == "unrestricted":
+            source = builder.AddSystem(ConstantValueSource(Value[object](0)))
+            hold = builder.AddSystem(ZeroOrderHold(1e-3, Value[object](0)))
+        else:
+            source = builder.AddSystem(ConstantVectorSource(np.zeros(3)))
+            hold = builder.AddSystem(ZeroOrderHold(1e-3, 3))
+        builder.Connect(source.get_output_port(), hold.get_input_port())
+        for _ in range(n):
+            builder.AddSystem(Idle())
+        simulator = Simulator(builder.Build())
+        simulator.Initialize()
+        t0 = time.process_time()
+        simulator.AdvanceTo(seconds)
+        return (time.process_time() - t0) / (seconds * 1e3) * 1e6
+
+    cases = [(step, n) for step in ("discrete", "unrestricted") for n in (0, systems)]
+    times: dict[tuple[str, int], list[float]] = {case: [] for case in cases}
+    for _ in range(rounds):
+        random.shuffle(cases)
+        for case in cases:
+            times[case].append(run(*case))
+    return {case: statistics.median(values) for case, values in times.items()}
 
 
 def _child(tree: pathlib.Path, kind: str, scenario: str, duration: float) -> dict[str, float]:
@@ -71,6 +205,11 @@ def _child(tree: pathlib.Path, kind: str, scenario: str, duration: float) -> dic
         cwd=tree,
     ).stdout
     return json.loads(out.strip().splitlines()[-1])
+
+
+FLOOR = "floor: the plant alone + the scenario's Python systems, empty"
+FLOOR_PAIRS = 5  # plant alone / floor pairs timed alternately in one interpreter, per round
+FLOOR_SECONDS = 3.0  # [s] simulated by each: the plant stands still, its cost per second is steady
 
 
 def _baseline_tree(commit: str, into: pathlib.Path) -> pathlib.Path:
@@ -94,11 +233,24 @@ def main() -> None:
         metavar="NAME:SECONDS",
         help=f"scenarios and simulated seconds (default {' '.join(DEFAULT_SCENARIOS)})",
     )
+    parser.add_argument(
+        "--per-step",
+        action="store_true",
+        help="only the cost of empty Python systems per physics step (discrete or unrestricted step)",
+    )
     parser.add_argument("--child", nargs=3, metavar=("KIND", "SCENARIO", "SECONDS"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         kind, scenario, seconds = args.child
         print(json.dumps(_measure(kind, scenario, float(seconds))))
+        return
+    if args.per_step:
+        print("| the 1 ms step | alone | beside 30 empty Python systems | per Python system |")
+        print("|---|---|---|---|")
+        costs = _per_step_costs()
+        for step in ("discrete", "unrestricted"):
+            alone, beside = costs[(step, 0)], costs[(step, 30)]
+            print(f"| {step} update | {alone:.1f} µs | {beside:.1f} µs | {(beside - alone) / 30:.2f} µs |")
         return
     if not args.rounds >= 1:
         parser.error(f"--rounds {args.rounds}: must be at least 1")
@@ -116,9 +268,15 @@ def main() -> None:
                 name: {"wall": [], "cpu": [], "rtf": []} for name in trees
             }
             plant_rtf = []
+            count = _child(ROOT, "count", scenario, min(duration, 2.0))
+            ratios[FLOOR] = {"wall": [], "cpu": [], "rtf": []}
             for _ in range(args.rounds):
                 plant = _child(ROOT, "plant", scenario, duration)
                 plant_rtf.append(plant["wall"])
+                floor = _child(ROOT, "floor", json.dumps(count), min(duration, FLOOR_SECONDS))
+                ratios[FLOOR]["rtf"].append(floor["wall"])
+                for clock in ("wall", "cpu"):
+                    ratios[FLOOR][clock].append(floor[f"ratio_{clock}"])
                 for name, tree in trees.items():
                     run = _child(tree, "scenario", scenario, duration)
                     ratios[name]["rtf"].append(run["wall"])
@@ -126,6 +284,10 @@ def main() -> None:
                         ratios[name][clock].append(run[clock] / plant[clock])
             print(
                 f"| {scenario} ({duration:g} s) | plant alone | {statistics.median(plant_rtf):.2f} | 1 | 1 |"
+            )
+            print(
+                f"| {scenario} | (its {count['systems']} Python systems, {count['callbacks']} callbacks "
+                f"a tick of {1e3 * count['period']:g} ms) | | | |"
             )
             for name, r in ratios.items():
                 print(

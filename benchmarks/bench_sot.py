@@ -236,11 +236,18 @@ def bench_tick_against_baseline(
 
 
 def plant_alone_realtime(
-    duration: float, *, body_collision: bool = True, robot: str = "embedded", clock=time.perf_counter
+    duration: float,
+    *,
+    body_collision: bool = True,
+    robot: str = "embedded",
+    clock=time.perf_counter,
+    add_systems=None,
 ) -> float:
     """Real-time factor of the humanoid's plant alone (SAP, 1 ms, point contact) standing on
     constant PD set points (half-sitting) for ``duration`` [s], with no controller; ``clock``
-    times it (wall time by default; ``time.process_time``: the process's CPU time)."""
+    times it (wall time by default; ``time.process_time``: the process's CPU time).
+    ``add_systems(builder)``, when given, adds systems of its own beside the plant before the
+    diagram is built (``bench_loop.py``'s floor)."""
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import ConstantVectorSource
@@ -259,6 +266,8 @@ def plant_alone_realtime(
     )
     source = builder.AddSystem(ConstantVectorSource(x_des))
     builder.Connect(source.get_output_port(), plant.get_desired_state_input_port(info.model_instance))
+    if add_systems is not None:
+        add_systems(builder)
     baseline = Simulator(builder.Build())
     plant.SetPositions(plant.GetMyMutableContextFromRoot(baseline.get_mutable_context()), q0)
     baseline.Initialize()
