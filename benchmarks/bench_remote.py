@@ -1,11 +1,11 @@
 """Round-trip time of the remote command server, beside the control period.
 
-    python benchmarks/bench_remote.py
+    python benchmarks/bench_remote.py [--scenario reach]
     python benchmarks/bench_remote.py --baseline 8074b69
 
 
-Starts ``drake-sot serve reach`` (controller at 200 Hz, paced at 1 x real time) and, from
-this process:
+Starts ``drake-sot serve reach`` (or ``--scenario``'s; controller at 200 Hz, paced at 1 x real
+time) and, from this process:
 
 1. ``read sot.errors`` one at a time: round-trip time (median, p99) against the 5 ms control
    period, back to back and spaced by 0-2 periods of wall time. A read of a value the socket
@@ -52,13 +52,15 @@ PERIOD = 0.005
 RATE = NetworkThread.__init__.__kwdefaults__["rate"]
 
 
-def serve_reach(tree: Path, realtime: str = "1") -> tuple[subprocess.Popen, str, int]:
-    """``serve reach`` (free port, 600 s, paced at ``realtime`` x real time) from the ``drake_sot``
-    of ``tree``, run with ``PYTHONPATH`` on it and ``tree`` as working directory; returns the
-    process and the address it serves on."""
+def serve_reach(
+    tree: Path, realtime: str = "1", scenario: str = "reach"
+) -> tuple[subprocess.Popen, str, int]:
+    """``serve SCENARIO`` (free port, 600 s, paced at ``realtime`` x real time) from the
+    ``drake_sot`` of ``tree``, run with ``PYTHONPATH`` on it and ``tree`` as working directory;
+    returns the process and the address it serves on."""
     module = "drake_sot.app.cli" if (tree / "drake_sot" / "app" / "cli.py").exists() else "drake_sot.cli"
     proc = subprocess.Popen(
-        [sys.executable, "-m", module, "serve", "reach", "--port", "0", "--duration", "600"]
+        [sys.executable, "-m", module, "serve", scenario, "--port", "0", "--duration", "600"]
         + ["--realtime", realtime],
         stdout=subprocess.PIPE,
         text=True,
@@ -70,7 +72,7 @@ def serve_reach(tree: Path, realtime: str = "1") -> tuple[subprocess.Popen, str,
     if match is None:
         proc.terminate()
         proc.wait()
-        raise RuntimeError(f"serve reach from {tree} printed {line!r}, expected 'serving on HOST:PORT'")
+        raise RuntimeError(f"serve {scenario} from {tree} printed {line!r}, expected 'serving on HOST:PORT'")
     return proc, match[1], int(match[2])
 
 
@@ -170,11 +172,14 @@ def main() -> None:
     parser.add_argument(
         "--spaced", action="store_true", help="A/B: reads spaced by 0-2 control periods (see round_trips)"
     )
+    parser.add_argument(
+        "--scenario", default="reach", metavar="NAME", help="the scenario served (default reach)"
+    )
     args = parser.parse_args()
     if args.baseline:
         against_baseline(args.baseline, args.blocks, args.block, args.realtime, args.settle, args.spaced)
         return
-    proc, host, port = serve_reach(REPO)
+    proc, host, port = serve_reach(REPO, scenario=args.scenario)
     with stopped(proc):
         with Client(host, port) as client:
             client.read("sot.errors")
@@ -206,7 +211,7 @@ def main() -> None:
             )
             client.read("sot.errors")
             rtf = (client.t - t0) / (time.perf_counter() - wall0)
-            print(f"simulated / wall time while serving: {rtf:.2f} (paced at 1.0)")
+            print(f"simulated / wall time while serving {args.scenario}: {rtf:.2f} (paced at 1.0)")
 
 
 if __name__ == "__main__":
