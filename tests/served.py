@@ -47,11 +47,17 @@ def stop(proc):
 
 
 class FakeNetwork:
-    """What ``Serving`` uses of the network thread: the queue it drains, the replies sent, and the
-    values published for reads answered at once (kept, not served)."""
+    """What ``Serving`` uses of the network thread: the queue it drains, the replies sent, the
+    values published for reads answered at once (kept, not served) and the signals read from
+    them (``hits``, set by a test)."""
 
     def __init__(self):
         self.queued, self.sent, self.published, self.order = [], [], {}, []
+        self.hits = set()  # the signals "read from the published values" before the next tick
+
+    def take_hits(self):
+        hits, self.hits = self.hits, set()
+        return hits
 
     def publish(self, snapshot):
         self.published = snapshot

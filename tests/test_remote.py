@@ -163,6 +163,20 @@ def test_a_read_of_a_published_signal_is_answered_at_once_unless_the_connection_
         assert [r.id for _, r in _queued(network)] == [4]  # nothing published: queued
 
 
+def test_the_socket_thread_reports_each_signal_it_answered_from_the_published_values(network):
+    """So that the serving loop keeps publishing a signal its clients read only from them; a read
+    that reached the loop is no such hit (the loop sees that one)."""
+    network.take_hits()  # whatever the tests before left
+    network.publish({"dyn.com": (1.0, [0.1, 0.0, 0.6], {}), "sot.errors": (1.0, [1.0], {})})
+    with Client(*network.address) as client:
+        client.read("dyn.com")
+        client.read("sot.errors")
+        client.send_raw(b'{"id": 7, "op": "read", "signal": "dyn.q"}\n')  # not published: queued
+        assert [r.id for _, r in _queued(network)] == [7]
+    assert network.take_hits() == {"dyn.com", "sot.errors"}
+    assert network.take_hits() == set()  # taken once
+
+
 def test_the_client_refuses_a_reply_whose_pairs_are_malformed_or_missing(network):
     pair = {"shape_a": "a::hand", "shape_b": "a::torso", "body_a": "hand", "body_b": "torso"}
     network.publish(

@@ -25,10 +25,11 @@ and, when a script is served, all its run-time lines through
 :meth:`~drake_sot.diagrams.script_session.ScriptSession.execute` (``set`` too), each as the server
 parsed it. Those act at the next tick and are answered after it (the server holds what came after
 them until then, so that the changes act in arrival order). Then it sleeps to hold ``realtime`` ×
-real time. Before it answers, it publishes the values of the :data:`WATCHED` signals read last to
-the socket thread, which answers a later ``read`` of one of them at once with that value of the
-last tick — the same value the next tick's answer would carry, without waiting a control period
-for it — unless that connection still waits for a reply (then the read queues behind it, in order).
+real time. Before it answers, it publishes the values of the :data:`WATCHED` signals read last
+(and within :data:`WATCH_EXPIRY` s of wall time) to the socket thread, which answers a later
+``read`` of one of them at once with that value of the last tick — the same value the next
+tick's answer would carry, without waiting a control period for it — unless that connection
+still waits for a reply (then the read queues behind it, in order).
 
 A written value must be of the declared size, finite and within the declared bounds (one check,
 :meth:`~drake_sot.systems.command_server.Writable.check`, of one
@@ -93,6 +94,9 @@ MAX_SUBSCRIPTIONS = 16
 #: How many signals, the ones read last, are published after each tick for the network thread to
 #: answer a ``read`` at once (one port evaluation each per tick).
 WATCHED = 32
+#: [s] of wall time without a ``read`` after which a signal is no longer published: a signal read
+#: once does not cost a port evaluation every tick for the rest of the run.
+WATCH_EXPIRY = 10.0
 #: [s] of wall time a run paced by its client waits for the client's horizon before it fails.
 CLIENT_TIMEOUT = 60.0
 #: Times within this of a tick count as that tick [s].
@@ -174,7 +178,9 @@ class Serving:
         self._entities = {} if session is not None else _scenario_entities(diagram)
         self._subscriptions: dict[int, dict[str, _Subscription]] = {}
         self._answers: list[tuple[int, Any, Any, str | None]] = []
-        self._watched: dict[str, None] = {}  # the signals read last, oldest first
+        self._watched: dict[
+            str, float
+        ] = {}  # the signals read last → wall time [s] of that read, oldest first
         self._seen = server.taken(simulator.get_context()).serial
         self.events: list[tuple[float, str]] = []  # the requests that changed the context
         server.attach(network.drain)
@@ -188,6 +194,7 @@ class Serving:
         context = self.context
         now = context.get_time()
         # the signals read lately, for the network thread to answer at once (before the replies)
+        self._expire_watched()
         self._network.publish(
             {signal: (now, self._read(signal), self._beside(signal)) for signal in self._watched}
         )
@@ -327,9 +334,19 @@ class Serving:
     def _watch(self, signal: str) -> None:
         """Keep ``signal`` among the :data:`WATCHED` read last, published after each tick."""
         self._watched.pop(signal, None)
-        self._watched[signal] = None
+        self._watched[signal] = wallclock.monotonic()
         while len(self._watched) > WATCHED:
             del self._watched[next(iter(self._watched))]
+
+    def _expire_watched(self) -> None:
+        """The watched signals read since the last tick from the published values are read again;
+        those no client read for :data:`WATCH_EXPIRY` s are no longer published."""
+        for signal in self._network.take_hits():
+            if signal in self._watched:
+                self._watch(signal)
+        now = wallclock.monotonic()
+        for signal in [s for s, read in self._watched.items() if not now - read <= WATCH_EXPIRY]:
+            del self._watched[signal]
 
     def _beside(self, signal: str) -> dict[str, Any]:
         """The fields sent beside the value of ``signal`` that name its rows at the last tick: a

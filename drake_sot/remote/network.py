@@ -118,6 +118,9 @@ class NetworkThread:
         #: signal -> (t, values, the fields naming its rows) at the last tick, answered here
         #: (see :meth:`publish`)
         self._snapshot: dict[str, tuple[float, list, dict[str, Any]]] = {}
+        #: the signals whose reads were answered from the snapshot, for the serving loop
+        #: (:meth:`take_hits`; a deque: appended here, emptied there, without a lock)
+        self._hits: deque[str] = deque()
 
     def start(self) -> None:
         self._selector.register(self._listener, selectors.EVENT_READ, "listen")
@@ -147,6 +150,15 @@ class NetworkThread:
         publishes before it sends the replies of a tick, so that a client that got a reply reads
         its effect."""
         self._snapshot = snapshot  # one reference: atomic under the GIL
+
+    def take_hits(self) -> set[str]:
+        """The signals of which this thread answered a ``read`` from the published values since
+        the last call: read by a client, though the serving loop never saw the request (it keeps
+        publishing them)."""
+        hits = set()
+        while self._hits:
+            hits.add(self._hits.popleft())
+        return hits
 
     def send(self, connection: int, message: dict[str, Any]) -> None:
         """Queue ``message`` (the reply of a request the connection sent, or a stream message) for
@@ -326,6 +338,7 @@ class NetworkThread:
             if held is not None and conn.answered.get(request.signal) != held[0]:
                 t, values, beside = held
                 conn.answered[request.signal] = t
+                self._hits.append(request.signal)
                 self._reply(cid, {**ok(request.id, values, t), **beside})
                 return
         conn.unanswered += 1
