@@ -20,15 +20,17 @@ reach on this Drake: the plant alone again, plus as many Python systems as the s
 which make as many Python callbacks per control tick as the scenario's systems do (counted
 once per scenario: calls of the package's functions made by Drake, from ``AdvanceTo`` or a
 port's ``Eval``/``HasValue``, under cProfile), each an empty periodic publish at the control
-period. No port is evaluated, nothing is computed, and the robot stands still on its PD set
-points: the scenario's systems do all of that work and more, so its ratio cannot exceed the
-floor's (the plant in a walking scenario costs more than standing, too). Each round's floor ratio
-is the median of 5 pairs (the plant alone, then with the empty systems, 3 s each) timed one after
-the other in one interpreter: steadier than ratios between interpreters on a shared machine.
+period, on the package's base ``SotLeafSystem`` as the scenario's systems are. No port is
+evaluated, nothing is computed, and the robot stands still on its PD set points: the scenario's
+systems do all of that work and more, so its ratio cannot exceed the floor's (the plant in a
+walking scenario costs more than standing, too). Each round's floor ratio is the median of 5
+pairs (the plant alone, then with the empty systems, 3 s each) timed one after the other in one
+interpreter: steadier than ratios between interpreters on a shared machine.
 
 ``--per-step`` times what a Python system costs per physics step while doing nothing: after
 every unrestricted update (the plant's step, with sampled output ports) Drake's simulator asks
-every system for its witness functions again, a call into Python for a Python system.
+every system for its witness functions again, a Python lookup for a system on pydrake's
+``LeafSystem``, none on the package's ``SotLeafSystem`` (``drake_sot.systems.leaf`` says why).
 """
 
 from __future__ import annotations
@@ -129,11 +131,14 @@ def _count_callbacks(setup, duration: float) -> dict[str, float]:
 
 
 def _floor_systems(systems: int, callbacks: int, period: float):
-    """``add_systems`` for :func:`bench_sot.plant_alone_realtime`: ``systems`` Python
-    ``LeafSystem``s making ``callbacks`` empty periodic publishes in all every ``period`` [s]."""
-    from pydrake.systems.framework import EventStatus, LeafSystem
+    """``add_systems`` for :func:`bench_sot.plant_alone_realtime`: ``systems`` Python systems
+    (the package's base, ``SotLeafSystem``) making ``callbacks`` empty periodic publishes in all
+    every ``period`` [s]."""
+    from pydrake.systems.framework import EventStatus
 
-    class Empty(LeafSystem):
+    from drake_sot.systems.leaf import SotLeafSystem
+
+    class Empty(SotLeafSystem):
         def __init__(self, events: int) -> None:
             super().__init__()
             for _ in range(events):
@@ -150,12 +155,15 @@ def _floor_systems(systems: int, callbacks: int, period: float):
     return add
 
 
-def _per_step_costs(systems: int = 30, seconds: float = 2.0, rounds: int = 5) -> dict[tuple[str, int], float]:
+def _per_step_costs(
+    systems: int = 30, seconds: float = 2.0, rounds: int = 5
+) -> dict[tuple[str, int, str], float]:
     """CPU µs per 1 ms step of a C++ zero-order hold alone and beside ``systems`` empty Python
-    ``LeafSystem``s (no port, no event), its step a periodic discrete update (a vector hold) or
-    an unrestricted one (an abstract hold, as the discrete ``MultibodyPlant``'s step with sampled
+    systems (no port, no event) on pydrake's ``LeafSystem`` or on the package's
+    ``SotLeafSystem``, the hold's step a periodic discrete update (a vector hold) or an
+    unrestricted one (an abstract hold, as the discrete ``MultibodyPlant``'s step with sampled
     output ports): what being a Python system costs per physics step, doing nothing. Median of
-    ``rounds`` runs of ``seconds`` simulated, the four cases shuffled in each round."""
+    ``rounds`` runs of ``seconds`` simulated, the cases shuffled in each round."""
     import random
 
     import numpy as np
@@ -164,10 +172,15 @@ def _per_step_costs(systems: int = 30, seconds: float = 2.0, rounds: int = 5) ->
     from pydrake.systems.framework import DiagramBuilder, LeafSystem
     from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, ZeroOrderHold
 
+    from drake_sot.systems.leaf import SotLeafSystem
+
     class Idle(LeafSystem):
         """A Python system with nothing: no port, no state, no event."""
 
-    def run(step: str, n: int) -> float:
+    class SotIdle(SotLeafSystem):
+        """The same on the package's base."""
+
+    def run(step: str, n: int, base: type) -> float:
         builder = DiagramBuilder()
         if step == "unrestricted":
             source = builder.AddSystem(ConstantValueSource(Value[object](0)))
@@ -177,19 +190,20 @@ def _per_step_costs(systems: int = 30, seconds: float = 2.0, rounds: int = 5) ->
             hold = builder.AddSystem(ZeroOrderHold(1e-3, 3))
         builder.Connect(source.get_output_port(), hold.get_input_port())
         for _ in range(n):
-            builder.AddSystem(Idle())
+            builder.AddSystem(base())
         simulator = Simulator(builder.Build())
         simulator.Initialize()
         t0 = time.process_time()
         simulator.AdvanceTo(seconds)
         return (time.process_time() - t0) / (seconds * 1e3) * 1e6
 
-    cases = [(step, n) for step in ("discrete", "unrestricted") for n in (0, systems)]
-    times: dict[tuple[str, int], list[float]] = {case: [] for case in cases}
+    bases = {"LeafSystem": Idle, "SotLeafSystem": SotIdle}
+    cases = [(step, n, base) for step in ("discrete", "unrestricted") for n in (0, systems) for base in bases]
+    times: dict[tuple[str, int, str], list[float]] = {case: [] for case in cases}
     for _ in range(rounds):
         random.shuffle(cases)
-        for case in cases:
-            times[case].append(run(*case))
+        for step, n, base in cases:
+            times[(step, n, base)].append(run(step, n, bases[base]))
     return {case: statistics.median(values) for case, values in times.items()}
 
 
@@ -245,12 +259,16 @@ def main() -> None:
         print(json.dumps(_measure(kind, scenario, float(seconds))))
         return
     if args.per_step:
-        print("| the 1 ms step | alone | beside 30 empty Python systems | per Python system |")
-        print("|---|---|---|---|")
+        print("| the 1 ms step | systems on | alone | beside 30 empty Python systems | per Python system |")
+        print("|---|---|---|---|---|")
         costs = _per_step_costs()
         for step in ("discrete", "unrestricted"):
-            alone, beside = costs[(step, 0)], costs[(step, 30)]
-            print(f"| {step} update | {alone:.1f} µs | {beside:.1f} µs | {(beside - alone) / 30:.2f} µs |")
+            for base in ("LeafSystem", "SotLeafSystem"):
+                alone, beside = costs[(step, 0, base)], costs[(step, 30, base)]
+                print(
+                    f"| {step} update | {base} | {alone:.1f} µs | {beside:.1f} µs "
+                    f"| {(beside - alone) / 30:.2f} µs |"
+                )
         return
     if not args.rounds >= 1:
         parser.error(f"--rounds {args.rounds}: must be at least 1")

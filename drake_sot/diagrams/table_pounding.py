@@ -29,7 +29,6 @@ from pydrake.multibody.tree import (
     RigidBody,
     SpatialInertia,
 )
-from pydrake.systems.framework import LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot.diagrams.pushes import ExternalPush
@@ -39,6 +38,7 @@ from drake_sot.diagrams.table_pounding_plots import plot_table_pounding
 from drake_sot.diagrams.torque_humanoid import TorqueHumanoidBuilder
 from drake_sot.models import HumanoidInfo
 from drake_sot.parameters import Parameter
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.systems.priority_schedule import PrioritySchedule
 from drake_sot.transitions import AlphaSchedule
 
@@ -212,7 +212,7 @@ def back_joints(plant: MultibodyPlant, info: HumanoidInfo) -> list[str]:
     return path[::-1]
 
 
-class TableForce(LeafSystem):
+class TableForce(SotLeafSystem):
     """The force on the table from its spring's displacement, as in the paper: the spring's
     ``stiffness`` [N/m] and its ``rest`` position [m] under the table top's weight.
 

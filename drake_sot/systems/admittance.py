@@ -21,13 +21,13 @@ from pydrake.systems.framework import (
     Context,
     DiscreteValues,
     EventStatus,
-    LeafSystem,
 )
 
 from drake_sot import so3
 from drake_sot.admittance import MassDamperSpring, apparent_inertia, coupled_step
 from drake_sot.configuration import quaternion_to_rotation
 from drake_sot.systems._context import own_context
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.validation import nonnegative, per_axis, positive, vector
 
 #: Fault codes of the ``fault`` output.
@@ -51,7 +51,7 @@ def _quaternion(R: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
-class AdmittanceController(LeafSystem):
+class AdmittanceController(SotLeafSystem):
     """Admittance control of one hand: the pose reference of its force task.
 
     Every control period, the external wrench on the hand is estimated from the wrist

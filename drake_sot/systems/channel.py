@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import Context, LeafSystem, State
+from pydrake.systems.framework import Context, State
 
 from drake_sot import validation
 from drake_sot.channel import Link, LinkConfig
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: The default configurations: 140 ms one way, no jitter, no loss, independent seeds.
 FORWARD_DEFAULT = LinkConfig(seed=0)
@@ -23,7 +24,7 @@ BACKWARD_DEFAULT = LinkConfig(seed=1)
 DIRECTIONS = ("forward", "backward")
 
 
-class Channel(LeafSystem):
+class Channel(SotLeafSystem):
     """Two emulated network directions between a master site and a slave site.
 
     ``forward`` runs master → slave (the operator's wrenches, head and gripper references in

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
-from pydrake.systems.framework import Context, LeafSystem, OutputPort
+from pydrake.systems.framework import Context, OutputPort
 from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
@@ -59,6 +59,7 @@ from drake_sot.script import COMMAND_SOURCE, Call, Get, ScriptError, Statement, 
 from drake_sot.stack import StackError
 from drake_sot.systems._context import own_context
 from drake_sot.systems.features import check_desired_pose
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.systems.sot import StackCommands, TimedStackCommand
 
 #: Times within this of a tick count as that tick [s] (sampled times are sums of floats).
@@ -161,7 +162,7 @@ class Taken:
     requests: tuple[TakenRequest, ...] = ()
 
 
-class RemoteCommandServer(LeafSystem):
+class RemoteCommandServer(SotLeafSystem):
     """Takes the queued remote requests at each control tick and applies the stack commands
     and the writes of declared signals in its own state (see the module docstring).
 

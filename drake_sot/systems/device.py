@@ -6,14 +6,15 @@ from collections.abc import Sequence
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues
 
 from drake_sot.configuration import integrate
 from drake_sot.systems._context import own_context
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.validation import positive
 
 
-class Device(LeafSystem):
+class Device(SotLeafSystem):
     """Integrates the solver's q̇ into the reference configuration q at the control period.
 
     The free flyer moves on SE(3) (quaternion normalised), the joints linearly

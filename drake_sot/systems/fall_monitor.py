@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
-from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
+from pydrake.systems.framework import Context, DiscreteValues, EventStatus
 
 from drake_sot import validation
+from drake_sot.systems.leaf import SotLeafSystem
 
 
 @dataclass(frozen=True)
@@ -88,7 +89,7 @@ class Fall:
 _FALLEN, _TIME, _HEIGHT, _TILT = range(4)
 
 
-class FallMonitor(LeafSystem):
+class FallMonitor(SotLeafSystem):
     """Detects that the simulated robot has fallen (see :class:`FallCriteria`).
 
     At each tick (``period``) it reads the pelvis height (z of the pelvis body's origin)

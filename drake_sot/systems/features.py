@@ -46,15 +46,16 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Joint, JointIndex, PrismaticJoint
-from pydrake.systems.framework import AbstractParameterIndex, Context, InputPort, LeafSystem, ValueProducer
+from pydrake.systems.framework import AbstractParameterIndex, Context, InputPort, ValueProducer
 
 from drake_sot import features as fmath
 from drake_sot.signals import FeatureSignal, OperationalPoint
 from drake_sot.systems._context import own_context, settable_context
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.validation import WORKSPACE_RADIUS, nonnegative, position, within
 
 
-class Feature(LeafSystem):
+class Feature(SotLeafSystem):
     """The base of every feature, the type a :class:`~drake_sot.systems.task.Task` takes:
     selection, desired value and the two outputs shared by every feature."""
 

@@ -7,12 +7,13 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.framework import BasicVector, Context
 
 from drake_sot.statics import contact_torques
+from drake_sot.systems.leaf import SotLeafSystem
 
 
-class TorqueFeedforward(LeafSystem):
+class TorqueFeedforward(SotLeafSystem):
     """Inverse-dynamics torques of the reference, fed forward to PD actuators.
 
     A position-controlled joint under PD lags its reference by ``τ_load / K_p``; in

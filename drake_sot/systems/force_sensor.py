@@ -5,10 +5,12 @@ from __future__ import annotations
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame, WeldJoint
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.framework import BasicVector, Context
+
+from drake_sot.systems.leaf import SotLeafSystem
 
 
-class ForceSensor(LeafSystem):
+class ForceSensor(SotLeafSystem):
     """The wrench a weld joint transmits, as a 6-axis F/T sensor between a parent and a child body.
 
     Convention (Drake's ``MultibodyPlant`` reaction forces, verified in the tests):

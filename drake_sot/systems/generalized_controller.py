@@ -51,12 +51,13 @@ import scipy.linalg
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex
-from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import Context, DiscreteValues
 
 from drake_sot.generalized import ProjectedJacobians, fallback_torques, inertia_weighted, relative_shortfall
 from drake_sot.quasistatic import FrictionCone, QsTask, QuasiStaticQP, SolveStatus, static_capacity
 from drake_sot.signals import TaskSignal
 from drake_sot.systems.kinematics import momentum_rows
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.systems.task import Task
 from drake_sot.task_wrenches import pd_wrench, pi_force_wrench
 from drake_sot.transitions import Priorities
@@ -235,7 +236,7 @@ def _gravity_rows(plant: MultibodyPlant) -> tuple[slice, np.ndarray] | None:
     return rows, -np.asarray(field.gravity_vector(), dtype=float)
 
 
-class GeneralizedHierarchyController(LeafSystem):
+class GeneralizedHierarchyController(SotLeafSystem):
     """Joint torques from prioritised motion and force tasks (Liu, Lober, Padois 2016,
     eq. 8-11).
 

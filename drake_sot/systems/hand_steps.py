@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import Context, LeafSystem
+from pydrake.systems.framework import Context
 
 from drake_sot.footsteps import Footstep
 from drake_sot.hand_steps import HandStepRule, stance_frame
+from drake_sot.systems.leaf import SotLeafSystem
 
 
-class StepDecider(LeafSystem):
+class StepDecider(SotLeafSystem):
     """Decides the next footprint so that steps regulate the hands' error to zero.
 
     Input ports:

@@ -15,10 +15,11 @@ import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import Context, DiscreteValues
 
 from drake_sot import validation
 from drake_sot.recovery import LeanProfile, lean_axis
+from drake_sot.systems.leaf import SotLeafSystem
 
 _LOG = logging.getLogger(__name__)
 
@@ -27,7 +28,7 @@ _LOG = logging.getLogger(__name__)
 _ARMED, _START, _DIRECTION, _ANGLE, _RATE = 0, 1, slice(2, 4), 4, 5
 
 
-class HipStrategy(LeafSystem):
+class HipStrategy(SotLeafSystem):
     """The trunk's orientation reference, leaning when the DCM leaves the support polygon.
 
     At each control tick (``period``), while armed: when the stabilizer's ``dcm_excess`` is

@@ -21,12 +21,13 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Context, LeafSystem
+from pydrake.systems.framework import Context
 
 from drake_sot import inequalities as ineq
 from drake_sot import validation
 from drake_sot.signals import BoundedTaskSignal
 from drake_sot.systems.features import _one_dof_joint_names, joint_units
+from drake_sot.systems.leaf import SotLeafSystem
 
 __all__ = [
     "CoMInSupportPolygon",
@@ -38,7 +39,7 @@ __all__ = [
 ]
 
 
-class InequalityTask(LeafSystem):
+class InequalityTask(SotLeafSystem):
     """What every inequality task shares: its name, its dimension m and its ``task`` output
     (module docstring). Subclasses compute ``(error, J, lower, upper)`` in ``_compute``."""
 

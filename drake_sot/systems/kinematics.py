@@ -9,9 +9,10 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FrameIndex, JacobianWrtVariable, JointIndex, QuaternionFloatingJoint
-from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
+from pydrake.systems.framework import BasicVector, ValueProducer
 
 from drake_sot.signals import OperationalPoint
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: Suffix of the output that carries an operational point's pose and Jacobian in one value.
 FRAME_SUFFIX = "_frame"
@@ -44,7 +45,7 @@ def momentum_rows(plant: MultibodyPlant) -> slice | None:
     return slice(start, start + 3)
 
 
-class RobotKinematics(LeafSystem):
+class RobotKinematics(SotLeafSystem):
     """Forward kinematics of the controller's robot model, on demand.
 
     The paper's ``dyn`` entity: it reads the configuration and provides the CoM, its

@@ -4,15 +4,16 @@ from __future__ import annotations
 
 from pydrake.geometry import Meshcat, Rgba, Sphere
 from pydrake.math import RigidTransform
-from pydrake.systems.framework import Context, LeafSystem
+from pydrake.systems.framework import Context
 
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.validation import nonempty_string, positive
 
 #: The default colour of a marker.
 ORANGE = Rgba(0.9, 0.3, 0.1, 1.0)
 
 
-class MeshcatMarker(LeafSystem):
+class MeshcatMarker(SotLeafSystem):
     """Shows a point of the world that is not a body of the plant (an object the robot looks
     at) as a sphere in Meshcat, moved at ``period``; while Meshcat records (e.g.
     ``MeshcatVisualizer.StartRecording``), every move is also a frame of the recording, so

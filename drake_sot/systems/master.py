@@ -13,11 +13,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import Context, DiscreteValues
 
 from drake_sot import validation
 from drake_sot.admittance import MassDamperSpring
 from drake_sot.master import BaseLimits, BaseMotion, Path, base_placement, desired_position, operator_force
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: The order of the hands in every 6-vector of this module.
 HANDS = ("right", "left")
@@ -33,7 +34,7 @@ _FORCE = slice(30, 36)  # f_M of the last tick [N]
 _SIZE = 36
 
 
-class MasterSite(LeafSystem):
+class MasterSite(SotLeafSystem):
     """Two admittance-type haptic arms on a mobile base (Evrard et al. 2009, IV).
 
     Every period, per arm, the offset obeys eq. 8 under the handle force f_M held over the
@@ -154,7 +155,7 @@ class MasterSite(LeafSystem):
         discrete.get_mutable_vector(self._state).SetFromVector(x)
 
 
-class Operator(LeafSystem):
+class Operator(SotLeafSystem):
     """The operator at the master site: hands pulled towards an intention, body walking.
 
     A model chosen by this library (the paper has a human): per hand, the force on the

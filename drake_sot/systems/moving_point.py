@@ -7,13 +7,15 @@ from collections.abc import Callable
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import Context, LeafSystem
+from pydrake.systems.framework import Context
+
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: A path: time [s] → (position (3,) [m], velocity (3,) [m/s]), both in world.
 Path = Callable[[float], tuple[np.ndarray, np.ndarray]]
 
 
-class MovingPoint(LeafSystem):
+class MovingPoint(SotLeafSystem):
     """A point that moves along ``path`` (an object the robot looks at or reaches for).
 
     The outputs depend on time only; they feed a visual point feature (``point``,

@@ -18,9 +18,10 @@ import numpy as np
 from pydrake.common.value import AbstractValue, Value
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce, MultibodyPlant
-from pydrake.systems.framework import Context, LeafSystem, State
+from pydrake.systems.framework import Context, State
 
 from drake_sot import validation
+from drake_sot.systems.leaf import SotLeafSystem
 
 
 @dataclass(frozen=True)
@@ -65,7 +66,7 @@ def _spatial_force(body_index, point: np.ndarray, force: np.ndarray) -> External
     return f
 
 
-class Partner(LeafSystem):
+class Partner(SotLeafSystem):
     """Forces of a partner on named bodies of the simulated plant (the hands).
 
     Input ports:

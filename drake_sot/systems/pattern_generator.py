@@ -16,16 +16,17 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from pydrake.common.value import AbstractValue, Value
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import Context, LeafSystem, State
+from pydrake.systems.framework import Context, State
 
 from drake_sot import validation
 from drake_sot.errors import UnknownNameError
 from drake_sot.footsteps import SIDES, Footstep, StepLimits, StepTiming, relative_steps
 from drake_sot.systems._context import own_context
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.walk_planner import FOOTPRINTS_AHEAD, WalkPlanner
 
 
-class PatternGenerator(LeafSystem):
+class PatternGenerator(SotLeafSystem):
     """Walking references from footprints by ZMP preview control (Kajita et al. 2003).
 
     Output ports (one sample per control tick, held between ticks):

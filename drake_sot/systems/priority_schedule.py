@@ -6,13 +6,14 @@ import copy
 
 import numpy as np
 from pydrake.common.value import AbstractValue, Value
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.framework import BasicVector, Context
 
 from drake_sot.systems._context import own_context
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.transitions import AlphaSchedule, Priorities
 
 
-class PrioritySchedule(LeafSystem):
+class PrioritySchedule(SotLeafSystem):
     """Outputs α(t) (Liu, Lober, Padois 2016, eq. 4) from an
     :class:`~drake_sot.transitions.AlphaSchedule`: transitions of any number of pairs (i, j)
     with the smooth profile of eq. 12.

@@ -4,12 +4,13 @@
 from __future__ import annotations
 
 from pydrake.common.value import Value
-from pydrake.systems.framework import Context, LeafSystem
+from pydrake.systems.framework import Context
 
 from drake_sot.random_steps import RandomStepRule
+from drake_sot.systems.leaf import SotLeafSystem
 
 
-class RandomSteps(LeafSystem):
+class RandomSteps(SotLeafSystem):
     """The next footprint of a random walk from the last planned ones and the time.
 
     Input ports:

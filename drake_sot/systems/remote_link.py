@@ -42,10 +42,11 @@ from typing import Protocol
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import Context, LeafSystem, State
+from pydrake.systems.framework import Context, State
 
 from drake_sot import validation
 from drake_sot.channel import Link, LinkConfig
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: Times within this of a tick count as that tick [s].
 _EPS = 1e-9
@@ -77,7 +78,7 @@ def _signals(label: str, signals: Sequence[tuple[str, int]]) -> tuple[tuple[str,
     return checked
 
 
-class RemoteLink(LeafSystem):
+class RemoteLink(SotLeafSystem):
     """Both directions of an emulated link to a peer process (see the module docstring).
 
     Input ports:

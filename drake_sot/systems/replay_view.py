@@ -22,8 +22,9 @@ from pydrake.common.value import AbstractValue
 from pydrake.geometry import Cylinder, Meshcat, MeshcatCone, Rgba
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.framework import BasicVector, Context
 
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.validation import nonempty_string, positive, positive_int
 
 #: The Meshcat path of the viewer's camera: :class:`FollowCamera` moves it.
@@ -94,7 +95,7 @@ class ArrowGroup:
     arrows: tuple[Arrow, ...]
 
 
-class SoleForces(LeafSystem):
+class SoleForces(SotLeafSystem):
     """The contact force on each of some bodies of the plant (the soles): the sum of the forces
     of the point contacts that body takes part in (the plant's contact model is point contact).
 
@@ -134,7 +135,7 @@ class SoleForces(LeafSystem):
         output.SetFromVector(forces.ravel())
 
 
-class ForceArrows(LeafSystem):
+class ForceArrows(SotLeafSystem):
     """Forces drawn as arrows in Meshcat (and in its recording), moved at ``period``.
 
     Each arrow is a shaft and a head (``/forces/<group>/<i>/shaft`` and ``.../head``) whose tip
@@ -250,7 +251,7 @@ def _blend(share: float) -> Rgba:
     return Rgba(*((1 - share) * far + share * near))
 
 
-class PairLines(LeafSystem):
+class PairLines(SotLeafSystem):
     """The pairs of collision shapes of a self-collision task, each drawn as a thin cylinder from
     its witness point on B to the one on A, coloured by its distance (:func:`pair_colour`: from
     :data:`FAR_COLOUR` at ``d_i`` to :data:`NEAR_COLOUR` at ``d_s``), in Meshcat and its
@@ -335,7 +336,7 @@ class PairLines(LeafSystem):
                 self._meshcat.SetProperty(f"{path}/line/{c}", "visible", c == colour, time_in_recording=t)
 
 
-class FollowCamera(LeafSystem):
+class FollowCamera(SotLeafSystem):
     """Moves the Meshcat viewer's camera (:data:`CAMERA_PATH`) with a body of the plant (the
     pelvis), in the horizontal plane. The camera is first put at :data:`CAMERA_OFFSET` looking
     at :data:`CAMERA_TARGET_HEIGHT` above the world's origin; then its frame is translated by

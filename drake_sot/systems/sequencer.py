@@ -28,18 +28,19 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import Context, InputPort, LeafSystem
+from pydrake.systems.framework import Context, InputPort
 from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
 from drake_sot.sequencing import State, StateMachine, Status
 from drake_sot.systems._context import own_context
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: The sequencer's own output ports (not valid names for a ``SetValue`` output).
 RESERVED_OUTPUTS = ("stack", "smooth_stack", "state", "transitions")
 
 
-class TaskSequencer(LeafSystem):
+class TaskSequencer(SotLeafSystem):
     """A state machine over stack commands and reference/gain values (the paper's DecisionServer).
 
     Semantics (those of :class:`~drake_sot.sequencing.StateMachine`): a periodic check

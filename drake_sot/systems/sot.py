@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import Context, DiscreteValues
 from pydrake.systems.framework import State as DrakeState
 
 from drake_sot import validation
@@ -20,6 +20,7 @@ from drake_sot.signals import BoundedTaskSignal, TaskSignal
 from drake_sot.stack import Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.inequalities import InequalityTask
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.systems.task import Task
 
 #: Name of the optional input port that drives the stack.
@@ -67,7 +68,7 @@ class _Remote:
     base: tuple[str, ...] | None = None
 
 
-class StackOfTasks(LeafSystem):
+class StackOfTasks(SotLeafSystem):
     """Combines the tasks of its stack, in priority order, into one joint velocity q̇.
 
     Every task the scenario may ever use is wired in at build time (one input port

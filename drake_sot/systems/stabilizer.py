@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import Context, DiscreteValues
 
 from drake_sot import validation
 from drake_sot.recovery import dcm_excess
@@ -27,6 +27,7 @@ from drake_sot.stabilization import (
     stabilizer_step,
 )
 from drake_sot.support import sole_corners, support_polygon
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: Layout of the discrete state: offset Δc (2), its rate Δċ (2), filtered measured ZMP (2),
 #: desired ZMP (2), measured DCM (2), saturation flags (2: ZMP, offset), DCM excess (2), then the
@@ -35,7 +36,7 @@ _OFFSET, _RATE, _ZMP_F, _ZMP_D, _DCM, _FLAGS, _EXCESS = (slice(i, i + 2) for i i
 _WRENCHES = slice(14, 26)
 
 
-class BalanceStabilizer(LeafSystem):
+class BalanceStabilizer(SotLeafSystem):
     """Corrects the CoM reference by DCM feedback on the measured CoM, CoM velocity and ZMP.
 
     At each control tick (``period``) it reads the references and the measurements, applies

@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 from pydrake.common.value import AbstractValue, Value
-from pydrake.systems.framework import Context, LeafSystem, State
+from pydrake.systems.framework import Context, State
 
 from drake_sot.stack import StackError, task_names
 from drake_sot.systems._context import own_context
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: The changes a :class:`StackHistory` keeps: the last ones (a client that changes the stack every
 #: tick for an hour would otherwise grow it, and its copy at each change, without bound).
 MAX_CHANGES = 10_000
 
 
-class StackHistory(LeafSystem):
+class StackHistory(SotLeafSystem):
     """Records the stack each time it changes (checked at ``period``), keeping the last
     :data:`MAX_CHANGES` records.
 

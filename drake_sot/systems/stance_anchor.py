@@ -18,10 +18,11 @@ from pydrake.common.value import AbstractValue, Value
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
-from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
+from pydrake.systems.framework import BasicVector, Context, State
 
 from drake_sot.anchoring import PlanarTransform, blend, drift
 from drake_sot.footsteps import PHASE_DOUBLE, PHASE_LEFT_SUPPORT, PHASE_RIGHT_SUPPORT, SIDES, WALKING_BOUNDS
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.validation import positive
 
 _SWINGING = {PHASE_LEFT_SUPPORT: "right", PHASE_RIGHT_SUPPORT: "left"}
@@ -55,7 +56,7 @@ def _map_pose(delta: PlanarTransform, X: RigidTransform) -> RigidTransform:
     return RigidTransform(RotationMatrix.MakeZRotation(delta.yaw) @ X.rotation(), [xy[0], xy[1], p[2]])
 
 
-class StanceAnchor(LeafSystem):
+class StanceAnchor(SotLeafSystem):
     """Feet, CoM and waist references of a pattern generator, re-anchored on the measured
     stance foot at each lift-off (:mod:`drake_sot.anchoring`).
 

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 from pydrake.common.value import AbstractValue, Value
-from pydrake.systems.framework import Context, InputPort, LeafSystem
+from pydrake.systems.framework import Context, InputPort
 
 from drake_sot import features as fmath
 from drake_sot.features import SelectionLike
@@ -15,13 +15,14 @@ from drake_sot.gains import MAX_GAIN_PERIOD, AdaptiveGain, Gain, check_gain_peri
 from drake_sot.signals import FeatureSignal, TaskSignal
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.features import Feature
+from drake_sot.systems.leaf import SotLeafSystem
 from drake_sot.validation import positive
 
 #: Name of the optional input port that drives λ.
 GAIN_PORT = "gain"
 
 
-class Task(LeafSystem):
+class Task(SotLeafSystem):
     """A task: the concatenation of one or more features and a gain.
 
     ``e = [e_1; e_2; ...]`` (Mansard et al. 2009, eq. 10), ``J = [J_1; J_2; ...]`` and the desired

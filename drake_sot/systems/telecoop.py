@@ -11,9 +11,10 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Context, LeafSystem
+from pydrake.systems.framework import Context
 
 from drake_sot import validation
+from drake_sot.systems.leaf import SotLeafSystem
 
 #: What the master sends (forward link), by name: size and units (:class:`SlaveReferences`'s
 #: inputs). A vector that carries them all (a ``Channel``'s) has them in this order.
@@ -35,7 +36,7 @@ MASTER_BOUNDS: dict[str, float] = {
 }
 
 
-class HandPositions(LeafSystem):
+class HandPositions(SotLeafSystem):
     """The two hands' positions as one vector ``[right (3,); left (3,)]`` [m], world.
 
     Input ports:
@@ -62,7 +63,7 @@ class HandPositions(LeafSystem):
         out.SetFromVector(np.concatenate([port.Eval(context).translation() for port in self._poses]))
 
 
-class SlaveReferences(LeafSystem):
+class SlaveReferences(SotLeafSystem):
     """What the master sends, split into the slave's task references.
 
     Input ports (:data:`MASTER_SIGNALS`, what the forward link delivers):

@@ -8,12 +8,13 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Context, LeafSystem, ValueProducer
+from pydrake.systems.framework import Context, ValueProducer
 
 from drake_sot.statics import zmp_from_wrenches
+from drake_sot.systems.leaf import SotLeafSystem
 
 
-class ZmpEstimator(LeafSystem):
+class ZmpEstimator(SotLeafSystem):
     """ZMP on the ground plane z = 0 from the 6-axis sensors between the ankles and the feet.
 
     Each sensor is a weld joint whose reaction force is the wrench the ankle exerts on
