@@ -30,7 +30,8 @@ interpreter: steadier than ratios between interpreters on a shared machine.
 ``--per-step`` times what a Python system costs per physics step while doing nothing: after
 every unrestricted update (the plant's step, with sampled output ports) Drake's simulator asks
 every system for its witness functions again, a Python lookup for a system on pydrake's
-``LeafSystem``, none on the package's ``SotLeafSystem`` (``drake_sot.systems.leaf`` says why).
+``LeafSystem``, none on the package's ``SotLeafSystem`` where its marker is set (drake 1.51;
+``drake_sot.systems.leaf`` says why).
 """
 
 from __future__ import annotations
