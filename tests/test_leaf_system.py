@@ -38,14 +38,19 @@ def _lookups(base: type) -> int:
                 type(self).lookups += 1
             return super().__getattribute__(name)
 
+    _beside_a_hold(Counted()).AdvanceTo(STEPS * STEP)
+    return Counted.lookups
+
+
+def _beside_a_hold(system) -> Simulator:
+    """A simulator of ``system`` beside an abstract zero-order hold, whose step every STEP is an
+    unrestricted update, as the discrete plant's."""
     builder = DiagramBuilder()
     source = builder.AddSystem(ConstantValueSource(Value[object](0)))
     hold = builder.AddSystem(ZeroOrderHold(STEP, Value[object](0)))
     builder.Connect(source.get_output_port(), hold.get_input_port())
-    builder.AddSystem(Counted())
-    simulator = Simulator(builder.Build())
-    simulator.AdvanceTo(STEPS * STEP)
-    return Counted.lookups
+    builder.AddSystem(system)
+    return Simulator(builder.Build())
 
 
 def test_where_the_marker_is_set_the_query_looks_up_python_once_not_at_every_step():
@@ -96,12 +101,8 @@ def test_a_subclass_with_a_witness_function_still_triggers_it():
             self.fired.append(context.get_time())
             return EventStatus.Succeeded()
 
-    builder = DiagramBuilder()
-    source = builder.AddSystem(ConstantValueSource(Value[object](0)))
-    hold = builder.AddSystem(ZeroOrderHold(STEP, Value[object](0)))
-    builder.Connect(source.get_output_port(), hold.get_input_port())
-    timed = builder.AddSystem(Timed())
-    simulator = Simulator(builder.Build())
+    timed = Timed()
+    simulator = _beside_a_hold(timed)
     simulator.get_mutable_context().SetAccuracy(1e-6)  # the witness is isolated to this accuracy
     simulator.AdvanceTo(0.2)
     assert len(timed.fired) == 1 and np.isclose(timed.fired[0], 0.1, atol=STEP), timed.fired
