@@ -11,10 +11,10 @@ and step, ~75 µs a millisecond for the ~35 systems of ``walk_then_interact``
 (``benchmarks/bench_loop.py --per-step``). There the attribute is set to a C++ function, which
 pybind11 takes for "not overridden" and remembers per class: Drake's own default then runs (no
 witness function), as before, for 0.65 µs. The pybind11 of drake 1.58 calls whatever it finds
-(and costs ~0.3 µs a step without it): a probe at import, which cannot loop (the marker is a
-static function, so a call of it is refused with TypeError), sets the marker only where it is
-taken. A subclass that has witness functions overrides ``DoGetWitnessFunctions`` in Python, as
-pydrake documents, either way.
+(and costs 0.6 µs a system and step without it, as the marker does on 1.51): a probe at
+import, which cannot loop (the marker is a static function, so a call of it is refused with
+TypeError), sets the marker only where it is taken. A subclass that has witness functions
+overrides ``DoGetWitnessFunctions`` in Python, as pydrake documents, either way.
 """
 
 from __future__ import annotations
