@@ -178,9 +178,8 @@ class Serving:
         self._entities = {} if session is not None else _scenario_entities(diagram)
         self._subscriptions: dict[int, dict[str, _Subscription]] = {}
         self._answers: list[tuple[int, Any, Any, str | None]] = []
-        self._watched: dict[
-            str, float
-        ] = {}  # the signals read last → wall time [s] of that read, oldest first
+        # the signals read last → wall time [s] of that read, oldest first
+        self._watched: dict[str, float] = {}
         self._seen = server.taken(simulator.get_context()).serial
         self.events: list[tuple[float, str]] = []  # the requests that changed the context
         server.attach(network.drain)
