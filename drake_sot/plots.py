@@ -13,6 +13,10 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+#: Beyond this many marked instants the marks are drawn without their labels (which would
+#: cover the plot), and the title counts them.
+MAX_MARK_LABELS = 40
+
 
 def plot_task_errors(
     time: np.ndarray,
@@ -27,7 +31,8 @@ def plot_task_errors(
         time: (T,) sample times [s].
         errors: task name → (T, m_i) error samples, NaN while the task is inactive.
         events: ``(time, label)`` of the commands (stack changes, new targets); those at the
-            same instant share one marker.
+            same instant share one marker; more than :data:`MAX_MARK_LABELS` instants are
+            marked without labels.
         title: the figure's title (default "task errors").
 
     Returns:
@@ -40,11 +45,16 @@ def plot_task_errors(
     merged: dict[float, list[str]] = {}
     for t, label in events:
         merged.setdefault(round(t, 6), []).append(label)
+    labelled = len(merged) <= MAX_MARK_LABELS
     for t, labels in merged.items():
-        mark_event(ax, t, "; ".join(labels), linestyle="--", rotation=90, fontsize=8)
+        if labelled:
+            mark_event(ax, t, "; ".join(labels), linestyle="--", rotation=90, fontsize=8)
+        else:
+            ax.axvline(t, color="0.5", linestyle="--", linewidth=0.5)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("task error norm ‖e‖ (m, rad)")
-    ax.set_title(title or "task errors")
+    unlabelled = "" if labelled else f" ({len(events)} commands marked, unlabelled: the .npz names them)"
+    ax.set_title((title or "task errors") + unlabelled)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="lower left", fontsize=8)
     return fig

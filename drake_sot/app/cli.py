@@ -729,7 +729,8 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             )
         finally:
             plot.close()
-        print(f"served up to t = {result.end_time:.3f} s; {len(result.events)} commands applied", flush=True)
+        applied = result.requests_applied
+        print(f"served up to t = {result.end_time:.3f} s; {applied} requests applied", flush=True)
         return result
 
     def serve() -> int:

@@ -62,6 +62,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Context, Diagram, LeafSystem, PortDataType, System
 
 from drake_sot.app.live_plot import LivePlot
+from drake_sot.app.served_events import ServedEvents
 from drake_sot.app.status import MeshcatStatus, TaskErrorSampler
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams.run import Progress, RunResult, SignalGuard, TimedCommand, simulate
@@ -181,7 +182,7 @@ class Serving:
         # the signals read last → wall time [s] of that read, oldest first
         self._watched: dict[str, float] = {}
         self._seen = server.taken(simulator.get_context()).serial
-        self.events: list[tuple[float, str]] = []  # the requests that changed the context
+        self.events = ServedEvents()  # the requests that changed the context
         server.attach(network.drain)
 
     @property
@@ -276,14 +277,14 @@ class Serving:
             return
         if item.kind == DONE:
             if item.error is None:
-                self.events.append((tick, f"write {request.signal}"))
+                self.events.write(tick, request.signal)
             self._reply(cid, request.id, request.signal, item.error, now)
             return
         if item.kind == STACK:
             results = self._sot.GetOutputPort("command_results").Eval(self._sot.GetMyContextFromRoot(context))
             applied, text = results.results[item.index]
             if applied:
-                self.events.append((tick, request.cmd.strip()))
+                self.events.command(tick, request.cmd.strip())
             self._reply(cid, request.id, text, None if applied else text, now)
             return
         try:
@@ -292,7 +293,7 @@ class Serving:
             self._reply(cid, request.id, None, f"{type(exc).__name__}: {exc}", now)
             return
         if acts:  # it changed the context: answered after the tick it acts at
-            self.events.append((now, request.cmd.strip()))
+            self.events.command(now, request.cmd.strip())
             self._answers.append((cid, request.id, result, None))
         else:
             beside = self._beside(request.signal) if request.op == "read" else None
@@ -499,7 +500,9 @@ def serve_run(
     closed at the end); ``on_ready(address)`` is called once it listens. When the scenario was
     built with a Meshcat, its controls show the stack and the task errors; so does ``live_plot``
     (the caller's, which it serves and closes), over time. The requests that
-    changed the context are in the result's ``events`` with the timed commands. A scenario whose
+    changed the context are in the result's ``events`` with the timed commands (the last
+    :data:`~drake_sot.app.served_events.MAX_EVENTS`, a stream of writes as one:
+    :mod:`drake_sot.app.served_events`), and counted, all, in its ``requests_applied``. A scenario whose
     ``extras.paced_by_client`` is true is paced by its client (module docstring): the run
     starts when the client's first horizon is beyond its first tick."""
     limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
@@ -564,7 +567,8 @@ def serve_run(
         serving.finish()
     finally:
         network.close()
-    result.events = sorted(result.events + serving.events, key=lambda event: event[0])
+    result.events = sorted(result.events + serving.events.events, key=lambda event: event[0])
+    result.requests_applied = serving.events.applied
     return result
 
 

@@ -148,7 +148,9 @@ class RunResult:
     Attributes:
         end_time: simulated time reached [s].
         wall_time: wall-clock duration [s].
-        events: ``(time, label)`` of every command applied.
+        events: ``(time, label)`` of every command applied (a served run: the last of its clients'
+            requests, a stream of writes as one; ``drake_sot.app.served_events``).
+        requests_applied: a served run: its clients' requests that changed the context, all of them.
         not_reached: ``(time, label)`` of the commands scheduled after the run's end.
         interrupted_by: the signal that stopped the run, None when it was not interrupted.
         failure: the exception that stopped the run, if any.
@@ -167,6 +169,7 @@ class RunResult:
     wall_time: float = 0.0
     events: list[tuple[float, str]] = field(default_factory=list)
     not_reached: list[tuple[float, str]] = field(default_factory=list)
+    requests_applied: int = 0
     interrupted_by: signal.Signals | None = None
     failure: BaseException | None = None
     fell: Fall | None = None
