@@ -239,6 +239,28 @@ def test_ctrl_c_while_writing_waits_until_every_file_is_written(tmp_path, monkey
     assert _artefacts_load(tmp_path)[-1] == pytest.approx(0.3, abs=0.006)
 
 
+def test_sigterm_while_a_served_run_writes_its_artefacts_says_so_and_waits_for_them(
+    tmp_path, monkeypatch, capsys
+):
+    """The serve twin of the test above: the served run is over when SIGTERM comes, as its first
+    file is written; the message says so (it said "before the simulation started")."""
+    write_npz = scenario_module.write_npz
+
+    def interrupted_write(arrays, path):
+        signal.raise_signal(signal.SIGTERM)
+        write_npz(arrays, path)
+
+    monkeypatch.setattr(scenario_module, "write_npz", interrupted_write)
+    code = cli.main(
+        ["serve", "reach", "--port", "0", "--duration", "0.3", "--realtime", "100", "--out", str(tmp_path)]
+    )
+    assert code == 143
+    assert f"interrupted by SIGTERM while the artefacts were written: they all were, in {tmp_path}" in (
+        capsys.readouterr().err
+    )
+    assert _artefacts_load(tmp_path)[-1] == pytest.approx(0.3, abs=0.006)
+
+
 def test_signal_guard_stops_once_then_holds():
     before = {s: signal.getsignal(s) for s in STOP_SIGNALS}
     with SignalGuard() as guard:

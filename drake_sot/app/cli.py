@@ -702,7 +702,10 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     # bound: only now is a script's fresh directory made (a refusal before leaves nothing behind)
     scenario = served if isinstance(served, Scenario) else _served_script(served, args.out, args.robot)
 
+    bar = ProgressBar()  # not drawn: it says when a signal came (before the run, or after it)
+
     def runner(setup: ScenarioSetup, simulator: Simulator, duration: float, **kwargs) -> RunResult:
+        bar.started = True
         plot = LivePlot()
 
         def ready(address: tuple[str, int]) -> None:
@@ -768,7 +771,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
         return exit_status(result, unwritten)
 
-    return _interruptible(serve, ProgressBar(), args.out or "no output directory")
+    return _interruptible(serve, bar, args.out or "no output directory")
 
 
 def _served(target: str, parser: argparse.ArgumentParser) -> tuple[Scenario | ScriptProgram, float | None]:
