@@ -1,7 +1,7 @@
 """A served scenario in another process, for the tests that drive ``drake-sot serve`` as a client
 does: :func:`start` it (its address read from its first line), :func:`stop` it; or in this one,
 for the tests of the serving loop alone: a :class:`FakeNetwork` in place of the socket thread,
-and :func:`ticks` run as ``serve_run`` runs them."""
+and :func:`ticks` run as ``serve_run`` runs them, on a diagram such as :func:`feet_and_posture`'s."""
 
 import math
 import re
@@ -10,6 +10,8 @@ import sys
 from pathlib import Path
 
 import pytest
+
+from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 
 REPO = Path(__file__).resolve().parents[1]
 DRAKE_SOT = [sys.executable, "-m", "drake_sot.app.cli"]
@@ -44,6 +46,16 @@ def stop(proc):
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
+
+
+def feet_and_posture():
+    """A small served humanoid: its feet held (``taskLF``, ``taskRF``, writable
+    ``TASK.position_des``) above a posture task, with a command server."""
+    b = HumanoidSoTBuilder()
+    b.add_op_point_task("taskLF", "left_foot", gain=5.0)
+    b.add_op_point_task("taskRF", "right_foot", gain=5.0)
+    b.add_posture_task("taskPosture", gain=1.0)
+    return b.build(stack=("taskLF", "taskRF", "taskPosture"), command_server=True)
 
 
 class FakeNetwork:

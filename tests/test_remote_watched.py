@@ -6,11 +6,10 @@ cost a port evaluation every tick for the rest of the run. Served in process, on
 import types
 
 import pytest
-from served import FakeNetwork, ticks
+from served import FakeNetwork, feet_and_posture, ticks
 
 from drake_sot.app import serving as serving_module
 from drake_sot.app.serving import WATCH_EXPIRY, Serving
-from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.remote.protocol import Request
 
 SIGNAL = "dyn.com"
@@ -18,11 +17,7 @@ SIGNAL = "dyn.com"
 
 @pytest.fixture(scope="module")
 def built():
-    b = HumanoidSoTBuilder()
-    b.add_op_point_task("taskLF", "left_foot", gain=5.0)
-    b.add_op_point_task("taskRF", "right_foot", gain=5.0)
-    b.add_posture_task("taskPosture", gain=1.0)
-    return b.build(stack=("taskLF", "taskRF", "taskPosture"), command_server=True)
+    return feet_and_posture()
 
 
 class Clock:

@@ -7,11 +7,10 @@ import hypothesis.strategies as st
 import numpy as np
 import pytest
 from hypothesis import given, settings
-from served import FakeNetwork, ticks
+from served import FakeNetwork, feet_and_posture, ticks
 
 from drake_sot.app.served_events import MAX_EVENTS, STREAM_GAP, ServedEvents
 from drake_sot.app.serving import Serving, serve_run
-from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
 from drake_sot.diagrams.scenario import ScenarioSetup
 from drake_sot.plots import MAX_MARK_LABELS, plot_task_errors
 from drake_sot.remote.protocol import Request
@@ -132,11 +131,7 @@ def test_a_plot_with_too_many_marks_draws_them_unlabelled_and_counts_them():
 
 @pytest.fixture(scope="module")
 def built():
-    b = HumanoidSoTBuilder()
-    b.add_op_point_task("taskLF", "left_foot", gain=5.0)
-    b.add_op_point_task("taskRF", "right_foot", gain=5.0)
-    b.add_posture_task("taskPosture", gain=1.0)
-    return b.build(stack=("taskLF", "taskRF", "taskPosture"), command_server=True)
+    return feet_and_posture()
 
 
 def test_a_served_client_writing_at_every_tick_makes_one_event_and_a_command_its_own(built):
