@@ -40,7 +40,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from drake_sot.remote import Client
@@ -52,28 +52,48 @@ PERIOD = 0.005
 RATE = NetworkThread.__init__.__kwdefaults__["rate"]
 
 
-def serve_reach(
-    tree: Path, realtime: str = "1", scenario: str = "reach"
+def serve(
+    tree: Path,
+    realtime: str = "1",
+    scenario: str = "reach",
+    *,
+    duration: str = "600",
+    extra: Sequence[str] = (),
+    log: Path | None = None,
 ) -> tuple[subprocess.Popen, str, int]:
-    """``serve SCENARIO`` (free port, 600 s, paced at ``realtime`` x real time) from the
-    ``drake_sot`` of ``tree``, run with ``PYTHONPATH`` on it and ``tree`` as working directory;
-    returns the process and the address it serves on."""
+    """``serve SCENARIO`` (free port, ``duration`` simulated s, paced at ``realtime`` x real time,
+    ``extra`` arguments) from the ``drake_sot`` of ``tree``, run with ``PYTHONPATH`` on it and
+    ``tree`` as working directory, its output into ``log`` (a temporary file when None: a pipe
+    nobody reads would stop the server once full); returns the process and the address it serves
+    on, read from its first line."""
     module = "drake_sot.app.cli" if (tree / "drake_sot" / "app" / "cli.py").exists() else "drake_sot.cli"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", module, "serve", scenario, "--port", "0", "--duration", "600"]
-        + ["--realtime", realtime],
-        stdout=subprocess.PIPE,
-        text=True,
-        cwd=tree,
-        env={**os.environ, "PYTHONPATH": str(tree)},
-    )
-    line = proc.stdout.readline()
-    match = re.fullmatch(r"serving on (\S+):(\d+)\n", line)
-    if match is None:
-        proc.terminate()
+    temporary = log is None
+    if log is None:  # unlinked once read: the server writes on into its open file
+        log = Path(tempfile.mkstemp(prefix="serve-", suffix=".log")[1])
+    with log.open("w") as stream:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", module, "serve", scenario, "--port", "0", "--duration", duration]
+            + ["--realtime", realtime, *extra],
+            stdout=stream,
+            stderr=subprocess.STDOUT,
+            cwd=tree,
+            env={**os.environ, "PYTHONPATH": str(tree)},
+        )
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and proc.poll() is None:
+            match = re.search(r"^serving on (\S+):(\d+)$", log.read_text(), re.MULTILINE)
+            if match:
+                return proc, match[1], int(match[2])
+            time.sleep(0.1)
+        proc.kill()
         proc.wait()
-        raise RuntimeError(f"serve {scenario} from {tree} printed {line!r}, expected 'serving on HOST:PORT'")
-    return proc, match[1], int(match[2])
+        raise RuntimeError(
+            f"serve {scenario} from {tree} did not start; its output: {log.read_text()[-2000:]}"
+        )
+    finally:
+        if temporary:
+            log.unlink()
 
 
 def round_trips(client: Client, count: int, spaced: bool = False) -> list[float]:
@@ -118,7 +138,7 @@ def against_baseline(
         subprocess.run(["tar", "-x", "-C", baseline], input=archive.stdout, check=True)
         clients = {}
         for name, tree in (("baseline", Path(baseline)), ("tree", REPO)):
-            proc, host, port = serve_reach(tree, realtime)
+            proc, host, port = serve(tree, realtime)
             stack.enter_context(stopped(proc))
             clients[name] = stack.enter_context(Client(host, port))
         for client in clients.values():
@@ -179,7 +199,7 @@ def main() -> None:
     if args.baseline:
         against_baseline(args.baseline, args.blocks, args.block, args.realtime, args.settle, args.spaced)
         return
-    proc, host, port = serve_reach(REPO, scenario=args.scenario)
+    proc, host, port = serve(REPO, scenario=args.scenario)
     with stopped(proc):
         with Client(host, port) as client:
             client.read("sot.errors")

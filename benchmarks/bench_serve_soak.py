@@ -4,7 +4,7 @@
         [--minutes 10] [--realtime 1]
 
 The server runs ``serve SCENARIO`` (paced at ``--realtime``, its artefacts into a temporary
-``--out``), its output to a file (a pipe nobody reads would stop it once full). Five clients, each
+``--out``; ``bench_remote.serve``), its output to a file. Five clients, each
 its own connection and thread, all the while:
 
 - **reader**: ``read sot.errors``, each after a wait of 0-2 control periods (a program that
@@ -41,7 +41,6 @@ import random
 import re
 import signal
 import statistics
-import subprocess
 import sys
 import tempfile
 import threading
@@ -50,39 +49,15 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from bench_remote import REPO, serve
 
 from drake_sot.app.serving import WATCH_EXPIRY
 from drake_sot.remote import Client
 
-REPO = Path(__file__).resolve().parents[1]
 PERIOD = 0.005  # [s] the control period
 GROUP = 4  # signals a rotation group reads
 PHASE = 15.0  # [s] of wall time a group is read: more than WATCH_EXPIRY
 CHURN = 20.0  # [s] between two subscribing connections
-
-
-def start_server(scenario: str, realtime: str, out: Path) -> tuple[subprocess.Popen, int, Path]:
-    """``serve SCENARIO`` on a free port, output to ``out``/serve.log; the process and port."""
-    log = out / "serve.log"
-    with log.open("w") as stream:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "drake_sot.app.cli", "serve", scenario, "--port", "0"]
-            + ["--realtime", realtime, "--duration", "86400", "--out", str(out / "artefacts")],
-            stdout=stream,
-            stderr=subprocess.STDOUT,
-            cwd=REPO,
-            env={**os.environ, "PYTHONPATH": str(REPO)},
-        )
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline:
-        match = re.search(r"serving on \S+:(\d+)", log.read_text())
-        if match:
-            return proc, int(match[1]), log
-        if proc.poll() is not None:
-            break
-        time.sleep(0.2)
-    proc.kill()
-    sys.exit(f"serve {scenario} did not start: {log.read_text()[-2000:]}")
 
 
 def proc_stats(pid: int) -> tuple[float, float]:
@@ -202,7 +177,9 @@ def main() -> None:
         sys.exit(f"PHASE {PHASE} s must exceed WATCH_EXPIRY {WATCH_EXPIRY} s by a margin")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        proc, port, log = start_server(args.scenario, args.realtime, out)
+        log = out / "serve.log"
+        extra = ["--out", str(out / "artefacts")]
+        proc, _, port = serve(REPO, args.realtime, args.scenario, duration="86400", extra=extra, log=log)
         soak = Soak(port)
         threads = [
             soak.thread(name, getattr(soak, name)) for name in ("reader", "writer", "churn", "rotation")
