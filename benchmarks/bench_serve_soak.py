@@ -50,6 +50,7 @@ from pathlib import Path
 
 import numpy as np
 from bench_remote import REPO, serve
+from bench_soak import rss_mb
 
 from drake_sot.app.serving import WATCH_EXPIRY
 from drake_sot.remote import Client
@@ -62,13 +63,8 @@ CHURN = 20.0  # [s] between two subscribing connections
 
 def proc_stats(pid: int) -> tuple[float, float]:
     """Resident memory [MB] and CPU time (user + system) [s] of process ``pid``."""
-    rss = next(
-        int(line.split()[1]) / 1024
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines()
-        if line.startswith("VmRSS:")
-    )
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return rss, (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return rss_mb(pid), (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 class Soak:

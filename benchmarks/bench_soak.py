@@ -31,9 +31,9 @@ from drake_sot.diagrams.scenario import run_scenario
 SETTLE = 0.05  # [s] after touch-down, when a landing is measured
 
 
-def rss_mb() -> float:
-    """The process's resident memory [MB]."""
-    for line in Path("/proc/self/status").read_text().splitlines():
+def rss_mb(pid: int | str = "self") -> float:
+    """The resident memory [MB] of process ``pid`` (this one by default)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith("VmRSS:"):
             return int(line.split()[1]) / 1024
     return math.nan
