@@ -137,7 +137,10 @@ def load_robot(
     fmt, text, fixes = model_text(robot, geometry=geometry, mesh_cache=mesh_cache)
     _log.info("robot %s: %s", robot.name, "; ".join(fixes))
     parser = Parser(plant)
-    if geometry:  # the cache directory exists: the meshes were just converted into it
+    if geometry and f"package://{MESH_PACKAGE}/" in text:
+        # Some mesh was converted into the cache: the directory exists. A model with no mesh to
+        # convert (primitives, or .obj meshes at unit scale) names no file there, and the cache
+        # may not exist: Drake refuses a package whose directory is missing.
         parser.package_map().Add(MESH_PACKAGE, str(cache_dir() if mesh_cache is None else mesh_cache))
     try:
         (instance,) = parser.AddModelsFromString(text, PARSER_TYPES[fmt])

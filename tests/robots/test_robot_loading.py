@@ -19,7 +19,7 @@ from robot_data import robot_or_skip
 from drake_sot.models import half_sitting_configuration
 from drake_sot.robots import catalog, load_robot
 from drake_sot.robots.description import LOGICAL_FRAMES
-from drake_sot.robots.meshes import converted_mesh
+from drake_sot.robots.meshes import CACHE_ENV, converted_mesh
 from drake_sot.robots.urdf import AddedWeld, prepare_urdf, resolve_package_uri
 
 _URDF = """<robot name="r">
@@ -200,3 +200,28 @@ def test_a_robots_title_gives_its_mass_and_joints_as_the_loaded_plant_has_them(n
     plant.Finalize()
     assert abs(plant.CalcTotalMass(plant.CreateDefaultContext()) - int(found[1])) <= 0.5, robot.title
     assert plant.num_actuators() == int(found[2]) == len(info.actuated_joints), robot.title
+
+
+_EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "robot"
+
+
+@pytest.mark.parametrize("model", ["humanoid.toml", "humanoid_sdf.toml", "humanoid_mjcf.toml"])
+@pytest.mark.parametrize("cache", ["argument", "environment"])
+def test_a_robot_without_meshes_to_convert_loads_where_the_mesh_cache_does_not_exist(
+    model, cache, tmp_path, monkeypatch
+):
+    """A user's robot of primitive shapes, on a machine that never converted a mesh: nothing names
+    the cache, which is neither required nor created (Drake refuses a package whose directory is
+    missing)."""
+    absent = tmp_path / "never" / "made"
+    monkeypatch.setenv(CACHE_ENV, str(absent if cache == "environment" else tmp_path / "unused"))
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=1e-3), builder)
+    robot = str(_EXAMPLE / model)
+    info = load_robot(plant, robot, mesh_cache=absent if cache == "argument" else None)
+    plant.Finalize()
+    assert not absent.exists()
+    assert info.mass > 10.0
+    # Its shapes were registered: the visuals and collision geometry of every link.
+    inspector = scene_graph.model_inspector()
+    assert len(inspector.GetAllGeometryIds()) >= plant.num_bodies() - 1
