@@ -627,6 +627,29 @@ def test_sigterm_stops_serve_with_143_and_writes_the_usual_artefacts(tmp_path):
         assert reached - 1e-9 <= npz["time"][-1] < 120.0  # up to where it was stopped, not the duration
 
 
+def test_serve_reports_the_wall_time_and_the_pace_it_kept():
+    """The last line says how long the run took and the pace it kept beside the one asked: 1 s of
+    ``reach`` paced at 0.5 × real time cannot take less than 2 s, nor longer than the process."""
+    began = time.monotonic()
+    proc, _, _ = _start("--port", "0", "--duration", "1", "--realtime", "0.5")
+    try:
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        _stop(proc)
+    process_wall = time.monotonic() - began
+    assert proc.returncode == 0, stderr
+    last = stdout.strip().splitlines()[-1]
+    match = re.fullmatch(
+        r"served up to t = 1\.000 s; 0 requests applied; (\S+) s of wall time "
+        r"\(real-time factor (\S+), paced at 0\.5\)",
+        last,
+    )
+    assert match is not None, last
+    wall, factor = float(match[1]), float(match[2])
+    assert 2.0 - 0.05 <= wall < process_wall
+    assert factor == pytest.approx(1.0 / wall, abs=0.01 + 0.05 / wall**2)  # both printed rounded
+
+
 SERVED_SCRIPT = """\
 new FeatureGeneric featureCom
 plug dyn.com featureCom.errorIN

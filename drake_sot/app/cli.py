@@ -732,8 +732,12 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             )
         finally:
             plot.close()
-        applied = result.requests_applied
-        print(f"served up to t = {result.end_time:.3f} s; {applied} requests applied", flush=True)
+        print(
+            f"served up to t = {result.end_time:.3f} s; {result.requests_applied} requests applied; "
+            f"{result.wall_time:.1f} s of wall time (real-time factor {result.realtime_factor:.2f}, "
+            f"paced at {args.realtime:g})",
+            flush=True,
+        )
         return result
 
     def serve() -> int:
