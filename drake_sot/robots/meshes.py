@@ -46,9 +46,24 @@ CACHE_ENV = "DRAKE_SOT_MESH_CACHE"
 
 
 def cache_dir() -> Path:
-    """The mesh cache directory (``$DRAKE_SOT_MESH_CACHE`` or ``~/.cache/drake_sot/meshes``)."""
+    """The mesh cache directory (``$DRAKE_SOT_MESH_CACHE`` or ``~/.cache/drake_sot/meshes``).
+
+    Raises:
+        RobotFileError: the variable is unset and there is no home directory to default to
+            (``$HOME`` unset and a user id without a passwd entry, as in a container run as
+            another user): the message says to set the variable.
+    """
     env = os.environ.get(CACHE_ENV)
-    return Path(env) if env else Path.home() / ".cache" / "drake_sot" / "meshes"
+    if env:
+        return Path(env)
+    try:
+        home = Path.home()
+    except RuntimeError:  # pathlib's "Could not determine home directory"
+        raise RobotFileError(
+            f"mesh cache: no home directory to keep it in ($HOME is unset and user id {os.getuid()} "
+            f"has no home): set ${CACHE_ENV} to a writable directory"
+        ) from None
+    return home / ".cache" / "drake_sot" / "meshes"
 
 
 def cache_key(source: Path, scale: Sequence[float]) -> str:
@@ -82,7 +97,7 @@ def converted_mesh(
         RobotFileMissing: ``source`` does not exist (the message names it).
         RobotFileError: ``source`` cannot be read as a mesh (garbage, truncated) or holds no
             triangles; the cache ``directory`` is not a directory or cannot be written (each
-            naming the file).
+            naming the file), or none was given and :func:`cache_dir` has none.
         ValueError: ``scale`` is not 3 finite non-zero factors.
     """
     source = Path(source)

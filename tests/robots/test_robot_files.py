@@ -131,3 +131,28 @@ def test_a_mesh_cache_that_cannot_be_written_is_named_and_leaves_no_partial_entr
     with pytest.raises(RobotFileError, match=f"mesh cache {cache}: cannot write .*No space left on device"):
         converted_mesh(source, (1.0, -1.0, 1.0), cache)
     assert list(cache.iterdir()) == []
+
+
+def test_no_home_directory_asks_for_the_mesh_cache_variable(tmp_path, monkeypatch):
+    """A container run as a user id without a passwd entry and without ``$HOME``: the mesh a robot
+    needs converted cannot go to ``~/.cache``; the error says which variable to set, in one line,
+    instead of pathlib's RuntimeError. With the variable set, the mesh is converted."""
+    trimesh = pytest.importorskip("trimesh", reason="trimesh (drake_sot[robots]) converts meshes")
+    import pwd
+
+    source = tmp_path / "m.stl"
+    trimesh.creation.box(extents=(0.1, 0.2, 0.3)).export(source)
+    monkeypatch.delenv("HOME", raising=False)
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+
+    def no_entry(uid):
+        raise KeyError(f"getpwuid(): uid not found: {uid}")
+
+    monkeypatch.setattr(pwd, "getpwuid", no_entry)
+    with pytest.raises(RuntimeError):
+        Path.home()  # what the default used to raise, unnamed
+    with pytest.raises(RobotFileError, match=f"set \\${CACHE_ENV} to a writable directory") as caught:
+        converted_mesh(source)
+    assert "\n" not in str(caught.value)
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    assert converted_mesh(source).parent == tmp_path / "cache"
