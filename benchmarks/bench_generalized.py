@@ -56,6 +56,7 @@ import tempfile
 import time
 
 import numpy as np
+from baseline_tree import extract
 
 from drake_sot.quasistatic import FrictionCone, QsProblem, QsTask, QuasiStaticQP, SolveStatus
 
@@ -462,10 +463,7 @@ def update_against_baseline(commit: str = BASELINE_COMMIT, pairs: int = 3) -> li
     root = pathlib.Path(__file__).resolve().parent.parent
     out = []
     with tempfile.TemporaryDirectory() as baseline:
-        archive = subprocess.run(
-            ["git", "-C", str(root), "archive", commit], check=True, capture_output=True
-        ).stdout
-        subprocess.run(["tar", "-x", "-C", baseline], input=archive, check=True)
+        extract(commit, pathlib.Path(baseline))
         for _ in range(pairs):
             runs = [
                 subprocess.Popen(

@@ -46,6 +46,8 @@ import sys
 import tempfile
 import time
 
+from baseline_tree import extract
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DEFAULT_SCENARIOS = ("walk_then_interact:15", "walk:6", "reach:4")
 
@@ -244,12 +246,6 @@ FLOOR_PAIRS = 5  # plant alone / floor pairs timed alternately in one interprete
 FLOOR_SECONDS = 3.0  # [s] simulated by each: the plant stands still, its cost per second is steady
 
 
-def _baseline_tree(commit: str, into: pathlib.Path) -> pathlib.Path:
-    archive = subprocess.run(["git", "archive", commit], cwd=ROOT, check=True, capture_output=True).stdout
-    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
-    return into
-
-
 def _spread(values: list[float]) -> str:
     return f"{statistics.median(values):.3f} ({min(values):.3f}-{max(values):.3f})"
 
@@ -293,7 +289,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         trees = {"this tree": ROOT}
         if args.baseline:
-            trees[args.baseline] = _baseline_tree(args.baseline, pathlib.Path(tmp))
+            trees[args.baseline] = extract(args.baseline, pathlib.Path(tmp))
         print(f"load average at start: {os.getloadavg()[0]:.1f}")
         print("| scenario | tree | RTF wall (median) | ÷ plant alone, wall | ÷ plant alone, CPU |")
         print("|---|---|---|---|---|")

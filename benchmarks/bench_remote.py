@@ -43,6 +43,8 @@ import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
+from baseline_tree import extract
+
 from drake_sot.remote import Client
 from drake_sot.remote.network import NetworkThread
 from drake_sot.remote.protocol import encode
@@ -134,8 +136,7 @@ def against_baseline(
     of this tree and one of ``commit``'s tree, both paced at ``realtime`` x real time, once both
     have simulated ``settle`` seconds (the scenario's script done: both run the same stack)."""
     with tempfile.TemporaryDirectory() as baseline, contextlib.ExitStack() as stack:
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", commit], check=True, capture_output=True)
-        subprocess.run(["tar", "-x", "-C", baseline], input=archive.stdout, check=True)
+        extract(commit, Path(baseline))
         clients = {}
         for name, tree in (("baseline", Path(baseline)), ("tree", REPO)):
             proc, host, port = serve(tree, realtime)

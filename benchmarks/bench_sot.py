@@ -32,6 +32,7 @@ import tempfile
 import time
 
 import numpy as np
+from baseline_tree import extract
 
 from drake_sot.hierarchy import solve_strict
 from drake_sot.hqp import solve_hqp
@@ -206,10 +207,7 @@ def bench_tick_against_baseline(
         return json.loads(server.stdout.readline())
 
     with tempfile.TemporaryDirectory() as baseline:
-        archive = subprocess.run(
-            ["git", "-C", str(root), "archive", baseline_commit], check=True, capture_output=True
-        ).stdout
-        subprocess.run(["tar", "-x", "-C", baseline], input=archive, check=True)
+        extract(baseline_commit, pathlib.Path(baseline))
         servers = {"baseline": start(pathlib.Path(baseline)), "tree": start(root)}
         try:
             for server in servers.values():
