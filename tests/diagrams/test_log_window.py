@@ -3,6 +3,9 @@ that memory stops growing however long it runs; a run shorter than the window ke
 
 from __future__ import annotations
 
+import copy
+import sys
+
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
@@ -100,6 +103,45 @@ def test_the_stack_history_keeps_its_last_changes(monkeypatch):
     assert len(recorded) == 5
     assert [t for t, _ in recorded] == pytest.approx([0.07, 0.08, 0.09, 0.10, 0.11], abs=1e-12)
     assert recorded[-1][1] == ("b", "a")
+
+
+def _deepcopy_calls(simulator, until: float) -> int:
+    """Calls of ``copy.deepcopy`` (Drake's copy of Python abstract state) while advancing to ``until``."""
+    calls = 0
+
+    def count(frame, event, arg) -> None:
+        nonlocal calls
+        if event == "call" and frame.f_code is copy.deepcopy.__code__:
+            calls += 1
+
+    sys.setprofile(count)
+    try:
+        simulator.AdvanceTo(until)
+    finally:
+        sys.setprofile(None)
+    return calls
+
+
+def test_a_long_stack_history_costs_a_tick_what_a_short_one_does():
+    """Drake copies a system's abstract state at each of its unrestricted updates, every tick: the
+    copy of the history must not walk its records, or a served run whose client changes the stack
+    slows down with every change it ever made (85 ms a tick at the cap, 17 control periods)."""
+    ticks = 20
+
+    def copies_a_tick_after(changes: int) -> float:
+        history = StackHistory(period=0.01)
+        simulator = Simulator(history)
+        context = simulator.get_mutable_context()
+        port = history.GetInputPort("stack")
+        for k in range(changes):
+            port.FixValue(context, ("a", "b") if k % 2 == 0 else ("b", "a"))
+            simulator.AdvanceTo(0.01 * k + 0.005)
+        assert len(history.history(context)) == changes
+        return _deepcopy_calls(simulator, 0.01 * (changes + ticks)) / ticks
+
+    short, long = copies_a_tick_after(2), copies_a_tick_after(1000)
+    assert short >= 1, "no copy of the state was seen: the count does not measure what it should"
+    assert long <= short + 1, f"{long:.0f} deepcopy calls a tick with 1000 changes, {short:.0f} with 2"
 
 
 def test_a_scenario_s_artefacts_cover_the_last_window_of_a_long_run(tmp_path):
