@@ -145,7 +145,10 @@ def against_baseline(
         for client in clients.values():
             while not client.t >= settle:
                 client.read("sot.errors")
-        start = {name: (client.t, time.perf_counter()) for name, client in clients.items()}
+        start = {}
+        for name, client in clients.items():  # client.t is its last read's: one read each, now
+            client.read("sot.errors")
+            start[name] = (client.t, time.perf_counter())
         samples: dict[str, list[float]] = {"baseline": [], "tree": []}
         ratios = []
         for k in range(blocks):

@@ -34,9 +34,8 @@ import time
 import numpy as np
 from baseline_tree import extract
 
-from drake_sot.hierarchy import solve_strict
-from drake_sot.hqp import solve_hqp
-from drake_sot.linalg import pinv
+# The package's solvers are imported in the functions that use them: the tick server runs this
+# file with a baseline tree's drake_sot (bench_tick_against_baseline), which may lack today's modules.
 
 
 def _timeit(fn, repeat: int) -> list[float]:
@@ -52,6 +51,8 @@ def _timeit(fn, repeat: int) -> list[float]:
 def solve_projector_form(levels, rank_threshold=1e-6):
     """Paper 000 eq. 8-9 as written:
     q̇_i = q̇_{i-1} + (J_i P)^+ (ė_i - J_i q̇_{i-1}), P ← P - (J_i P)^+ J_i P."""
+    from drake_sot.linalg import pinv
+
     n = levels[0][0].shape[1]
     qdot, P = np.zeros(n), np.eye(n)
     for J, edot in levels:
@@ -63,6 +64,8 @@ def solve_projector_form(levels, rank_threshold=1e-6):
 
 
 def bench_solver(repeat: int = 2000) -> dict[str, float]:
+    from drake_sot.hierarchy import solve_strict
+
     rng = np.random.default_rng(0)
     n = 36
     dims = [6, 6, 2, 6, 30]  # feet, feet, CoM xy, right hand, posture (reach)
@@ -86,6 +89,9 @@ def bench_solver(repeat: int = 2000) -> dict[str, float]:
 def bench_hqp(repeat: int = 2000) -> dict[str, float]:
     """``solve_hqp`` against ``solve_strict`` on the reach stack's sizes, interleaved, unvalidated
     (as ``StackOfTasks`` calls them): equalities only, then with a box of joint limits on top."""
+    from drake_sot.hierarchy import solve_strict
+    from drake_sot.hqp import solve_hqp
+
     rng = np.random.default_rng(0)
     n = 36
     levels = [(rng.normal(size=(m, n)), rng.normal(size=m)) for m in (6, 6, 2, 6, 30)]
