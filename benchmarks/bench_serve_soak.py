@@ -1,10 +1,11 @@
 """Soak of the command server: ``drake-sot serve`` driven by four clients for minutes.
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_serve_soak.py [--scenario walk_random]
-        [--minutes 10] [--realtime 1]
+        [--minutes 10] [--realtime 1] [--restack SECONDS] [--baseline COMMIT]
 
 The server runs ``serve SCENARIO`` (paced at ``--realtime``, its artefacts into a temporary
-``--out``; ``bench_remote.serve``), its output to a file. Five clients, each
+``--out``; ``bench_remote.serve``), its output to a file; with ``--baseline``, the server is
+``COMMIT``'s tree (``git archive``), the clients this tree's. Six clients, each
 its own connection and thread, all the while:
 
 - **reader**: ``read sot.errors``, each after a wait of 0-2 control periods (a program that
@@ -20,6 +21,12 @@ its own connection and thread, all the while:
 - **rotation**: from the readable vector signals of ``list``, a new group of 4 every 15 s, each
   read about every 20 ms during its 15 s (the server publishes the signals read lately, at most
   ``WATCHED``, for at most ``WATCH_EXPIRY`` = 10 s after their last read);
+- **restack** (with ``--restack``, every that many seconds of wall time): ``sot.rm taskPosture``,
+  then ``sot.push taskPosture`` (the lowest task, back where it was), so that the stack changes
+  two times a period for the whole run (an operator who toggles a task, a program that switches
+  stacks): each change is a record of the stack's history
+  (:class:`~drake_sot.systems.stack_history.StackHistory`), which must not slow the ticks down
+  as the records pile up;
 - **probes**: at the start of each group, one connection reads a signal of the group just ended
   (read < 0.1 s ago: published, answered at once) and another a signal of the group before it
   (last read > 15 s ago: expired, so the read waits for the next tick). The two round-trip
@@ -49,6 +56,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from baseline_tree import extract
 from bench_remote import REPO, serve
 from bench_soak import rss_mb
 
@@ -59,6 +67,7 @@ PERIOD = 0.005  # [s] the control period
 GROUP = 4  # signals a rotation group reads
 PHASE = 15.0  # [s] of wall time a group is read: more than WATCH_EXPIRY
 CHURN = 20.0  # [s] between two subscribing connections
+RESTACKED = "taskPosture"  # the task the restack client removes and pushes back
 
 
 def proc_stats(pid: int) -> tuple[float, float]:
@@ -78,6 +87,7 @@ class Soak:
         self.t = 0.0  # the reader's last simulated time
         self.subscriptions = 0
         self.writes = 0
+        self.restacks = 0  # stack changes applied by the restack client
         self.probes: dict[str, list[float]] = {"published": [], "expired": []}
 
     def thread(self, name: str, body: Callable[[], None]) -> threading.Thread:
@@ -121,6 +131,13 @@ class Soak:
                 client.write(signal_, held + 0.01 * np.array([np.sin(phase), np.cos(phase), 0.0]))
                 self.writes += 1
                 time.sleep(PERIOD)
+
+    def restack(self, every: float) -> None:
+        with Client(port=self.port) as client:
+            while not self.stop.wait(every):
+                client.run(f"sot.rm {RESTACKED}")
+                client.run(f"sot.push {RESTACKED}")
+                self.restacks += 2
 
     def churn(self) -> None:
         while not self.stop.wait(CHURN):
@@ -168,20 +185,31 @@ def main() -> None:
     ap.add_argument("--scenario", default="walk_random")
     ap.add_argument("--minutes", type=float, default=10.0)
     ap.add_argument("--realtime", default="1")
+    ap.add_argument("--restack", type=float, help="[s] of wall time between two rm/push of the posture task")
+    ap.add_argument("--baseline", help="serve from this commit's tree")
     args = ap.parse_args()
+    if args.restack is not None and not args.restack > 0:
+        sys.exit(f"--restack must be > 0 s, got {args.restack}")
     if not PHASE > WATCH_EXPIRY + 1.0:
         sys.exit(f"PHASE {PHASE} s must exceed WATCH_EXPIRY {WATCH_EXPIRY} s by a margin")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         log = out / "serve.log"
         extra = ["--out", str(out / "artefacts")]
-        proc, _, port = serve(REPO, args.realtime, args.scenario, duration="86400", extra=extra, log=log)
+        tree = REPO if args.baseline is None else extract(args.baseline, out / "tree")
+        proc, _, port = serve(tree, args.realtime, args.scenario, duration="86400", extra=extra, log=log)
         soak = Soak(port)
         threads = [
             soak.thread(name, getattr(soak, name)) for name in ("reader", "writer", "churn", "rotation")
         ]
+        if args.restack is not None:
+            threads.append(soak.thread("restack", lambda: soak.restack(args.restack)))
         load = os.getloadavg()[0]
-        print(f"serve {args.scenario} --realtime {args.realtime}, {args.minutes:g} min, load {load:.1f}")
+        served_tree = "this tree" if args.baseline is None else args.baseline
+        print(
+            f"serve {args.scenario} --realtime {args.realtime} ({served_tree}), {args.minutes:g} min, "
+            f"restack every {args.restack} s, load {load:.1f}"
+        )
         print(
             "| minute | simulated [s] | pace | server RSS [MB] | server CPU | read median / p99 [ms] |",
             end="",
@@ -216,7 +244,8 @@ def main() -> None:
                 print(f"probe of a signal {kind}: median {median:.2f} ms over {len(samples)}")
         print(f"subscriptions that came and went: {soak.subscriptions}; server exit {code} on SIGTERM")
         served = re.search(r"served up to t = \S+ s; (\d+) requests applied", log.read_text())
-        print(f"writes sent: {soak.writes}; the server's count of requests applied: {served and served[1]}")
+        print(f"writes sent: {soak.writes}; stack changes: {soak.restacks}")
+        print(f"the server's count of requests applied: {served and served[1]}")
         if logs:
             with np.load(out / "artefacts" / logs[0]) as arrays:
                 print(f"events in the logs: {len(arrays['event_label'])}: {list(arrays['event_label'])[:4]}")
@@ -226,8 +255,9 @@ def main() -> None:
         if soak.errors or code != 128 + signal.SIGTERM or not logs or served is None:
             print(log.read_text()[-3000:])
             sys.exit(1)
-        if int(served[1]) < soak.writes:  # every write was answered ok: all of them were applied
-            print(f"the server counted {served[1]} requests applied, fewer than the {soak.writes} writes")
+        sent = soak.writes + soak.restacks  # every one was answered ok: all of them were applied
+        if int(served[1]) < sent:
+            print(f"the server counted {served[1]} requests applied, fewer than the {sent} sent")
             sys.exit(1)
 
 
