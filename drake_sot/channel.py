@@ -35,6 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from drake_sot import validation
+from drake_sot.immutable import Immutable
 
 __all__ = ["MAX_DELAY", "DEFAULT_DELAY", "LinkConfig", "Link"]
 
@@ -93,7 +94,7 @@ _EPS = 1e-9
 
 
 @dataclass(frozen=True)
-class Link:
+class Link(Immutable):
     """One direction of a link: packets in flight and the value the receiver holds.
 
     Make one with :meth:`start`. Attributes:
@@ -124,9 +125,6 @@ class Link:
         value = validation.vector("initial", initial)
         value.setflags(write=False)
         return cls(config=config, value=value)
-
-    def __deepcopy__(self, memo) -> Link:
-        return self  # immutable
 
     @property
     def size(self) -> int:

@@ -41,6 +41,7 @@ import numpy as np
 
 from drake_sot import validation
 from drake_sot.errors import UnknownNameError, prefixed
+from drake_sot.immutable import Immutable
 from drake_sot.stack import COMMANDS, Clear, Down, Pop, Push, Rm, Stack, StackCommand, StackError, Up
 
 __all__ = [
@@ -241,7 +242,7 @@ class State:
 
 
 @dataclass(frozen=True)
-class Status:
+class Status(Immutable):
     """Where a machine is: never mutated (a Drake state holding it is copied in O(1)).
 
     Attributes:
@@ -258,9 +259,6 @@ class Status:
     stack: Stack
     values: Mapping[str, object]
     count: int
-
-    def __deepcopy__(self, memo: dict) -> Status:
-        return self
 
 
 def _is_vector(value: object) -> bool:

@@ -53,6 +53,7 @@ from typing import ClassVar
 
 from drake_sot import validation
 from drake_sot.errors import DrakeSotError, UnknownNameError
+from drake_sot.immutable import Immutable
 from drake_sot.transitions import smooth_step
 
 __all__ = [
@@ -355,7 +356,7 @@ class StackTransition:
 
 
 @dataclass(frozen=True)
-class Stack:
+class Stack(Immutable):
     """The hierarchy: the known tasks and the active ones in priority order.
 
     Attributes:
@@ -446,12 +447,6 @@ class Stack:
 
     def __contains__(self, task: object) -> bool:
         return task in self.active
-
-    def __copy__(self) -> Stack:
-        return self
-
-    def __deepcopy__(self, memo: dict) -> Stack:
-        return self  # immutable: Drake copies abstract state at every update
 
     def _known(self) -> str:
         return ", ".join(self.tasks) or "(none)"

@@ -44,6 +44,7 @@ from drake_sot.footsteps import (
     stance_width,
     wrap_angle,
 )
+from drake_sot.immutable import Immutable
 from drake_sot.preview import PreviewController
 
 __all__ = [
@@ -379,7 +380,7 @@ def _preview(dt: float, com_height: float, horizon: float, q: float, r: float) -
 
 
 @dataclass(frozen=True, eq=False)
-class WalkPlanner:
+class WalkPlanner(Immutable):
     """The online walking planner: footprints in, one sample of references per tick out.
 
     Never mutated: every command and :meth:`advance` return a new planner that shares the
@@ -418,9 +419,6 @@ class WalkPlanner:
     walk_end: int
     landings: tuple[tuple[int, Footstep], ...]
     velocity: tuple[float, float, float] | None
-
-    def __deepcopy__(self, memo) -> WalkPlanner:
-        return self  # immutable: a copy is the same value
 
     @classmethod
     def start(

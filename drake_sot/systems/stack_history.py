@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pydrake.common.value import AbstractValue, Value
 from pydrake.systems.framework import Context, State
 
+from drake_sot.immutable import Immutable
 from drake_sot.stack import StackError, task_names
 from drake_sot.systems._context import own_context
 from drake_sot.systems.leaf import SotLeafSystem
@@ -19,15 +20,11 @@ Changes = tuple[tuple[float, tuple[str, ...]], ...]
 
 
 @dataclass(frozen=True)
-class _Records:
-    """The state: the recorded changes, immutable. Drake copies a system's abstract state with
-    ``copy.deepcopy`` at each of its unrestricted updates, every tick: a bare tuple is walked
-    element by element (85 ms a tick at :data:`MAX_CHANGES` changes); this copy is the value itself."""
+class _Records(Immutable):
+    """The state: the recorded changes. Drake copies it at every tick; a bare tuple would be walked
+    record by record (85 ms a tick at :data:`MAX_CHANGES` changes): its copy is itself."""
 
     changes: Changes = ()
-
-    def __deepcopy__(self, memo: dict) -> _Records:
-        return self
 
 
 class StackHistory(SotLeafSystem):
