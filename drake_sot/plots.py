@@ -16,6 +16,9 @@ from matplotlib.figure import Figure
 #: Beyond this many marked instants the marks are drawn without their labels (which would
 #: cover the plot), and the title counts them.
 MAX_MARK_LABELS = 40
+#: Marks closer than this fraction of the plotted time span share one marker and one label (at
+#: the first one's time): labels a few ticks apart would be drawn over each other.
+MERGE_FRACTION = 0.01
 
 
 def plot_task_errors(
@@ -30,9 +33,9 @@ def plot_task_errors(
     Args:
         time: (T,) sample times [s].
         errors: task name → (T, m_i) error samples, NaN while the task is inactive.
-        events: ``(time, label)`` of the commands (stack changes, new targets); those at the
-            same instant share one marker; more than :data:`MAX_MARK_LABELS` instants are
-            marked without labels.
+        events: ``(time, label)`` of the commands (stack changes, new targets); those closer
+            than :data:`MERGE_FRACTION` of the time span share one marker; more than
+            :data:`MAX_MARK_LABELS` markers are drawn without labels.
         title: the figure's title (default "task errors").
 
     Returns:
@@ -42,9 +45,14 @@ def plot_task_errors(
     ax = fig.subplots()
     for name, e in errors.items():
         ax.semilogy(time, np.maximum(np.linalg.norm(e, axis=1), 1e-6), label=name)
+    span = float(time[-1] - time[0]) if len(time) else 0.0
     merged: dict[float, list[str]] = {}
-    for t, label in events:
-        merged.setdefault(round(t, 6), []).append(label)
+    for t, label in sorted(events, key=lambda event: event[0]):
+        last = next(reversed(merged), None)
+        if last is not None and t - last <= MERGE_FRACTION * span + 1e-6:
+            merged[last].append(label)
+        else:
+            merged[t] = [label]
     labelled = len(merged) <= MAX_MARK_LABELS
     for t, labels in merged.items():
         if labelled:
@@ -63,9 +71,10 @@ def plot_task_errors(
 def mark_event(
     ax: Axes, t: float, label: str, *, linestyle: str = ":", rotation: float = 0, fontsize: float = 7
 ) -> None:
-    """A vertical line at ``t`` [s] on ``ax`` with ``label`` at its top."""
+    """A vertical line at ``t`` [s] on ``ax`` with ``label`` at its top, cut at the axes' edge (a
+    label longer than the axes would push them out of the figure's layout)."""
     ax.axvline(t, color="0.5", linestyle=linestyle, linewidth=0.8)
-    ax.text(
+    text = ax.text(
         t,
         1.0,
         f" {label}",
@@ -75,4 +84,6 @@ def mark_event(
         ha="left",
         fontsize=fontsize,
         color="0.3",
+        clip_on=True,
     )
+    text.set_in_layout(False)

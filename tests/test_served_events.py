@@ -3,6 +3,9 @@ of a stream are one event, the run keeps its last ``MAX_EVENTS``, every request 
 task-error plot marks too many instants without labels. The grouping is checked against a second
 way of computing it (the writes of each signal split where the gap exceeds ``STREAM_GAP``)."""
 
+import io
+import warnings
+
 import hypothesis.strategies as st
 import numpy as np
 import pytest
@@ -123,10 +126,31 @@ def test_a_plot_with_too_many_marks_draws_them_unlabelled_and_counts_them():
     errors = {"taskRH": np.full((101, 3), 0.1)}
     few = plot_task_errors(time, errors, [(1.0, "a"), (2.0, "b"), (2.0, "c")])
     assert sorted(t.get_text().strip() for t in few.axes[0].texts) == ["a", "b; c"]
-    many = [(0.01 * k, f"cmd {k}") for k in range(MAX_MARK_LABELS + 1)]
+    many = [(0.2 * k, f"cmd {k}") for k in range(MAX_MARK_LABELS + 1)]  # 2 % of the span apart
     fig = plot_task_errors(time, errors, many)
     assert len(fig.axes[0].texts) == 0 and len(fig.axes[0].lines) == 1 + len(many)
     assert f"{len(many)} commands marked, unlabelled" in fig.axes[0].get_title()
+
+
+def test_marks_a_few_ticks_apart_share_one_label_and_a_long_label_stays_inside_the_axes():
+    """A served tele-cooperation slave for 300 s: the master's four streams of writes begin a tick
+    apart, each labelled ``write remote.… ×60000 to t = 299.860 s``. Drawn one by one, the labels
+    covered each other, ran out under the axes and broke the figure's layout (a warning, the axes
+    squeezed)."""
+    time = np.linspace(0.0, 300.0, 3001)
+    errors = {"taskRH": np.full((3001, 3), 0.1)}
+    signals = ("right_hand_force", "left_hand_force", "head", "gripper")
+    streams = [
+        (0.005 * (k + 1), f"write remote.{name} ×60000 to t = 299.860 s") for k, name in enumerate(signals)
+    ]
+    fig = plot_task_errors(time, errors, [*streams, (150.0, "rm taskRH")])
+    texts = sorted(t.get_text().strip() for t in fig.axes[0].texts)
+    assert texts == ["rm taskRH", "; ".join(label for _, label in streams)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # matplotlib warns when the layout cannot hold the labels
+        fig.savefig(io.BytesIO(), format="png")
+    position = fig.axes[0].get_position()
+    assert position.height > 0.6 and position.y0 > 0.05, position
 
 
 @pytest.fixture(scope="module")
