@@ -4,8 +4,14 @@ in-process (a local cluster of threads) with fake measuring functions."""
 from __future__ import annotations
 
 import csv
+import json
 import math
+import os
+import signal
+import subprocess
+import sys
 import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,6 +36,7 @@ TELECOOPERATION_STANDING = (
     Parameter("loss", "float", 0.0, "loss", minimum=0.0, maximum=1.0, maximum_excluded=True),
     Parameter("admittance", "choice", "plain", "admittance", choices=("plain", "weighted")),
 )
+REPO = Path(__file__).resolve().parents[1]
 THRESHOLD = 137.3  # [N] the fake robot survives a push below it, with the stabilizer
 
 
@@ -248,3 +255,66 @@ def test_the_delay_sweep_runs_each_delay_per_jitter_and_loss_and_stays_within_th
     assert {"tracking_error_rms", "tracking_error_max", "force_error_rms", "force_ratio", "survived"} <= set(
         DELAY_SWEEP.metrics
     )
+
+
+#: A study on worker processes whose runs each keep 40 MB (as Drake keeps each diagram), with a
+#: memory limit the workers reach after a few runs; run as a script, so that its measure is
+#: pickled by value for the workers, and with a timeout, since a paused worker hangs the study.
+LEAKY_STUDY = """
+import csv, json, sys, time
+import distributed
+from drake_sot.parameters import Parameter
+from drake_sot.studies import Grid, Study
+from drake_sot.studies.runner import run_study
+
+def leaky_measure(scenario, parameters, duration, seed):
+    # resident, never freed: kept by a module of the worker (this function is sent by value)
+    sys.__dict__.setdefault("kept_by_the_test", []).append(b"x" * (40 << 20))
+    time.sleep(0.3)  # a run's time: the nanny checks the memory every 0.1 s
+    return {"survived": True}
+
+_LocalCluster = distributed.LocalCluster
+
+def limited(*args, **kwargs):
+    return _LocalCluster(*args, memory_limit=sys.argv[2], **kwargs)
+
+if __name__ == "__main__":
+    distributed.LocalCluster = limited
+    study = Study(name="leaky", description="", scenario="fake", runs=Grid({"force": tuple(range(40))}),
+                  duration=0.01, metrics=("survived",))
+    declared = (Parameter("force", "float", 0.0, "", minimum=0.0, maximum=100.0),)
+    outcome = run_study(study, sys.argv[1], declared=declared, measure=leaky_measure, workers=2,
+                        say=lambda line: None)
+    with open(outcome.table, newline="") as file:
+        rows = list(csv.DictReader(file))
+    statuses, workers = sorted({row["status"] for row in rows}), len({row["worker"] for row in rows})
+    print(json.dumps({"runs": len(rows), "statuses": statuses, "workers": workers}))
+"""
+
+
+@pytest.mark.slow  # worker processes started, and restarted
+def test_a_study_whose_workers_keep_memory_restarts_them_at_their_limit_instead_of_hanging(tmp_path):
+    """Drake keeps every diagram with Python systems alive, so a worker's memory grows with each
+    run. Dask pauses a worker at 80 % of its memory limit until its memory goes down: here it never
+    does, and the study hung for good (a real study of ``reach`` after ~1,200 runs a worker on this
+    24 GB machine). The workers are restarted at the limit instead, and every run is done."""
+    script = tmp_path / "leaky_study.py"
+    script.write_text(LEAKY_STUDY)
+    study = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path / "out"), "600MB"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        start_new_session=True,  # its workers too are stopped on a timeout
+    )
+    try:
+        stdout, stderr = study.communicate(timeout=120)  # ~10 s; paused workers never end
+    except subprocess.TimeoutExpired:
+        os.killpg(study.pid, signal.SIGKILL)
+        study.communicate()
+        pytest.fail("the study did not end in 120 s: its workers paused at their memory limit")
+    assert study.returncode == 0, stderr[-3000:]
+    table = json.loads(stdout.strip().splitlines()[-1])
+    assert table["runs"] == 40 and table["statuses"] == ["ok"], table
+    assert table["workers"] > 2, "no worker reached the limit: the test does not test the restart"

@@ -148,6 +148,11 @@ def read_table(
     return rows
 
 
+#: Times a run is submitted again when its result was lost with its worker (a worker restarted at
+#: its memory limit after the run ended, before its result was fetched), before it counts as failed.
+MAX_LOST = 2
+
+
 def worker_count(requested: int | None, runs: int, cores: int | None = None) -> tuple[int, str | None]:
     """The worker processes of a local cluster: ``requested`` (None: one per core) capped at
     the cores and at the number of runs (at least 1); and the line saying so when it was capped
@@ -320,6 +325,7 @@ def run_study(
     total = study.total()
     per_plan = total // len(study_plans)
     submitted: dict[Any, tuple[int, Run]] = {}  # future -> (plan index, run)
+    lost: dict[str, int] = {}  # run id -> times its result was lost with its worker
     pending: list[tuple[int, Run]] = []
     probes = [0] * len(study_plans)
 
@@ -379,15 +385,19 @@ def run_study(
         pending.clear()
         for future in futures:
             index, run = submitted.pop(future)
+            if future.status == "lost" and lost.get(run.run_id, 0) < MAX_LOST:
+                # done, but its worker was restarted (at its memory limit) before the result came
+                lost[run.run_id] = lost.get(run.run_id, 0) + 1
+                futures.add(submit(index, run))
+                continue
             result, error = None, None
             if future.status == "finished":
                 result = future.result()
             elif future.status == "error":  # raised twice, or its worker died (KilledWorker)
                 error = future.exception()
-            else:  # cancelled: the scheduler, or the connection to it, was lost
-                error = RuntimeError(
-                    f"the task ended {future.status} (the scheduler or its connection was lost)"
-                )
+            else:  # cancelled or lost: the scheduler, the connection to it, or its worker again and again
+                why = "the scheduler, the connection to it or the run's worker was lost"
+                error = RuntimeError(f"the task ended {future.status} ({why})")
             row = _row(run, study, result, error)
             table.append(row)
             outcome.ran += 1
@@ -440,6 +450,7 @@ def _connect(
 ) -> tuple[Any, Any]:
     """A Dask client of the scheduler at ``scheduler``, or of a new local cluster (returned too,
     to be closed), the count of workers capped (:func:`worker_count`)."""
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -448,14 +459,21 @@ def _connect(
     count, capped = worker_count(workers, runs)
     if capped is not None:
         say(capped)
-    cluster = LocalCluster(
-        n_workers=count,
-        threads_per_worker=1,
-        processes=processes,
-        dashboard_address=":0",  # any free port (8787 may be taken), a dashboard when bokeh is installed
-        silence_logs=40,  # logging.ERROR: the workers' chatter stays off the terminal
-        **({"preload": ["drake_sot.studies.worker"]} if processes else {}),  # Ctrl-C: this process decides
-    )
+    # A worker's memory grows with every run: Drake keeps every diagram with Python systems alive
+    # (the pydrake of drake 1.51-1.58: ~7 MB a run of reach). Dask pauses a worker at 80 % of its
+    # memory limit until its memory goes down, which it never does here: the study stalled for good
+    # after ~1,200 runs a worker on 24 GB. Without the pause, the nanny restarts the worker at 95 %,
+    # and the run it was on is run again on the fresh one.
+    with dask.config.set({"distributed.worker.memory.pause": False}):
+        cluster = LocalCluster(
+            n_workers=count,
+            threads_per_worker=1,
+            processes=processes,
+            dashboard_address=":0",  # any free port (8787 may be taken), a dashboard when bokeh is installed
+            silence_logs=40,  # logging.ERROR: the workers' chatter stays off the terminal
+            # Ctrl-C: this process decides
+            **({"preload": ["drake_sot.studies.worker"]} if processes else {}),
+        )
     try:
         return Client(cluster), cluster
     except BaseException:
