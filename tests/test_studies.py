@@ -3,6 +3,7 @@ in-process (a local cluster of threads) with fake measuring functions."""
 
 from __future__ import annotations
 
+import collections
 import csv
 import json
 import math
@@ -18,7 +19,7 @@ import pytest
 
 from drake_sot.channel import MAX_DELAY
 from drake_sot.parameters import Parameter
-from drake_sot.studies import Bisection, Grid, RandomSample, Study, make_run, plans, run_id
+from drake_sot.studies import Bisection, Grid, RandomSample, Study, make_run, plans, run_id, runner
 from drake_sot.studies.catalog import DELAY_SWEEP
 from drake_sot.studies.runner import read_table, run_study, table_columns, worker_count
 
@@ -318,3 +319,75 @@ def test_a_study_whose_workers_keep_memory_restarts_them_at_their_limit_instead_
     table = json.loads(stdout.strip().splitlines()[-1])
     assert table["runs"] == 40 and table["statuses"] == ["ok"], table
     assert table["workers"] > 2, "no worker reached the limit: the test does not test the restart"
+
+
+class _Future:
+    """A finished Dask future, or one whose result was lost with its worker."""
+
+    def __init__(self, status: str, result: dict | None = None) -> None:
+        self.status, self._result = status, result
+
+    def result(self) -> dict | None:
+        return self._result
+
+    def cancel(self) -> None:
+        pass
+
+
+class _AsCompleted:
+    """``distributed.as_completed`` over futures that are already done: in order, new ones last."""
+
+    def __init__(self, futures) -> None:
+        self._queue = collections.deque(futures)
+
+    def add(self, future: _Future) -> None:
+        self._queue.append(future)
+
+    def __iter__(self):
+        while self._queue:
+            yield self._queue.popleft()
+
+
+class _LosingClient:
+    """A Dask client whose futures of a run end "lost" (its worker restarted before the result was
+    fetched) the first ``times`` times the run is submitted, then finish with the run's metrics."""
+
+    def __init__(self, times: int) -> None:
+        self.times = times
+        self.submitted: collections.Counter = collections.Counter()
+
+    def submit(self, task, measure, scenario, parameters, duration, seed, **options) -> _Future:
+        run = tuple(sorted(parameters.items()))
+        self.submitted[run] += 1
+        if self.submitted[run] <= self.times:
+            return _Future("lost")
+        metrics = measure(scenario, parameters, duration, seed)
+        versions = {"drake_sot_version": "0", "drake_version": "0"}
+        return _Future("finished", {"metrics": metrics, "worker": "fake", "wall_time": 0.0, **versions})
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("losses", [1, runner.MAX_LOST, runner.MAX_LOST + 1])
+def test_a_run_whose_result_is_lost_with_its_worker_is_run_again_a_few_times(tmp_path, monkeypatch, losses):
+    """A worker restarted at its memory limit after a run ended, before the result was fetched,
+    loses the result (Dask's "lost"): the run is submitted again, at most MAX_LOST times, and only
+    then recorded as failed."""
+    import distributed
+
+    client = _LosingClient(losses)
+    monkeypatch.setattr(runner, "_connect", lambda *args: (client, None))
+    monkeypatch.setattr(distributed, "as_completed", _AsCompleted)
+    outcome = run_study(
+        grid_study(), tmp_path, declared=DECLARED, measure=fake_measure, say=lambda line: None
+    )
+    statuses = {row["status"] for row in outcome.rows.values()}
+    assert len(outcome.rows) == 6 and outcome.ran == 6
+    if losses <= runner.MAX_LOST:
+        assert statuses == {"ok"} and outcome.failed == 0
+        assert set(client.submitted.values()) == {losses + 1}
+    else:
+        assert statuses == {"failed"} and outcome.failed == 6
+        assert set(client.submitted.values()) == {runner.MAX_LOST + 1}
+        assert all("ended lost" in row["error"] for row in outcome.rows.values())
