@@ -391,3 +391,35 @@ def test_a_run_whose_result_is_lost_with_its_worker_is_run_again_a_few_times(tmp
         assert statuses == {"failed"} and outcome.failed == 6
         assert set(client.submitted.values()) == {runner.MAX_LOST + 1}
         assert all("ended lost" in row["error"] for row in outcome.rows.values())
+
+
+@pytest.mark.parametrize("pause", [0.8, False])
+def test_a_scheduler_whose_workers_pause_at_their_memory_limit_is_named_before_the_study(tmp_path, pause):
+    """Workers that pause at a share of their memory limit hang a long study (its memory never goes
+    down): the workers of a scheduler given with ``scheduler`` are not the study's to configure,
+    so it says which ones pause and how to start them; workers started without the pause: nothing."""
+    import dask
+    from distributed import LocalCluster
+
+    with dask.config.set({"distributed.worker.memory.pause": pause}):
+        cluster = LocalCluster(n_workers=2, processes=False, memory_limit="4GB", dashboard_address=None)
+    said = []
+    try:
+        addresses = sorted(cluster.scheduler_info["workers"])
+        study = grid_study(runs=Grid({"force": (0.0,)}))
+        run_study(
+            study,
+            tmp_path,
+            declared=DECLARED,
+            measure=fake_measure,
+            scheduler=cluster.scheduler_address,
+            say=said.append,
+        )
+    finally:
+        cluster.close()
+    warned = [line for line in said if "DASK_DISTRIBUTED__WORKER__MEMORY__PAUSE=False" in line]
+    if pause:
+        assert len(warned) == 1 and warned[0].startswith("2 of the scheduler's workers"), said
+        assert all(address in warned[0] for address in addresses), (addresses, warned)
+    else:
+        assert warned == [], said

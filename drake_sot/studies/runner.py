@@ -445,6 +445,12 @@ def _remove_empty(directories: Sequence[Path]) -> None:
             return
 
 
+def _pauses(dask_worker: Any) -> bool:
+    """Whether a Dask worker pauses at a share of its memory limit (run on it by :func:`_connect`)."""
+    manager = dask_worker.memory_manager
+    return bool(manager.memory_limit and manager.memory_pause_fraction)
+
+
 def _connect(
     scheduler: str | None, workers: int | None, runs: int, processes: bool, say: Callable[[str], None]
 ) -> tuple[Any, Any]:
@@ -455,7 +461,15 @@ def _connect(
 
     if scheduler is not None:
         say(f"connecting to the Dask scheduler at {scheduler}")
-        return Client(scheduler, timeout="10s"), None
+        client = Client(scheduler, timeout="10s")
+        pausing = sorted(address for address, pauses in client.run(_pauses).items() if pauses)
+        if pausing:  # theirs to change: say so before the study hangs
+            say(
+                f"{len(pausing)} of the scheduler's workers ({', '.join(pausing)}) pause at a share of their "
+                "memory limit, and a study's memory never goes down (Drake keeps every run's diagrams): "
+                "start them with DASK_DISTRIBUTED__WORKER__MEMORY__PAUSE=False, or the study may hang"
+            )
+        return client, None
     count, capped = worker_count(workers, runs)
     if capped is not None:
         say(capped)
