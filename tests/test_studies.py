@@ -423,3 +423,28 @@ def test_a_scheduler_whose_workers_pause_at_their_memory_limit_is_named_before_t
         assert all(address in warned[0] for address in addresses), (addresses, warned)
     else:
         assert warned == [], said
+
+
+def test_a_scheduler_whose_workers_cannot_be_asked_is_not_left_connected(tmp_path, monkeypatch):
+    import distributed
+    from distributed import LocalCluster
+
+    def unanswerable(dask_worker):
+        raise RuntimeError("this worker cannot tell its memory settings")
+
+    monkeypatch.setattr(runner, "_pauses", unanswerable)
+    cluster = LocalCluster(n_workers=1, processes=False, dashboard_address=None)
+    try:
+        with pytest.raises(RuntimeError, match="cannot tell its memory settings"):
+            run_study(
+                grid_study(),
+                tmp_path,
+                declared=DECLARED,
+                measure=fake_measure,
+                scheduler=cluster.scheduler_address,
+                say=lambda line: None,
+            )
+        with pytest.raises(ValueError, match="No clients found"):
+            distributed.default_client()
+    finally:
+        cluster.close()

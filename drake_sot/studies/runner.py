@@ -462,7 +462,11 @@ def _connect(
     if scheduler is not None:
         say(f"connecting to the Dask scheduler at {scheduler}")
         client = Client(scheduler, timeout="10s")
-        pausing = sorted(address for address, pauses in client.run(_pauses).items() if pauses)
+        try:
+            pausing = sorted(address for address, pauses in client.run(_pauses).items() if pauses)
+        except BaseException:  # a worker that cannot answer (another distributed?): not left connected
+            client.close()
+            raise
         if pausing:  # theirs to change: say so before the study hangs
             say(
                 f"{len(pausing)} of the scheduler's workers ({', '.join(pausing)}) pause at a share of their "
