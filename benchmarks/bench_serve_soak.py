@@ -1,4 +1,4 @@
-"""Soak of the command server: ``drake-sot serve`` driven by four clients for minutes.
+"""Soak of the command server: ``drake-sot serve`` driven by its clients for minutes.
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_serve_soak.py [--scenario walk_random]
         [--minutes 10] [--realtime 1] [--restack SECONDS] [--baseline COMMIT]
