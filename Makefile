@@ -31,13 +31,21 @@ COMPAT_TESTS ?= compat or not (slow or scenario)
 
 .PHONY: demo test test-compat venv bench bench-peers clean
 
-# Create the virtual environment $(1) with an upgraded pip.
-# Debian's python3 lacks ensurepip until python3-venv is installed.
+# The interpreter PYTHON names: itself when it runs, else pyenv's of that name (PYTHON=python3.12 on a
+# machine whose pyenv has 3.12 but does not put it on PATH), else PYTHON as given.
+PYTHON_EXE := $(shell $(PYTHON) -c 'import sys' >/dev/null 2>&1 && { echo '$(PYTHON)'; exit 0; }; \
+  for c in $$(pyenv root 2>/dev/null)/versions/$(patsubst python%,%,$(notdir $(PYTHON)))*/bin/$(notdir $(PYTHON)); do \
+    "$$c" -c 'import sys' >/dev/null 2>&1 && { echo "$$c"; exit 0; }; done; echo '$(PYTHON)')
+
+# Create the virtual environment $(1) with an upgraded pip. An interpreter that does not run is named
+# (no apt-get for it); Debian's python3 lacks ensurepip until python3-venv is installed.
 define make_venv
-	$(PYTHON) -m venv $(1) || { \
+	@$(PYTHON_EXE) -c 'import sys' >/dev/null 2>&1 || { \
+	  echo "PYTHON=$(PYTHON) does not run (not on PATH, nor a version of pyenv's): name an interpreter, e.g. PYTHON=python3.12 or PYTHON=/usr/bin/python3.12" >&2; exit 1; }
+	$(PYTHON_EXE) -m venv $(1) || { \
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq python3-venv && \
-	  rm -rf $(1) && $(PYTHON) -m venv $(1); }
+	  rm -rf $(1) && $(PYTHON_EXE) -m venv $(1); }
 	$(1)/bin/python -m pip install --quiet --upgrade pip
 endef
 
@@ -70,7 +78,7 @@ test: $(VENV)/.installed-test
 # pythonX.Y on PATH, else pyenv's X.Y; the one python3 already is, skipped. Not found: an error under
 # CI (it must test what the README claims), else a printed skip.
 test-compat:
-	@main=$$($(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
+	@main=$$($(PYTHON_EXE) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
 	for v in $(COMPAT_PYTHONS); do \
 	  [ "$$v" = "$$main" ] && continue; \
 	  py=""; for c in python$$v $$(pyenv root 2>/dev/null)/versions/$$v*/bin/python$$v; do \
