@@ -199,6 +199,17 @@ def test_a_non_loopback_address_needs_a_token():
         NetworkThread("127.0.0.1", 0, token="")
 
 
+def test_a_token_of_bytes_that_are_not_utf8_is_refused_by_name():
+    """``DRAKE_SOT_TOKEN`` or ``--token`` holding a byte that is not UTF-8 (Python gives it as a lone
+    surrogate): the refusal names the token and where it came from, not the codec."""
+    with pytest.raises(ValueError, match="token: not Unicode text"):
+        NetworkThread("127.0.0.1", 0, token="secret\udcff")
+    env = {**os.environ, "DRAKE_SOT_TOKEN": "secret\udcff"}
+    proc = _serve_to_the_end("reach", "--port", "0", env=env)
+    assert proc.returncode == 2 and "serving on" not in proc.stdout
+    assert "token: not Unicode text" in proc.stderr and "DRAKE_SOT_TOKEN" in proc.stderr
+
+
 # --- a served scenario, from another process ----------------------------------------------
 
 

@@ -82,7 +82,8 @@ class NetworkThread:
         burst: requests accepted at once from a connection, >= 1.
 
     Raises:
-        ValueError: a non-loopback ``host`` without a token, or an empty token.
+        ValueError: a non-loopback ``host`` without a token, or an empty token or one that is not
+            Unicode text (a lone surrogate: bytes of argv or the environment that are not UTF-8).
         OSError: the address cannot be bound.
     """
 
@@ -95,7 +96,12 @@ class NetworkThread:
             raise ValueError(
                 f"host = {host!r}: not loopback, so a token is required (--token or DRAKE_SOT_TOKEN)"
             )
-        self._token = token.encode() if token is not None else None
+        try:
+            self._token = token.encode() if token is not None else None
+        except UnicodeEncodeError:  # a byte of argv or the environment that is not UTF-8
+            raise ValueError(
+                "token: not Unicode text (a byte that is not UTF-8 in --token or DRAKE_SOT_TOKEN)"
+            ) from None
         self._rate, self._burst = float(rate), float(burst)
         self._listener = socket.create_server((host, port), family=_family(host))
         self._listener.setblocking(False)
