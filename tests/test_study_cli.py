@@ -164,6 +164,46 @@ def test_a_signal_stops_a_study_within_10_s_keeping_its_finished_runs_and_no_pro
     assert _gone(children) == set()
 
 
+_WORKER_LOG = """
+import logging, sys
+from drake_sot.studies.worker import dask_setup
+if sys.argv[1] == "preloaded":
+    dask_setup(None)
+    dask_setup(None)  # a second preload installs no second filter
+logging.basicConfig(stream=sys.stderr, format="%(levelname)s %(message)s")
+log = logging.getLogger("distributed.worker")
+print(len(log.filters), flush=True)
+try:
+    raise OSError("Stream is closed")
+except OSError:
+    log.exception("Failed to communicate with scheduler during heartbeat.")  # as distributed logs it
+log.error("Unexpected exception during heartbeat. Closing worker.")
+logging.getLogger("distributed.nanny").error("Failed to communicate with scheduler during heartbeat.")
+"""
+
+
+@pytest.mark.parametrize("preloaded", [True, False])
+def test_a_local_worker_says_nothing_of_a_heartbeat_the_closing_scheduler_cut(preloaded):
+    """A local cluster's scheduler is in the study's process: a worker's heartbeat fails only as the
+    study closes it, and its traceback came after the study's last line (a worker busy with a run
+    is slow to stop). The worker's preload drops that record and that one alone."""
+    proc = subprocess.run(
+        [sys.executable, "-c", _WORKER_LOG, "preloaded" if preloaded else "bare"],
+        capture_output=True,
+        text=True,
+        env=ENV,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert proc.stdout.split() == (["1"] if preloaded else ["0"])
+    heartbeat = "ERROR Failed to communicate with scheduler during heartbeat."
+    # the worker's own record is dropped with its traceback; another logger's, and other errors, stay
+    assert lines.count(heartbeat) == (1 if preloaded else 2), lines
+    assert ("Traceback (most recent call last):" in lines) is not preloaded
+    assert "ERROR Unexpected exception during heartbeat. Closing worker." in lines
+
+
 def test_workers_above_the_cores_are_capped_with_one_line(tmp_path):
     most = 4 * (os.cpu_count() or 1)  # the most --workers accepts: four per core
     proc = _start(tmp_path, 1, 0.1, "--workers", str(most), "--out", str(tmp_path))
