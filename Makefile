@@ -31,11 +31,14 @@ COMPAT_TESTS ?= compat or not (slow or scenario)
 
 .PHONY: demo test test-compat venv bench bench-peers clean
 
-# The interpreter PYTHON names: itself when it runs, else pyenv's of that name (PYTHON=python3.12 on a
-# machine whose pyenv has 3.12 but does not put it on PATH), else PYTHON as given.
-PYTHON_EXE := $(shell $(PYTHON) -c 'import sys' >/dev/null 2>&1 && { echo '$(PYTHON)'; exit 0; }; \
-  for c in $$(pyenv root 2>/dev/null)/versions/$(patsubst python%,%,$(notdir $(PYTHON)))*/bin/$(notdir $(PYTHON)); do \
-    "$$c" -c 'import sys' >/dev/null 2>&1 && { echo "$$c"; exit 0; }; done; echo '$(PYTHON)')
+# Shell that prints the first interpreter that runs of $(1) (pythonX.Y, or a path) and pyenv's X.Y
+# (which pyenv may not put on PATH), or nothing; the same text works in $(shell) and in a recipe.
+find_python = for c in $(1) $$(pyenv root 2>/dev/null)/versions/$(patsubst python%,%,$(notdir $(1)))*/bin/$(notdir $(1)); do \
+  "$$c" -c 'import sys' >/dev/null 2>&1 && { echo "$$c"; break; }; done
+
+# The interpreter PYTHON names: itself when it runs (arguments and all), else pyenv's of that
+# version, else PYTHON as given (make_venv then says it does not run).
+PYTHON_EXE := $(or $(shell $(PYTHON) -c 'import sys' >/dev/null 2>&1 && echo '$(PYTHON)' || { $(call find_python,$(PYTHON)); }),$(PYTHON))
 
 # Create the virtual environment $(1) with an upgraded pip. An interpreter that does not run is named
 # (no apt-get for it); Debian's python3 lacks ensurepip until python3-venv is installed.
@@ -81,8 +84,7 @@ test-compat:
 	@main=$$($(PYTHON_EXE) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
 	for v in $(COMPAT_PYTHONS); do \
 	  [ "$$v" = "$$main" ] && continue; \
-	  py=""; for c in python$$v $$(pyenv root 2>/dev/null)/versions/$$v*/bin/python$$v; do \
-	    "$$c" -c 'import sys' >/dev/null 2>&1 && { py=$$c; break; }; done; \
+	  py=$$($(call find_python,python$$v)); \
 	  if [ -z "$$py" ]; then \
 	    echo "Python $$v not found (python$$v on PATH, or pyenv): its run is skipped"; \
 	    [ -z "$$CI" ] || { echo "CI tests every Python the README claims: install Python $$v"; exit 1; }; \
