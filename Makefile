@@ -55,8 +55,10 @@ endef
 $(BIN)/python:
 	$(call make_venv,$(VENV))
 
-# Editable install; re-run when pyproject.toml changes.
-$(VENV)/.installed: pyproject.toml | $(BIN)/python
+# Editable install, which builds the compiled core in place (setup.py); re-run when pyproject.toml,
+# setup.py or the core's C++ changes.
+KERNEL_SOURCES := setup.py $(wildcard drake_sot/kernels/*.cpp drake_sot/kernels/*.h)
+$(VENV)/.installed: pyproject.toml $(KERNEL_SOURCES) | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e .
 	touch $@
 

@@ -19,6 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "drake_sot"
 #: Each package's layer, bottom first; ``drake_sot`` stands for the top-level (pure) modules.
 LAYERS = {
     "drake_sot": 0,
+    "drake_sot.kernels": 0,
     "drake_sot.remote": 0,
     "drake_sot.studies": 0,
     "drake_sot.models": 1,
