@@ -27,6 +27,12 @@ walking scenario costs more than standing, too). Each round's floor ratio is the
 pairs (the plant alone, then with the empty systems, 3 s each) timed one after the other in one
 interpreter: steadier than ratios between interpreters on a shared machine.
 
+Each scenario row also gives its ticks' wall times (p50, p99, max, in ms; a tick is one control
+period: the controllers' update and the physics steps to the next one, what a robot at 200 Hz
+feels as jitter), and the **numerics free** row runs this tree's scenario with the pure modules'
+results replayed from a recorded run (``numerics_free.py``): the same systems, ports and plant,
+with the kernels free, so that each ratio can be read against the shape's ceiling.
+
 ``--per-step`` times what a Python system costs per physics step while doing nothing: after
 every unrestricted update (the plant's step, with sampled output ports) Drake's simulator asks
 every system for its witness functions again, a Python lookup for a system on pydrake's
@@ -87,16 +93,64 @@ def _measure(kind: str, scenario: str, duration: float) -> dict[str, float]:
         }
     from drake_sot.diagrams.run import simulate
 
-    setup = importlib.import_module(f"drake_sot.diagrams.{scenario}").build(None)
+    def build():
+        return importlib.import_module(f"drake_sot.diagrams.{scenario}").build(None)
+
     if kind == "count":
-        return _count_callbacks(setup, duration)
+        return _count_callbacks(build(), duration)
+    replay = None
+    if kind == "free":  # record the pure functions' results in a first run, replay them in the timed one
+        from numerics_free import Recording
+
+        replay = Recording()
+        with replay.recording():
+            recorded = _run_ticks(build(), duration, simulate, clocks)
+    if replay is None:
+        timed = _run_ticks(build(), duration, simulate, clocks)
+        del timed["q"]
+        return timed
+    with replay.replaying():  # built inside too: the calls of the build are replayed in order
+        timed = _run_ticks(build(), duration, simulate, clocks)
+    timed["replayed_calls"] = replay.replayed
+    timed["drift"] = float(np.abs(np.asarray(timed.pop("q")) - np.asarray(recorded["q"])).max())
+    return timed
+
+
+def _run_ticks(setup, duration: float, simulate, clocks) -> dict:
+    """Simulate ``setup`` for ``duration`` [s] one control period at a time: the real-time factors
+    (wall, CPU), each tick's wall time [s] as p50, p99 and max (a tick is one control period: the
+    controllers' update and the physics steps until the next), and the final positions ``q``."""
+    import numpy as np
+
     simulator = setup.built.create_simulator()
+    period = min(
+        a.period_sec()
+        for a in (
+            s.GetUniquePeriodicDiscreteUpdateAttribute() for s in _python_leaves(simulator.get_system())
+        )
+        if a is not None
+    )
+    stamps = [time.perf_counter()]
+
+    def tick(*_):
+        stamps.append(time.perf_counter())
+
     t0 = clocks()
-    result = simulate(simulator, duration, setup.commands)
+    result = simulate(simulator, duration, setup.commands, chunk=period, progress=tick)
     if not result.completed:
-        raise SystemExit(f"{scenario} failed: {result.failure}")
+        raise SystemExit(f"the scenario failed: {result.failure}")
     wall, cpu = clocks() - t0
-    return {"wall": duration / wall, "cpu": duration / cpu}
+    ticks = np.diff(stamps)
+    plant = setup.built.plant
+    q = plant.GetPositions(plant.GetMyContextFromRoot(simulator.get_context()))
+    return {
+        "wall": duration / wall,
+        "cpu": duration / cpu,
+        "p50": float(np.percentile(ticks, 50)),
+        "p99": float(np.percentile(ticks, 99)),
+        "max": float(ticks.max()),
+        "q": q.tolist(),
+    }
 
 
 def _python_leaves(diagram) -> list:
@@ -246,6 +300,16 @@ FLOOR_PAIRS = 5  # plant alone / floor pairs timed alternately in one interprete
 FLOOR_SECONDS = 3.0  # [s] simulated by each: the plant stands still, its cost per second is steady
 
 
+#: The row of the scenario with its pure numerics replayed from a recorded run (numerics_free.py).
+FREE = "this tree, numerics free (the kernels' results replayed)"
+#: Each tick's wall time: its median, 99th percentile and largest, per round (medians over rounds).
+TICK_CELLS = ("p50", "p99", "max")
+
+
+def _cells() -> dict[str, list[float]]:
+    return {"wall": [], "cpu": [], "rtf": [], **{cell: [] for cell in TICK_CELLS}}
+
+
 def _spread(values: list[float]) -> str:
     return f"{statistics.median(values):.3f} ({min(values):.3f}-{max(values):.3f})"
 
@@ -291,18 +355,21 @@ def main() -> None:
         if args.baseline:
             trees[args.baseline] = extract(args.baseline, pathlib.Path(tmp))
         print(f"load average at start: {os.getloadavg()[0]:.1f}")
-        print("| scenario | tree | RTF wall (median) | ÷ plant alone, wall | ÷ plant alone, CPU |")
-        print("|---|---|---|---|---|")
+        print(
+            "| scenario | tree | RTF wall (median) | ÷ plant alone, wall | ÷ plant alone, CPU "
+            "| tick p50 [ms] | tick p99 [ms] | tick max [ms] |"
+        )
+        print("|---|---|---|---|---|---|---|---|")
         for item in args.scenarios:
             scenario, _, seconds = item.partition(":")
             duration = float(seconds or 4.0)
-            ratios: dict[str, dict[str, list[float]]] = {
-                name: {"wall": [], "cpu": [], "rtf": []} for name in trees
-            }
+            rows = [*trees, FREE]
+            ratios: dict[str, dict[str, list[float]]] = {name: _cells() for name in rows}
             plant_rtf = []
+            drift, replayed = 0.0, 0
             try:
                 count = _child(ROOT, "count", scenario, min(duration, 2.0))
-                ratios[FLOOR] = {"wall": [], "cpu": [], "rtf": []}
+                ratios[FLOOR] = _cells()
             except subprocess.CalledProcessError as failed:  # uncountable here: no floor row
                 count = None
                 print(failed.stderr.strip().splitlines()[-1])
@@ -314,24 +381,38 @@ def main() -> None:
                     ratios[FLOOR]["rtf"].append(floor["wall"])
                     for clock in ("wall", "cpu"):
                         ratios[FLOOR][clock].append(floor[f"ratio_{clock}"])
-                for name, tree in trees.items():
-                    run = _child(tree, "scenario", scenario, duration)
+                for name in rows:
+                    kind, tree = ("free", ROOT) if name == FREE else ("scenario", trees[name])
+                    run = _child(tree, kind, scenario, duration)
                     ratios[name]["rtf"].append(run["wall"])
                     for clock in ("wall", "cpu"):
                         ratios[name][clock].append(run[clock] / plant[clock])
+                    for cell in TICK_CELLS:
+                        ratios[name][cell].append(1e3 * run[cell])
+                    if name == FREE:
+                        drift = max(drift, run["drift"])
+                        replayed = run["replayed_calls"]
             print(
-                f"| {scenario} ({duration:g} s) | plant alone | {statistics.median(plant_rtf):.2f} | 1 | 1 |"
+                f"| {scenario} ({duration:g} s) | plant alone | {statistics.median(plant_rtf):.2f} | 1 | 1 "
+                "| | | |"
             )
             if count is not None:
                 print(
                     f"| {scenario} | (its {count['systems']} Python systems, {count['callbacks']} callbacks "
-                    f"a tick of {1e3 * count['period']:g} ms) | | | |"
+                    f"a tick of {1e3 * count['period']:g} ms) | | | | | | |"
                 )
             for name, r in ratios.items():
+                ticks = " | ".join(
+                    f"{statistics.median(r[cell]):.2f}" if r[cell] else "" for cell in TICK_CELLS
+                )
                 print(
                     f"| {scenario} ({duration:g} s) | {name} | {statistics.median(r['rtf']):.2f} "
-                    f"| {_spread(r['wall'])} | {_spread(r['cpu'])} |"
+                    f"| {_spread(r['wall'])} | {_spread(r['cpu'])} | {ticks} |"
                 )
+            print(
+                f"| {scenario} | ({FREE}: {replayed} calls replayed a run; final positions within "
+                f"{drift:.1e} of the recorded run's) | | | | | | |"
+            )
         print(f"load average at end: {os.getloadavg()[0]:.1f}")
 
 
