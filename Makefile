@@ -1,6 +1,7 @@
 # The README's two commands. Both create .venv (python3 -m venv) when it is missing.
 #   make demo   install the package, run the main scenario, write out/
-#   make test   install the test extras and the Debian packages the tests need, run ruff, then pytest;
+#   make test   install the test extras and the Debian packages the tests need, run ruff, then pytest
+#               (on the compiled kernels, then the kernels' tests again on their numpy versions);
 #               then the compat part of the suite on each of COMPAT_PYTHONS, each in its own .venv-X.Y
 # and the benchmarks: make bench (in .venv), make bench-peers (PlaCo, in its own .venv-peers).
 PYTHON ?= python3
@@ -78,6 +79,7 @@ test: $(VENV)/.installed-test
 	$(BIN)/ruff format --check .
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder
+	DRAKE_SOT_KERNELS=numpy $(BIN)/python -m pytest -n 2 --dist loadfile -p no:cacheprovider -m kernels
 	$(MAKE) --no-print-directory test-compat
 
 # pythonX.Y on PATH, else pyenv's X.Y; the one python3 already is, skipped. Not found: an error under

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drake_sot import so3
+from drake_sot import kernels, so3
 
 SelectionLike = str | Sequence[bool] | Sequence[int] | None
 
@@ -66,7 +66,24 @@ def point6d(
             [m/s, rad/s], world frame; None for a still reference.
     Returns:
         ``(e (6,), J_e (6, nv), feedforward (6,))`` where ``feedforward = -∂e/∂t``.
+
+    The compiled kernel computes it where built (:mod:`drake_sot.kernels`); :func:`point6d_numpy` is
+    its oracle and fallback.
     """
+    if kernels.compiled is not None:
+        return kernels.compiled.point6d(R, p, J, R_des, p_des, velocity_des)
+    return point6d_numpy(R, p, J, R_des, p_des, velocity_des)
+
+
+def point6d_numpy(
+    R: np.ndarray,
+    p: np.ndarray,
+    J: np.ndarray,
+    R_des: np.ndarray,
+    p_des: np.ndarray,
+    velocity_des: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`point6d` in numpy: the compiled kernel's oracle and fallback."""
     # ndarray.dot rather than @ on these small arrays: ~1 µs less a product (numpy 2's matmul dispatch).
     e_o = so3.log(R.dot(R_des.T))
     e = np.concatenate((p - p_des, e_o))
@@ -101,7 +118,25 @@ def point6d_relative(
         R_des, p_des: desired pose of a in b.
     Returns:
         ``(e (6,), J_e (6, nv))``.
+
+    The compiled kernel computes it where built; :func:`point6d_relative_numpy` is its oracle.
     """
+    if kernels.compiled is not None:
+        return kernels.compiled.point6d_relative(R_a, p_a, J_a, R_b, p_b, J_b, R_des, p_des)
+    return point6d_relative_numpy(R_a, p_a, J_a, R_b, p_b, J_b, R_des, p_des)
+
+
+def point6d_relative_numpy(
+    R_a: np.ndarray,
+    p_a: np.ndarray,
+    J_a: np.ndarray,
+    R_b: np.ndarray,
+    p_b: np.ndarray,
+    J_b: np.ndarray,
+    R_des: np.ndarray,
+    p_des: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`point6d_relative` in numpy: the compiled kernel's oracle and fallback."""
     d = p_a - p_b
     R_ba = R_b.T @ R_a
     e_o = so3.log(R_ba @ R_des.T)
