@@ -56,7 +56,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from drake_sot import validation
+from drake_sot import kernels, validation
 
 __all__ = ["PreviewController", "PreviewPlan"]
 
@@ -190,8 +190,26 @@ class PreviewController:
             ``(x_next (3, 2), error_sum_next (2,), zmp (2,))`` where ``zmp = C x`` is the
             model ZMP of the current state and ``error_sum_next = error_sum + zmp - preview[0]``.
         """
+        if kernels.compiled is not None:  # the same product as step_at's and plan's, bit for bit
+            return kernels.compiled.preview_step_at(self._tick, x, error_sum, preview, 0)
+        return self.step_numpy(x, error_sum, preview)
+
+    def step_numpy(
+        self, x: np.ndarray, error_sum: np.ndarray, preview: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`step` in numpy: the compiled kernel's oracle and fallback."""
         out = self._tick @ np.concatenate((x, error_sum[None], preview))
         return out[:3], out[3], out[4]
+
+    def step_at(
+        self, x: np.ndarray, error_sum: np.ndarray, reference: np.ndarray, k: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`step` over the window of samples ``k`` to ``k + N - 1`` of ``reference`` (K, 2)
+        (:meth:`window`: its last sample held past its end), without building the window where the
+        compiled kernel runs (:mod:`drake_sot.kernels`; this numpy path is its oracle)."""
+        if kernels.compiled is not None:
+            return kernels.compiled.preview_step_at(self._tick, x, error_sum, reference, k)
+        return self.step_numpy(x, error_sum, self.window(reference, k))
 
     def initial_error_sum(self, x0: np.ndarray, preview: np.ndarray) -> np.ndarray:
         """(2,) error sum that starts :meth:`step` without a kick (a bumpless start).
@@ -209,6 +227,21 @@ class PreviewController:
         """
         x_prev = self._Ainv @ x0
         return -(self.Gx @ x_prev + self.Gp[1:] @ preview[:-1]) / self.Gi
+
+    def run_numpy(
+        self, reference: np.ndarray, x: np.ndarray, error_sum: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`plan`'s loop in numpy (the compiled kernel's oracle and fallback): the state
+        (K, 3, 2) before each sample of ``reference`` (K, 2) from ``x`` (3, 2) and ``error_sum``
+        (2,), and the model ZMP (K, 2) of each."""
+        K = reference.shape[0]
+        states = np.empty((K, 3, 2))
+        zmp = np.empty((K, 2))
+        step, window = self.step_numpy, self.window
+        for k in range(K):
+            states[k] = x
+            x, error_sum, zmp[k] = step(x, error_sum, window(reference, k))
+        return states, zmp
 
     def window(self, reference: np.ndarray, k: int) -> np.ndarray:
         """(N, 2): the references of samples ``k`` to ``k + N - 1``, the last sample of
@@ -257,13 +290,11 @@ class PreviewController:
             if error_sum is None
             else validation.vector("error_sum", error_sum, 2)
         )
-        K = ref.shape[0]
-        states = np.empty((K, 3, 2))
-        zmp = np.empty((K, 2))
-        step, window = self.step, self.window
-        for k in range(K):
-            states[k] = x
-            x, s, zmp[k] = step(x, s, window(ref, k))
+        if kernels.compiled is not None:
+            rows, zmp = kernels.compiled.preview_plan(self._tick, ref, x, s)
+            states = rows.reshape(-1, 3, 2)
+        else:
+            states, zmp = self.run_numpy(ref, x, s)
         return PreviewPlan(
             com=states[:, 0].copy(),
             com_vel=states[:, 1].copy(),

@@ -639,7 +639,7 @@ class WalkPlanner(Immutable):
         """The planner one tick later: one preview-control step; in velocity mode, new
         footprints when a step has landed."""
         c = self.controller
-        x, error_sum, _ = c.step(self.x, self.error_sum, c.window(self.samples.zmp, self.k))
+        x, error_sum, _ = c.step_at(self.x, self.error_sum, self.samples.zmp, self.k)
         planner = self._ticked(x, error_sum)
         if planner.velocity is not None and any(
             i == planner.k for i, _ in planner.landings[-FOOTPRINTS_AHEAD - 1 :]

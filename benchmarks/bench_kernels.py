@@ -1,0 +1,90 @@
+"""Each compiled kernel against its numpy version (the oracle), calls interleaved in one run.
+
+    PYTHONPATH=. .venv/bin/python benchmarks/bench_kernels.py [--rounds 30] [--calls 200]
+
+Per kernel, on inputs of the size a control tick gives it (the humanoid's nv = 36 columns, the
+pattern generator's 1.6 s preview at 5 ms), each round times ``--calls`` calls of the compiled
+kernel, then as many of the numpy one; the table gives the median µs per call over the rounds and
+their ratio (compiled / numpy, below 1 is faster). Both answers are compared first (to 1e-12).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from drake_sot import features, kernels, so3
+from drake_sot.blas import limit_blas_threads
+from drake_sot.preview import PreviewController
+
+
+def _cases() -> dict[str, tuple[Callable[[], object], Callable[[], object]]]:
+    """Per kernel: (compiled call, numpy call) on fixed random inputs."""
+    rng = np.random.default_rng(0)
+    core = kernels.compiled
+    R, R_des, R_b = (so3.exp(rng.normal(size=3)) for _ in range(3))
+    p, p_des, p_b = (rng.normal(size=3) for _ in range(3))
+    J, J_b = rng.normal(size=(6, 36)), rng.normal(size=(6, 36))
+    velocity = rng.normal(size=6)
+    preview = PreviewController()
+    reference = np.cumsum(rng.normal(scale=0.01, size=(1200, 2)), axis=0)
+    x, s = rng.normal(scale=0.1, size=(3, 2)), rng.normal(size=2)
+    return {
+        "features.point6d (nv 36, moving reference)": (
+            lambda: core.point6d(R, p, J, R_des, p_des, velocity),
+            lambda: features.point6d_numpy(R, p, J, R_des, p_des, velocity),
+        ),
+        "features.point6d_relative (nv 36)": (
+            lambda: core.point6d_relative(R, p, J, R_b, p_b, J_b, R_des, p_des),
+            lambda: features.point6d_relative_numpy(R, p, J, R_b, p_b, J_b, R_des, p_des),
+        ),
+        "PreviewController.step_at (N 320)": (
+            lambda: core.preview_step_at(preview._tick, x, s, reference, 1000),
+            lambda: preview.step_numpy(x, s, preview.window(reference, 1000)),
+        ),
+        "PreviewController.plan (1200 samples), per sample": (
+            lambda: core.preview_plan(preview._tick, reference, x, s),
+            lambda: preview.run_numpy(reference, x, s),
+        ),
+    }
+
+
+PER_SAMPLE = 1200  # the plan's samples: its row is per sample
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=30)
+    parser.add_argument("--calls", type=int, default=200)
+    args = parser.parse_args()
+    if kernels.compiled is None:
+        raise SystemExit(f"bench_kernels: the compiled kernels are not in use ({kernels.REASON})")
+    limit_blas_threads(1)
+    print(f"load average at start: {os.getloadavg()[0]:.1f}")
+    print("| kernel | compiled µs | numpy µs | compiled / numpy |")
+    print("|---|---|---|---|")
+    for name, (compiled, oracle) in _cases().items():
+        for a, b in zip(compiled(), oracle(), strict=True):
+            a, b = np.asarray(a).ravel(), np.asarray(b).ravel()
+            assert np.abs(a - b).max() <= 1e-12 * (1 + np.abs(b).max()), name
+        calls = max(1, args.calls // (50 if "plan" in name else 1))
+        times: dict[str, list[float]] = {"compiled": [], "numpy": []}
+        for _ in range(args.rounds):
+            for label, call in (("compiled", compiled), ("numpy", oracle)):
+                t0 = time.perf_counter()
+                for _ in range(calls):
+                    call()
+                times[label].append((time.perf_counter() - t0) / calls)
+        scale = 1e6 / (PER_SAMPLE if "per sample" in name else 1)
+        c, n = (statistics.median(times[label]) * scale for label in ("compiled", "numpy"))
+        print(f"| {name} | {c:.1f} | {n:.1f} | {c / n:.2f} |")
+    print(f"load average at end: {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()
