@@ -32,7 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drake_sot import so3, validation
+from drake_sot import kernels, so3, validation
 from drake_sot.support import sole_corners, support_polygon
 
 __all__ = [
@@ -185,7 +185,26 @@ def distance_rows(
 
     Raises:
         ValueError: more pairs than rows.
+
+    The compiled kernel computes it where built (:mod:`drake_sot.kernels`);
+    :func:`distance_rows_numpy` is its oracle and fallback.
     """
+    if kernels.compiled is not None:
+        return kernels.compiled.distance_rows(distances, normals, J_a, J_b, margin, gain, rows, recovery)
+    return distance_rows_numpy(distances, normals, J_a, J_b, margin, gain, rows, recovery)
+
+
+def distance_rows_numpy(
+    distances: np.ndarray,
+    normals: np.ndarray,
+    J_a: np.ndarray,
+    J_b: np.ndarray,
+    margin: float,
+    gain: float,
+    rows: int,
+    recovery: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`distance_rows` in numpy: the compiled kernel's oracle and fallback."""
     k = len(distances)
     if k > rows:
         raise ValueError(f"{k} pairs of bodies: more than the {rows} rows")

@@ -14,4 +14,5 @@ PYBIND11_MODULE(_compiled, m) {
   m.attr("SOURCE_HASH") = DRAKE_SOT_SOURCE_HASH;
   drake_sot::bind_features(m);
   drake_sot::bind_preview(m);
+  drake_sot::bind_inequalities(m);
 }
