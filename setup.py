@@ -16,7 +16,7 @@ from __future__ import annotations
 import pathlib
 import sys
 
-from pybind11.setup_helpers import Pybind11Extension, build_ext
+from pybind11.setup_helpers import ParallelCompile, Pybind11Extension, build_ext
 from setuptools import setup
 
 ROOT = pathlib.Path(__file__).resolve().parent
@@ -30,6 +30,9 @@ def _eigen_include() -> str:
             return str(candidate)
     raise RuntimeError("Eigen's headers (the cmeel-eigen wheel) are not on sys.path: see pyproject.toml")
 
+
+# The C++ files compile in parallel, one job per core (DRAKE_SOT_BUILD_JOBS=N to choose).
+ParallelCompile("DRAKE_SOT_BUILD_JOBS").install()
 
 KERNELS = ROOT / "drake_sot" / "kernels"
 SOURCES = sorted(str(p.relative_to(ROOT)) for p in KERNELS.glob("*.cpp"))
