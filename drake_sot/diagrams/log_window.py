@@ -20,6 +20,8 @@ A run shorter than the window is never trimmed: its logs are whole.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.geometry import MeshcatVisualizer
 from pydrake.systems.framework import Context, System
@@ -37,6 +39,9 @@ REPLAY_WINDOWS = 2
 #: A sink is looked at again once it holds this many times the samples it held when last looked
 #: at (its sample times are read only then: reading them copies them).
 _GROWTH = 1.25
+#: [s] simulated between two looks at the sinks (or a tenth of the window, if shorter): a served
+#: run calls :meth:`LogWindow.trim` after every 5 ms tick, and the looks cost two Drake calls a sink.
+LOOK_EVERY = 0.1
 
 
 class LogWindow:
@@ -57,6 +62,7 @@ class LogWindow:
         self._sinks = systems_of_type(diagram, VectorLogSink)
         self._visualizers = systems_of_type(diagram, MeshcatVisualizer)
         self._next_look = {id(sink): 1 for sink in self._sinks}
+        self._next_time = -math.inf  # [s] simulated: no look at the sinks before it
         self.trimmed = 0  # samples dropped so far, every sink together
         self.replay_until: float | None = None  # [s] when the replay's recording was stopped
 
@@ -64,6 +70,9 @@ class LogWindow:
         """Drop what each sink holds beyond the window (cheap when nothing needs dropping), and
         stop the replay's recording past :data:`REPLAY_WINDOWS` windows."""
         t = root_context.get_time()
+        if t < self._next_time:
+            return  # a served run trims after every tick: its sinks are looked at every LOOK_EVERY
+        self._next_time = t + min(LOOK_EVERY, 0.1 * self.window)
         if self._visualizers and self.replay_until is None and t > REPLAY_WINDOWS * self.window:
             for visualizer in self._visualizers:
                 visualizer.StopRecording()
