@@ -11,7 +11,7 @@ The keys (``[name]`` a table, ``name[]`` an array of tables; defaults in parenth
     name = "myrobot"              # (the file's stem) the robot's name
     title = "..."                 # (the model file's name) one line for `drake-sot list --robots`
     model = "myrobot.urdf"        # the model (.urdf, .sdf, or .xml for MJCF), relative to this file
-    base_body = "pelvis"          # the floating base body
+    base_body = "pelvis"          # the floating base body: the model's root link
     sole_size = [0.23, 0.13]      # [m] sole length (x) and width (y), centred on the sole frame
     contact_radius = 0.01         # (0.01) [m] the four contact spheres under each sole
     frozen_joints = []            # (none) model joints made fixed at load (grippers, mimics)
