@@ -11,12 +11,11 @@ image coordinates.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from drake_sot import so3
+from drake_sot import so3, validation
 
 SelectionLike = str | Sequence[bool] | Sequence[int] | None
 
@@ -132,7 +131,8 @@ MIN_DEPTH = 1e-3
 
 def _depth(depth: float) -> float:
     """``depth`` if the point is in front of the camera, else ValueError naming it."""
-    if not (math.isfinite(depth) and depth > MIN_DEPTH):
+    depth = validation.finite("depth Z", depth)
+    if not depth > MIN_DEPTH:
         raise ValueError(
             f"depth Z = {depth!r} m: the point must be in front of the camera (Z > {MIN_DEPTH} m)"
         )

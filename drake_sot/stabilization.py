@@ -159,11 +159,23 @@ def natural_frequency(com_height: float, gravity: float = GRAVITY) -> float:
 
 
 def divergent_component(com: np.ndarray, com_vel: np.ndarray, omega: float) -> np.ndarray:
-    """ξ = c + ċ / ω (eq. 1) [m], on as many axes as ``com`` has; ``omega`` [1/s] finite and > 0
-    (:func:`natural_frequency`), ``com`` [m] and ``com_vel`` [m/s] finite, of one length."""
-    omega = validation.positive("omega", omega, unit="1/s")
+    """ξ = c + ċ / ω (eq. 1) [m], on as many axes as ``com`` has; ``omega`` [1/s] in
+    [:data:`OMEGA_BOUNDS`] (:func:`natural_frequency`), ``com`` [m] and ``com_vel`` [m/s] finite,
+    of one length; ValueError naming what is not, or a ξ beyond float range."""
+    omega = validation.bounded("omega", omega, *OMEGA_BOUNDS, unit="1/s")
     com = validation.vector("com", com)
-    return com + validation.vector("com_vel", com_vel, com.shape[0]) / omega
+    with np.errstate(over="ignore"):
+        xi = com + validation.vector("com_vel", com_vel, com.shape[0]) / omega
+    if not np.all(np.isfinite(xi)):
+        raise ValueError(
+            f"divergent component of com = {com}, com_vel = {com_vel}, omega = {omega:g}: not finite"
+        )
+    return xi
+
+
+#: The natural frequencies [1/s] of a pendulum between 1 km and 1 mm tall (sqrt(g / z_c)): a
+#: humanoid's is about 3.5.
+OMEGA_BOUNDS = (1e-3, 1e3)
 
 
 #: The largest coordinate [m] of a support polygon's vertex or of a point projected into it: far
