@@ -198,6 +198,92 @@ def test_random_masses_inertias_and_origins_load_or_are_refused_by_name(tmp_path
     assert time.monotonic() - started < EXAMPLE_BOUND
 
 
+TETRAHEDRON = b"""solid t
+facet normal 0 0 -1
+outer loop
+vertex 0 0 0
+vertex 0 0.1 0
+vertex 0.1 0 0
+endloop
+endfacet
+facet normal 0 -1 0
+outer loop
+vertex 0 0 0
+vertex 0.1 0 0
+vertex 0 0 0.1
+endloop
+endfacet
+facet normal -1 0 0
+outer loop
+vertex 0 0 0
+vertex 0 0 0.1
+vertex 0 0.1 0
+endloop
+endfacet
+facet normal 1 1 1
+outer loop
+vertex 0.1 0 0
+vertex 0 0.1 0
+vertex 0 0 0.1
+endloop
+endfacet
+endsolid t
+"""
+
+
+def _with_mesh(fmt: str, uri: str) -> list[tuple[str, str]]:
+    """The edits that give the pelvis a visual mesh ``uri`` in format ``fmt``."""
+    if fmt == "urdf":
+        visual = f'<visual><geometry><mesh filename="{uri}" /></geometry></visual>'
+        return [('<link name="pelvis">', f'<link name="pelvis">{visual}')]
+    if fmt == "sdf":
+        visual = f'<visual name="shell"><geometry><mesh><uri>{uri}</uri></mesh></geometry></visual>'
+        return [('<link name="pelvis">', f'<link name="pelvis">{visual}')]
+    return [
+        ("<freejoint />", '<freejoint /><geom type="mesh" mesh="shell" />'),
+        ("<worldbody>", f'<asset><mesh name="shell" file="{uri}" /></asset><worldbody>'),
+    ]
+
+
+@pytest.mark.parametrize("fmt", sorted(FILES))
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    uri=st.sampled_from(
+        ["shell.stl", "shell.obj", "missing.stl", "sub/shell.stl", "", "package://nosuch/shell.stl"]
+    ),
+    content=st.one_of(st.just(TETRAHEDRON), st.binary(max_size=300)),
+)
+def test_random_meshes_load_or_are_refused_by_name(tmp_path_factory, fmt, uri, content):
+    """A visual mesh of the pelvis, its file of random bytes (or a tetrahedron), missing, under an
+    unknown package or empty: the plant with its geometry is built, or a RobotFileError names
+    the file, in one line."""
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_sot.robots.loading import load_robot
+
+    directory = tmp_path_factory.mktemp(fmt)
+    (directory / "sub").mkdir()
+    for name in ("shell.stl", "shell.obj", "sub/shell.stl"):
+        (directory / name).write_bytes(content)
+    (old, new), *more = _with_mesh(fmt, uri)
+    description = _edited(directory, fmt, old, new)
+    model = directory / FILES[fmt][0]
+    for old, new in more:
+        model.write_text(model.read_text().replace(old, new, 1))
+    started = time.monotonic()
+    try:
+        robot = load_description(description)
+        plant, _ = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.001)
+        load_robot(plant, robot, mesh_cache=directory / "cache")
+    except RobotFileError as exc:
+        assert str(directory) in str(exc) or str(directory.resolve()) in str(exc), str(exc)
+        assert "\n" not in str(exc), str(exc)
+    else:
+        assert uri in ("shell.stl", "shell.obj", "sub/shell.stl")  # a file that is there
+    assert time.monotonic() - started < 4 * EXAMPLE_BOUND
+
+
 # --- description files: the base body, and a property test ---------------------------------------
 
 
