@@ -11,6 +11,7 @@ image coordinates.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -131,12 +132,16 @@ MIN_DEPTH = 1e-3
 
 def _depth(depth: float) -> float:
     """``depth`` if the point is in front of the camera, else ValueError naming it."""
-    depth = validation.finite("depth Z", depth)
-    if not depth > MIN_DEPTH:
+    try:
+        z = float(depth) if not isinstance(depth, bool | str) else math.nan
+    except (TypeError, ValueError, OverflowError):  # an integer beyond float range, no number
+        z = math.nan
+    if not (math.isfinite(z) and z > MIN_DEPTH):
         raise ValueError(
-            f"depth Z = {depth!r} m: the point must be in front of the camera (Z > {MIN_DEPTH} m)"
+            f"depth Z = {validation.shown(depth)} m: the point must be in front of the camera "
+            f"(Z > {MIN_DEPTH} m)"
         )
-    return depth
+    return z
 
 
 #: The largest normalised image coordinate |x|, |y| (X/Z: a point 10 m aside at ``MIN_DEPTH``

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
+from drake_sot import validation
 from drake_sot.footsteps import StepLimits, StepTiming
 from drake_sot.robots.errors import RobotFileError, RobotFileMissing
 from drake_sot.robots.model_tree import ModelJoint
@@ -67,17 +68,12 @@ DRIVE_BOUNDS = {"kp": 1e7, "kd": 1e6, "effort": 1e6, "rotor_inertia": 1e3}
 def check_number(
     what: str, value, low: float, high: float, *, open_low: bool = False, unit: str = ""
 ) -> float:
-    """``value`` as a float in [``low``, ``high``] (``(low, high]`` with ``open_low``), or a
-    ValueError naming ``what`` and the value (NaN, a bool, a string, a huge integer refused)."""
-    interval = f"{'(' if open_low else '['}{low:g}, {high:g}]{' ' + unit if unit else ''}"
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ValueError(f"{what} = {shown(value)}: must be a number in {interval}")
-    try:
-        number = float(value)
-    except OverflowError:
-        raise ValueError(f"{what} = {shown(value)}: must be a number in {interval}") from None
-    if not (low <= number <= high) or (open_low and not (number > low)):
-        raise ValueError(f"{what} = {shown(value)}: must be a number in {interval}")
+    """``value`` as a float in [``low``, ``high``] (and > ``low`` with ``open_low``), or a
+    ValueError naming ``what`` and the value (:func:`drake_sot.validation.bounded`: NaN, a bool,
+    a string, an integer beyond float range refused)."""
+    number = validation.bounded(what, value, low, high, unit=unit)
+    if open_low and not number > low:
+        raise ValueError(f"{what} = {shown(value)}: must be > {low:g}{' ' + unit if unit else ''}")
     return number
 
 

@@ -350,7 +350,7 @@ def test_a_g1_built_in_python_with_a_bad_number_is_refused_before_drake(change, 
 @pytest.mark.parametrize(
     ("make", "message"),
     [
-        (lambda: Drive(kp=-200.0, kd=4.0, effort=10.0), r"drive kp = -200.0: must be a number in \(0, "),
+        (lambda: Drive(kp=-200.0, kd=4.0, effort=10.0), r"drive kp = -200.0: must be in \[0, "),
         (lambda: Drive(kp=math.nan, kd=4.0, effort=10.0), r"drive kp = nan"),
         (lambda: Drive(kp=200.0, kd=-1.0, effort=10.0), r"drive kd = -1.0"),
         (lambda: Drive(kp=200.0, kd=1.0, effort=0.0), r"drive effort = 0.0"),
