@@ -34,6 +34,11 @@ __all__ = ["MassDamperSpring", "apparent_inertia", "coupled_step", "joint_accele
 
 ArrayLike = float | np.ndarray | list | tuple
 
+#: The largest entry of a step's transition (Φ, Γ): beyond it the virtual system (a mass of
+#: 1e-300 kg, a stiffness of 1e300 N/m) is no admittance a robot can follow, and its reference
+#: would overflow.
+STEP_BOUND = 1e12
+
 
 class MassDamperSpring:
     """``M r̈ + B ṙ + K (r - r_rest) = f`` per axis, integrated exactly under a zero-order hold.
@@ -56,7 +61,9 @@ class MassDamperSpring:
 
     Raises:
         ValueError: naming the offending argument and its value (non-finite,
-            mass <= 0, damping or stiffness < 0, dt <= 0, mismatched lengths).
+            mass <= 0, damping or stiffness < 0, dt <= 0, mismatched lengths), or the axis whose
+            step is not finite or has an entry beyond :data:`STEP_BOUND` (a mass of 1e-300
+            with a stiffness of 1e300).
     """
 
     def __init__(
@@ -88,8 +95,15 @@ class MassDamperSpring:
         self._phi = np.empty((self.n, 2, 2))
         self._gamma = np.empty((self.n, 2))
         for i, (m, b, k) in enumerate(zip(self.mass, self.damping, self.stiffness, strict=True)):
-            F = np.array([[0.0, 1.0, 0.0], [-k / m, -b / m, 1.0 / m], [0.0, 0.0, 0.0]])
-            E = scipy.linalg.expm(F * dt)
+            with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+                F = np.array([[0.0, 1.0, 0.0], [-k / m, -b / m, 1.0 / m], [0.0, 0.0, 0.0]])
+                E = scipy.linalg.expm(F * dt) if np.isfinite(F).all() else F
+            if not (np.isfinite(E).all() and np.abs(E).max() <= STEP_BOUND):
+                raise ValueError(
+                    f"axis {i}: mass = {m:g}, damping = {b:g}, stiffness = {k:g} with dt = {dt:g} s give "
+                    f"a step that is not finite or has an entry beyond {STEP_BOUND:g}: K/M, B/M or 1/M "
+                    "is out of range"
+                )
             self._phi[i] = E[:2, :2]
             self._gamma[i] = E[:2, 2]
 

@@ -157,8 +157,10 @@ class Link(Immutable):
         return replace(self, sent=self.sent + 1, in_flight=flying, last_arrival=float(arrival))
 
     def receive(self, now: float) -> Link:
-        """The link at time ``now`` [s]: every packet due by then has arrived; the receiver
-        holds the newest of them (by sending time) if newer than what it held."""
+        """The link at time ``now`` [s] (finite: ValueError otherwise): every packet due by then
+        has arrived; the receiver holds the newest of them (by sending time) if newer than what
+        it held."""
+        now = validation.finite("now", now)
         arrived = [p for p in self.in_flight if p[0] <= now + _EPS]
         if not arrived:
             return self

@@ -16,18 +16,25 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drake_sot import kernels, so3
+from drake_sot import kernels, so3, validation
 
 SelectionLike = str | Sequence[bool] | Sequence[int] | None
+
+
+def _is_flag(flag) -> bool:
+    """True for a boolean (Python's or numpy's) or an integer 0 or 1; a string, 2 or 0.5 is not one."""
+    if isinstance(flag, bool | np.bool_):
+        return True
+    return isinstance(flag, int | np.integer) and flag in (0, 1)
 
 
 def selection_indices(selection: SelectionLike, size: int, *, name: str = "selection") -> np.ndarray:
     """Indices of the selected components of a feature of ``size`` components.
 
     ``selection`` is None (all), a string of '0'/'1' flags in component order
-    (``"001000"`` selects z alone for a 6D feature), or a sequence of booleans.
-    Raises ValueError naming the bad value when it has the wrong length, a character
-    other than 0/1, or selects nothing.
+    (``"001000"`` selects z alone for a 6D feature), or a sequence of booleans (``True``/``False``,
+    or the integers 1/0). Raises ValueError naming the bad value when it has the wrong length, a
+    character other than 0/1, a flag that is not a boolean (a string, 2, 0.5), or selects nothing.
     """
     if selection is None:
         return np.arange(size)
@@ -36,9 +43,16 @@ def selection_indices(selection: SelectionLike, size: int, *, name: str = "selec
             raise ValueError(f"{name} {selection!r} must be {size} characters of '0'/'1' (one per component)")
         flags = np.array([c == "1" for c in selection])
     else:
-        flags = np.asarray(selection, dtype=bool)
-        if flags.shape != (size,):
-            raise ValueError(f"{name} has {flags.size} flags, expected {size} (one per component)")
+        if not isinstance(selection, Sequence | np.ndarray) or np.ndim(selection) != 1:
+            raise ValueError(
+                f"{name} = {selection!r}: must be None, a '0'/'1' string or a sequence of {size} flags"
+            )
+        if len(selection) != size:
+            raise ValueError(f"{name} has {len(selection)} flags, expected {size} (one per component)")
+        bad = [f for f in selection if not _is_flag(f)]
+        if bad:
+            raise ValueError(f"{name} = {selection!r}: flag {bad[0]!r} is not a boolean (True/False, or 1/0)")
+        flags = np.array([bool(f) for f in selection])
     indices = np.flatnonzero(flags)
     if indices.size == 0:
         raise ValueError(f"{name} {selection!r} selects no component")
@@ -153,11 +167,28 @@ MIN_DEPTH = 1e-3
 
 def _depth(depth: float) -> float:
     """``depth`` if the point is in front of the camera, else ValueError naming it."""
-    if not (math.isfinite(depth) and depth > MIN_DEPTH):
+    try:
+        z = float(depth) if not isinstance(depth, bool | str) else math.nan
+    except (TypeError, ValueError, OverflowError):  # an integer beyond float range, no number
+        z = math.nan
+    if not (math.isfinite(z) and z > MIN_DEPTH):
         raise ValueError(
-            f"depth Z = {depth!r} m: the point must be in front of the camera (Z > {MIN_DEPTH} m)"
+            f"depth Z = {validation.shown(depth)} m: the point must be in front of the camera "
+            f"(Z > {MIN_DEPTH} m)"
         )
-    return depth
+    return z
+
+
+#: The largest normalised image coordinate |x|, |y| (X/Z: a point 10 m aside at ``MIN_DEPTH``
+#: has 1e4): beyond it the products of the interaction matrix lose all meaning.
+IMAGE_BOUND = 1e6
+
+
+def _image_coordinate(name: str, value: float) -> float:
+    """``value`` as a finite image coordinate within ±``IMAGE_BOUND``, else ValueError naming it."""
+    if isinstance(value, bool) or not (-IMAGE_BOUND <= value <= IMAGE_BOUND):  # NaN refused
+        raise ValueError(f"{name} = {value!r}: an image coordinate must be finite, within ±{IMAGE_BOUND:g}")
+    return float(value)
 
 
 def interaction_matrix(x: float, y: float, depth: float) -> np.ndarray:
@@ -177,8 +208,10 @@ def interaction_matrix(x: float, y: float, depth: float) -> np.ndarray:
         L (2, 6).
     Raises:
         ValueError: ``depth`` not finite or not > ``MIN_DEPTH`` (the point is not in front
-            of the camera), naming it.
+            of the camera), ``x`` or ``y`` not finite or beyond ±``IMAGE_BOUND``, naming it.
     """
+    x = _image_coordinate("x", x)
+    y = _image_coordinate("y", y)
     inv_z = 1.0 / _depth(depth)
     return np.array(
         [

@@ -31,7 +31,7 @@ from functools import cached_property
 import numpy as np
 
 from drake_sot.linalg import SvdSplit, full_rank_lstsq
-from drake_sot.validation import nonnegative
+from drake_sot.validation import nonnegative, real_array
 
 __all__ = [
     "HierarchyResult",
@@ -73,15 +73,21 @@ def _validate(
     ``edot_i`` of length m_i, ``qdot0`` of length n, and all values finite.
     """
     if qdot0 is not None:
-        qdot0 = np.asarray(qdot0, dtype=float)
+        qdot0 = real_array("qdot0", qdot0)
         if qdot0.ndim != 1:
             raise ValueError(f"qdot0 must be a vector, got shape {qdot0.shape}")
         if not np.isfinite(qdot0).all():
             raise ValueError("qdot0 contains NaN or Inf")
     checked = []
-    for i, (J, edot) in enumerate(levels):
-        J = np.asarray(J, dtype=float)
-        edot = np.asarray(edot, dtype=float)
+    for i, level in enumerate(levels):
+        if not isinstance(level, tuple | list) or len(level) != 2:
+            size = f"{len(level)} entries" if isinstance(level, tuple | list) else type(level).__name__
+            raise ValueError(
+                f"levels[{i}] must be a pair (J, edot), got {size}; a level of bounds (J, lower, upper) "
+                "is solve_hqp's"
+            )
+        J = real_array(f"levels[{i}]: J", level[0])
+        edot = real_array(f"levels[{i}]: edot", level[1])
         if J.ndim != 2:
             raise ValueError(f"levels[{i}]: J must be a 2-D matrix, got shape {J.shape}")
         if edot.shape != (J.shape[0],):

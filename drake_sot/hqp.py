@@ -184,11 +184,15 @@ def _validate_hqp(
         names = tuple(validation.nonempty_string(f"names[{i}]", name) for i, name in enumerate(names))
         if len(names) != len(levels):
             raise ValueError(f"names has {len(names)} entries but there are {len(levels)} levels")
+        if len(set(names)) != len(names):
+            twice = sorted({name for name in names if names.count(name) > 1})
+            raise ValueError(f"names {twice} name two levels each: a level's name is its own")
     checked: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for i, level in enumerate(levels):
         where = f"levels[{i}] ({names[i]!r})"
         if not isinstance(level, tuple | list) or len(level) not in (2, 3):
-            raise ValueError(f"{where} must be (J, target) or (J, lower, upper), got {type(level).__name__}")
+            got = f"{len(level)} entries" if isinstance(level, tuple | list) else type(level).__name__
+            raise ValueError(f"{where} must be (J, target) or (J, lower, upper), got {got}")
         J = validation.matrix(f"{where}: J", level[0])
         if checked and J.shape[1] != checked[0][0].shape[1]:
             raise ValueError(

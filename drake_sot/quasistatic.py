@@ -84,6 +84,9 @@ _INEQ_TOL = 1e-6
 _CACHE_SIZE = 8
 # static_capacity: the largest factor tried on the torque bounds before reporting inf.
 _LARGEST_SCALE = 1e15
+#: The largest task weight: the Hessian's diagonal holds the weights, and weights 1e12 apart
+#: (1e-4 regularisation against this) leave the QP's answer at the solver's precision.
+MAX_WEIGHT = 1e8
 
 
 class SolveStatus(enum.Enum):
@@ -212,7 +215,8 @@ class QsTask:
         desired: ``w_iᵈ`` (m,) for a goal-directed task; None for a non-goal-directed one
             (contacts, a regularised posture), whose wrench is only regularised.
         weight: ``ω_t`` of a goal task (used by the weighted baseline only; eq. 9 uses 1)
-            or ``ω_r`` of a non-goal task (both forms; small, e.g. 1e-4..1e-3). > 0.
+            or ``ω_r`` of a non-goal task (both forms; small, e.g. 1e-4..1e-3). Finite, > 0,
+            at most :data:`MAX_WEIGHT`, checked when the task is made (ValueError naming it).
         projector: ``P_i`` (n, n), e.g. the generalized projector of eq. 8; None for the
             identity. Ignored by the weighted baseline; must be None on a contact task.
         friction: the friction cone of a contact point task (m == 3); its wrench is the
@@ -225,6 +229,18 @@ class QsTask:
     weight: float = 1.0
     projector: np.ndarray | None = None
     friction: FrictionCone | None = None
+
+    def __post_init__(self) -> None:
+        # Checked here, whether or not the form solved uses it: a goal task's weight is read by
+        # the weighted baseline only, and NaN, -1 or 0 must not pass as "optimal" in the other.
+        weight = self.weight
+        if isinstance(weight, bool) or not isinstance(weight, int | float | np.floating | np.integer):
+            raise ValueError(f"task weights must be numbers: QsTask {self.name!r} weight = {weight!r}")
+        if not (0.0 < weight <= MAX_WEIGHT):
+            raise ValueError(
+                f"task weights must be finite and > 0 (at most {MAX_WEIGHT:g}): "
+                f"QsTask {self.name!r} weight = {weight!r}"
+            )
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ end of the line; spaces and tabs separate tokens)::
               | "run" (FILE | DURATION)        -> Run (a word or a string) | RunFor (a number > 0)
               | NAME "." NAME value*           -> Call (entity, command, arguments)
     SIGNAL   := NAME "." NAME                  (entity, signal)
-    NAME     := [A-Za-z_][A-Za-z0-9_]*
+    NAME     := [A-Za-z_][A-Za-z0-9_]*         (at most MAX_NAME = 128 characters: a task name keys logs)
     value    := number | vector | matrix | string | verb | word
     number   := [+-] (digits ["." digits] | "." digits) [(e|E) [+-] digits]   finite, within
                 float range (±1.8e308, an integer too); an int without "." or exponent
@@ -100,6 +100,9 @@ _WORD = re.compile(r"[A-Za-z_./][A-Za-z0-9_./-]*\Z")
 _ATOM_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_./+-")
 _BLANK = " \t"
 _FOUND_MAX = 30  # characters of the offending text quoted in a message
+#: The longest name of an entity or a signal [characters]: a task is an entity, and its name keys
+#: the run's logs (:data:`drake_sot.stack.MAX_TASK_NAME`); one bound for every name.
+MAX_NAME = stack.MAX_TASK_NAME
 FLOAT_BITS = 1024  # an integer of more bits is beyond float range (±1.8e308)
 
 
@@ -622,6 +625,8 @@ class _Parser:
         token = self.next(expected)
         if token.kind != "atom" or token.value is not None or not _NAME.match(token.text):
             raise self.error(expected, token)
+        if len(token.text) > MAX_NAME:
+            raise self.error(f"{expected}, of at most {MAX_NAME} characters", token)
         return token.text
 
     def signal(self, expected: str) -> Signal:
@@ -629,6 +634,8 @@ class _Parser:
         parts = token.text.split(".") if token.kind == "atom" and token.value is None else []
         if len(parts) != 2 or not all(_NAME.match(p) for p in parts):
             raise self.error(expected, token)
+        if max(len(p) for p in parts) > MAX_NAME:
+            raise self.error(f"{expected}, each name of at most {MAX_NAME} characters", token)
         return Signal(parts[0], parts[1])
 
     def value(self, expected: str) -> Value:

@@ -159,24 +159,48 @@ def natural_frequency(com_height: float, gravity: float = GRAVITY) -> float:
 
 
 def divergent_component(com: np.ndarray, com_vel: np.ndarray, omega: float) -> np.ndarray:
-    """ξ = c + ċ / ω (eq. 1) [m], on as many axes as ``com`` has."""
-    return np.asarray(com, dtype=float) + np.asarray(com_vel, dtype=float) / omega
+    """ξ = c + ċ / ω (eq. 1) [m], on as many axes as ``com`` has; ``omega`` [1/s] in
+    [:data:`OMEGA_BOUNDS`] (:func:`natural_frequency`), ``com`` [m] and ``com_vel`` [m/s] finite,
+    of one length; ValueError naming what is not, or a ξ beyond float range."""
+    omega = validation.bounded("omega", omega, *OMEGA_BOUNDS, unit="1/s")
+    com = validation.vector("com", com)
+    with np.errstate(over="ignore"):
+        xi = com + validation.vector("com_vel", com_vel, com.shape[0]) / omega
+    if not np.all(np.isfinite(xi)):
+        raise ValueError(
+            f"divergent component of com = {com}, com_vel = {com_vel}, omega = {omega:g}: not finite"
+        )
+    return xi
+
+
+#: The natural frequencies [1/s] of a pendulum between 1 km and 1 mm tall (sqrt(g / z_c)): a
+#: humanoid's is about 3.5.
+OMEGA_BOUNDS = (1e-3, 1e3)
+
+
+#: The largest coordinate [m] of a support polygon's vertex or of a point projected into it: far
+#: beyond any walk, small enough that the products of the projection cannot overflow.
+COORDINATE_BOUND = 1e6
 
 
 def project_into_polygon(polygon: np.ndarray, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
     """The point of a convex polygon, shrunk by ``margin`` [m], nearest to ``point`` (2,).
 
     Args:
-        polygon: (k, 2) counter-clockwise vertices (``support.support_polygon``), k >= 3.
+        polygon: (k, 2) vertices of a convex polygon in order (``support.support_polygon``),
+            k >= 3, counter-clockwise or clockwise (read in the reverse order); a vertex
+            repeated or in line with its neighbours is dropped.
         point: (2,) [m].
         margin: [m] >= 0, smaller than the polygon's inradius.
 
     Raises:
-        ValueError: the polygon shrunk by ``margin`` is empty (named with the margin).
+        ValueError: the polygon has fewer than 3 vertices (not in line) or is not convex (naming
+            the vertex); the polygon shrunk by ``margin`` is empty (named with the margin).
     """
     polygon = validation.matrix("polygon", polygon, (None, 2))
-    point = validation.vector("point", point, 2)
+    point = validation.magnitude("point", point, COORDINATE_BOUND, 2, unit="m")
     margin = validation.nonnegative("margin", margin, unit="m")
+    polygon = _convex_counter_clockwise(polygon)
     edge = _next(polygon) - polygon
     normal = np.stack((-edge[:, 1], edge[:, 0]), axis=1) / np.linalg.norm(edge, axis=1, keepdims=True)
     offset = np.einsum("ij,ij->i", normal, polygon) + margin  # inside: normal · x >= offset
@@ -206,6 +230,50 @@ def project_into_polygon(polygon: np.ndarray, point: np.ndarray, margin: float =
     return candidates[int(np.argmin(np.einsum("ij,ij->i", gap, gap)))]
 
 
+def _convex_counter_clockwise(polygon: np.ndarray) -> np.ndarray:
+    """``polygon`` (k, 2) as a convex polygon's vertices in counter-clockwise order: a clockwise
+    one reversed; a vertex that repeats the one before it, or lies in line with its two
+    neighbours (to a relative :data:`_IN_LINE`), dropped (the polygon is the same set of points).
+
+    Raises:
+        ValueError: fewer than 3 vertices (or left once those are dropped), a coordinate beyond
+            ±:data:`COORDINATE_BOUND`, turns both ways (not convex, or not in order), naming
+            the vertex.
+    """
+    if polygon.shape[0] < 3:
+        raise ValueError(f"polygon has {polygon.shape[0]} vertices: a support polygon needs at least 3")
+    if not np.max(np.abs(polygon)) <= COORDINATE_BOUND:
+        raise ValueError(f"polygon: a coordinate beyond ±{COORDINATE_BOUND:g} m")
+    given = polygon
+    while True:
+        edge = polygon - _previous(polygon)  # edge i ends at vertex i
+        scale = float(np.max(np.abs(edge)))
+        if polygon.shape[0] < 3 or not scale > 0.0:
+            raise ValueError(
+                f"polygon {given.tolist()}: fewer than 3 vertices once those repeated or in line are dropped"
+            )
+        unit = edge / scale  # the turn at each vertex, scaled: no overflow, a tolerance relative
+        turn = unit[:, 0] * _next(unit)[:, 1] - unit[:, 1] * _next(unit)[:, 0]
+        flat = np.abs(turn) <= _IN_LINE
+        if not flat.any():
+            break
+        polygon = np.delete(polygon, int(np.argmax(flat)), axis=0)
+    if np.all(turn < 0.0):
+        return polygon[::-1].copy()
+    if not np.all(turn > 0.0):
+        i = int(np.argmin(turn)) if np.count_nonzero(turn > 0.0) > turn.size // 2 else int(np.argmax(turn))
+        raise ValueError(
+            f"polygon {given.tolist()}: turns both ways at vertex {polygon[i].tolist()}: the vertices must "
+            "be a convex polygon's, in order"
+        )
+    return polygon
+
+
+#: A vertex whose turn (the cross product of its two edges over the square of the longest edge)
+#: is at most this is in line with its neighbours.
+_IN_LINE = 1e-12
+
+
 def _next(rows: np.ndarray) -> np.ndarray:
     """``rows`` turned by one: row i is row i + 1 (``np.roll(rows, -1, axis=0)``, ~5x cheaper)."""
     return np.concatenate((rows[1:], rows[:1]))
@@ -217,9 +285,12 @@ def _previous(rows: np.ndarray) -> np.ndarray:
 
 
 def low_pass(filtered: np.ndarray, value: np.ndarray, dt: float, tau: float) -> np.ndarray:
-    """One tick of ``dt`` [s] of a first-order low-pass filter of time constant ``tau`` [s]:
+    """One tick of ``dt`` [s] (finite, > 0) of a first-order low-pass filter of time constant
+    ``tau`` [s] (finite, >= 0; 0 passes ``value`` through):
     ``filtered`` moved towards ``value`` by dt / (tau + dt) of the gap. ``filtered`` with NaN (no
     value yet): ``value`` as it is; ``value`` with NaN (no measurement): ``filtered`` as it was."""
+    dt = validation.positive("dt", dt, unit="s")
+    tau = validation.nonnegative("tau", tau, unit="s")
     value, filtered = np.asarray(value, dtype=float), np.asarray(filtered, dtype=float)
     if not np.all(np.isfinite(value)):
         return filtered

@@ -58,6 +58,7 @@ from drake_sot.transitions import smooth_step
 
 __all__ = [
     "COMMANDS",
+    "MAX_TASK_NAME",
     "MAX_TRANSITION",
     "VERBS",
     "Clear",
@@ -74,6 +75,7 @@ __all__ = [
     "StackVerb",
     "find_verb",
     "parse_command",
+    "task_name",
     "task_names",
 ]
 
@@ -93,6 +95,26 @@ class UnknownTaskError(StackError, UnknownNameError):
 
     def __init__(self, task: object, known: Iterable[str], *, where: str = "") -> None:
         UnknownNameError.__init__(self, "task", task, known, where=where)
+
+
+#: The longest task name [characters]: a name is a word a person types (``taskRH``); it keys the
+#: run's logs (``error/<task>`` in the npz, whose zip format holds a member name of at most
+#: 65,535 bytes), so an absurd one is refused when the task is made rather than when the
+#: artefacts of a finished run are written.
+MAX_TASK_NAME = 128
+
+
+def task_name(name: object) -> str:
+    """``name`` as a task's name: a non-empty ``str`` of at most :data:`MAX_TASK_NAME` characters.
+
+    Raises:
+        StackError: naming the value (its first characters and its length when too long).
+    """
+    if not isinstance(name, str) or not name:
+        raise StackError(f"task name = {validation.shown(name)[:80]}: must be a non-empty string")
+    if len(name) > MAX_TASK_NAME:
+        raise StackError(f"task name {name[:20]!r}... has {len(name)} characters: at most {MAX_TASK_NAME}")
+    return name
 
 
 def task_names(value: Iterable[str], *, what: str) -> tuple[str, ...]:

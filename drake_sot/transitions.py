@@ -59,16 +59,18 @@ def smooth_step(t: float | np.ndarray, t1: float, t2: float) -> float | np.ndarr
             return 1.0
         if s <= t1:
             return 0.0
-        return float(0.5 - 0.5 * np.cos(np.pi * (s - t1) / (t2 - t1)))
+        # Halved (exactly): the differences of times near ±1.8e308 do not overflow.
+        return float(0.5 - 0.5 * np.cos(np.pi * ((0.5 * s - 0.5 * t1) / (0.5 * t2 - 0.5 * t1))))
     ts = np.asarray(t, dtype=float)
     if not np.isfinite(ts).all():
         raise ValueError("smooth_step: t contains NaN or Inf")
     if t2 == t1:
         return (ts >= t1).astype(float)
-    # A span of a few ulps can overflow the quotient to ±inf outside [t1, t2]; the clip maps
-    # that to the right end, so the overflow is expected, not an error.
+    # Halved (exactly) so that the differences of times near ±1.8e308 do not overflow. A span of
+    # a few ulps can overflow the quotient to ±inf outside [t1, t2]; the clip maps that to the
+    # right end, so the overflow is expected, not an error.
     with np.errstate(over="ignore"):
-        u = np.clip((ts - t1) / (t2 - t1), 0.0, 1.0)
+        u = np.clip((0.5 * ts - 0.5 * t1) / (0.5 * t2 - 0.5 * t1), 0.0, 1.0)
     return 0.5 - 0.5 * np.cos(np.pi * u)
 
 

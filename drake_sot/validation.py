@@ -31,6 +31,7 @@ __all__ = [
     "positive",
     "positive_int",
     "position",
+    "real_array",
     "shown",
     "vector",
     "within",
@@ -51,7 +52,7 @@ def shown(value) -> str:
 def _scalar(name: str, value) -> float:
     """``value`` as a float, or ValueError naming ``name`` (strings, arrays of size > 1, None, an
     integer beyond float range)."""
-    if isinstance(value, bool) or isinstance(value, str):
+    if isinstance(value, bool | str | complex) or getattr(getattr(value, "dtype", None), "kind", "") == "c":
         raise ValueError(f"{name} = {shown(value)}: must be a number")
     try:
         return float(value)
@@ -61,10 +62,14 @@ def _scalar(name: str, value) -> float:
         raise ValueError(f"{name} = {shown(value)}: must be a number") from None
 
 
-def _array(name: str, value) -> np.ndarray:
-    """``value`` as a float array; ValueError naming ``name`` for an integer beyond float range."""
+def real_array(name: str, value) -> np.ndarray:
+    """``value`` as a float array; ValueError naming ``name`` for an integer beyond float range or
+    a complex entry (numpy would drop its imaginary part with a mere warning)."""
     try:
-        return np.asarray(value, dtype=float)
+        a = np.asarray(value)
+        if a.dtype.kind == "c":
+            raise ValueError(f"{name}: complex entries (dtype {a.dtype}): must be real numbers")
+        return np.asarray(a, dtype=float)
     except OverflowError:
         raise ValueError(f"{name}: an entry is an integer beyond float range (±1.8e308)") from None
 
@@ -126,7 +131,7 @@ def positive_int(name: str, value, *, minimum: int = 1) -> int:
 
 def vector(name: str, value, size: int | None = None) -> np.ndarray:
     """``value`` as a finite 1-D float array, of length ``size`` when given."""
-    a = _array(name, value)
+    a = real_array(name, value)
     if a.ndim != 1 or (size is not None and a.shape[0] != size):
         raise ValueError(f"{name} must have shape {_shape((size,))}, got shape {a.shape}")
     if not np.isfinite(a).all():
@@ -136,7 +141,7 @@ def vector(name: str, value, size: int | None = None) -> np.ndarray:
 
 def matrix(name: str, value, shape: Sequence[int | None] | None = None) -> np.ndarray:
     """``value`` as a finite 2-D float array; ``shape`` may fix either dimension (None: any)."""
-    a = _array(name, value)
+    a = real_array(name, value)
     want = tuple(shape) if shape is not None else (None, None)
     if a.ndim != 2 or any(w is not None and w != s for w, s in zip(want, a.shape, strict=False)):
         raise ValueError(f"{name} must be a matrix of shape {_shape(want)}, got shape {a.shape}")
@@ -154,7 +159,7 @@ def per_axis(name: str, value, n: int, *, sign: Sign = "any", allow_inf: bool = 
     value to be > 0 (``"positive"``) or >= 0 (``"nonnegative"``); ``allow_inf`` lets
     ``+inf`` through (e.g. "no saturation"); NaN never passes.
     """
-    a = _array(name, value).reshape(-1)
+    a = real_array(name, value).reshape(-1)
     if a.size == 1:
         a = np.full(n, a[0])
     elif a.size == 2 and n == 6:
@@ -182,8 +187,8 @@ def bounds(name: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndarray]:
     ``upper = +inf``: no upper bound); NaN, ``lower = +inf`` and ``upper = -inf`` are
     not. The message names the row.
     """
-    lo = _array(f"{name}: lower", lower)
-    hi = _array(f"{name}: upper", upper)
+    lo = real_array(f"{name}: lower", lower)
+    hi = real_array(f"{name}: upper", upper)
     for side, a in (("lower", lo), ("upper", hi)):
         if a.shape != (size,):
             raise ValueError(f"{name}: {side} must have shape ({size},), got shape {a.shape}")

@@ -267,8 +267,25 @@ def _aligned(log, time: np.ndarray) -> np.ndarray:
     return out
 
 
+#: The longest array name [UTF-8 bytes] an npz holds: a zip member's name is at most 65,535
+#: bytes, and numpy adds ``.npy``. Task names are far shorter (:data:`drake_sot.stack.MAX_TASK_NAME`).
+MAX_ARRAY_NAME = 65_535 - len(".npy")
+
+
 def write_npz(arrays: dict[str, np.ndarray], path: str | Path) -> None:
-    """Save the arrays (compressed) to ``path`` (name it ``*.npz``); load back with ``np.load(path)``."""
+    """Save the arrays (compressed) to ``path`` (name it ``*.npz``); load back with ``np.load(path)``.
+
+    Raises:
+        OSError: ``path`` cannot be written, or an array's name is longer than the zip format
+            holds (:data:`MAX_ARRAY_NAME`; checked before anything is written, naming its
+            first characters), so that a run's other artefacts are still written.
+    """
+    for name in arrays:
+        if len(name.encode("utf-8", "surrogatepass")) > MAX_ARRAY_NAME:
+            raise OSError(
+                f"{path}: array name {name[:40]!r}... has {len(name)} characters: an npz holds at most "
+                f"{MAX_ARRAY_NAME} bytes"
+            )
     with atomic_path(path) as temporary, open(temporary, "wb") as file:
         np.savez_compressed(file, **arrays)
 

@@ -113,7 +113,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from drake_sot import validation
 from drake_sot.diagrams.humanoid import HumanoidSoT, HumanoidSoTBuilder
-from drake_sot.diagrams.run import TimedCommand
+from drake_sot.diagrams.run import MAX_DURATION, TimedCommand, check_duration
 from drake_sot.diagrams.scenario import Scenario, ScenarioHandles, ScenarioSetup
 from drake_sot.diagrams.script_entities import (
     AT_MOST_ONE,
@@ -458,7 +458,7 @@ class ScriptSession:
         return self._simulator
 
     def _advance(self, duration: float, context: Context) -> str:
-        duration = validation.positive("run DURATION", duration, unit="s")
+        duration = check_duration("run DURATION", duration)
         self.simulator.AdvanceTo(context.get_time() + duration)
         return f"t = {context.get_time():.3f} s"
 
@@ -860,6 +860,17 @@ class ScriptProgram:
     path: Path
     statements: tuple[Statement, ...]
 
+    def __post_init__(self) -> None:
+        t = 0.0
+        for statement in self.statements:
+            if isinstance(statement.command, RunFor):
+                t += statement.command.duration
+                if not t <= MAX_DURATION:
+                    raise SessionError(
+                        f"{statement.where}: {statement.text}: the script's run lines add up to {t:g} s; "
+                        f"a run lasts at most {MAX_DURATION:g} s"
+                    )
+
     @property
     def scripted_duration(self) -> float:
         """The simulated time its ``run DURATION`` lines add up to [s]."""
@@ -871,7 +882,9 @@ def load_script(path: str | Path) -> ScriptProgram:
 
     Raises:
         ScriptError: a line out of the grammar (file, line, column).
-        SessionError: a file that cannot be read, an include outside the directory or a cycle.
+        SessionError: a file that cannot be read, an include outside the directory or a cycle,
+            ``run DURATION`` lines that add up to more than the longest run
+            (:data:`~drake_sot.diagrams.run.MAX_DURATION`), naming the line.
     """
     path = Path(path).resolve()
     return ScriptProgram(path, _expand(path, path.parent, ()))

@@ -25,10 +25,11 @@ from drake_sot.diagrams.collision_log import distance_log, pair_log
 from drake_sot.diagrams.pushes import ExternalPush, check_pushes
 from drake_sot.diagrams.world import add_humanoid_plant
 from drake_sot.errors import UnknownNameError
-from drake_sot.features import SelectionLike
+from drake_sot.features import SelectionLike, selection_indices
 from drake_sot.gains import Gain
 from drake_sot.models import HumanoidInfo, half_sitting_configuration
 from drake_sot.robots import RobotDescription, get_robot, make_robot_control_model
+from drake_sot.stack import task_name as checked_task_name
 from drake_sot.systems.admittance import AdmittanceController
 from drake_sot.systems.fall_monitor import FallCriteria, FallMonitor
 from drake_sot.systems.features import (
@@ -243,15 +244,41 @@ class HumanoidTaskBuilder:
     def _add_task(
         self, task_name: str, feature: Feature, gain: Gain, selection: SelectionLike = None
     ) -> Task:
-        """A task reading ``feature`` (added to the diagram unless it is there already, shared)."""
+        """A task reading ``feature`` (added to the diagram unless it is there already, shared).
+
+        The task is made and given its feature (its name, gain and selection checked) before
+        the builder changes: a refused call leaves the builder as it was."""
         if task_name in self.tasks:
             raise ValueError(f"a task named {task_name!r} exists already")
+        task = Task(task_name, gain=gain)
+        port = task.add(feature, selection=selection)
         if feature not in self.features.values():
             self.builder.AddSystem(feature)
-        task = self.add_task(Task(task_name, gain=gain))
-        self.builder.Connect(feature.GetOutputPort("feature"), task.add(feature, selection=selection))
+        self.add_task(task)
+        self.builder.Connect(feature.GetOutputPort("feature"), port)
         self.features[task_name] = feature
         return task
+
+    def _check_new_task(
+        self,
+        task_name: str,
+        *,
+        frames: Sequence[str] = (),
+        selection: SelectionLike = None,
+        dimension: int = 6,
+    ) -> None:
+        """Refuse, before the builder changes, what would stop a task from being added half-way:
+        a bad or taken ``task_name``, a frame that is no operational point and no frame of the
+        robot, a ``selection`` of the ``dimension`` components that is not one (ValueError, or
+        UnknownNameError for a frame, naming them)."""
+        checked_task_name(task_name)
+        if task_name in self.tasks:
+            raise ValueError(f"a task named {task_name!r} exists already")
+        for key in frames:
+            if key not in self.dyn.operational_points:
+                self._frame(key)
+        if selection is not None:
+            selection_indices(selection, dimension, name=f"selection of task {task_name!r}")
 
     def add_op_point_task(
         self,
@@ -271,7 +298,7 @@ class HumanoidTaskBuilder:
         reads — e.g. a hand's position, orientation and force tasks at different
         priorities, one pose error computed per tick. ``desired`` must then be None.
         """
-        op = self.op_point(frame_key)
+        self._check_new_task(task_name, frames=(frame_key,), selection=selection)
         if feature_of is not None:
             return self._add_task(
                 task_name, self._shared_pose_feature(feature_of, frame_key, desired), gain, selection
@@ -281,7 +308,7 @@ class HumanoidTaskBuilder:
             desired=self.initial_pose(frame_key) if desired is None else desired,
         )
         task = self._add_task(task_name, feature, gain, selection)
-        self._connect_frame(op, feature)
+        self._connect_frame(self.op_point(frame_key), feature)
         self._pose_feature_frames[feature] = frame_key
         return task
 
@@ -320,13 +347,13 @@ class HumanoidTaskBuilder:
         """A relative 6D task (``FeaturePoint6dRelative``): the pose of ``frame_key`` in
         ``reference_key`` (e.g. the paper's ``featureTwofeet``); holds the initial relative pose
         unless ``desired``."""
-        op, ref = self.op_point(frame_key), self.op_point(reference_key)
+        self._check_new_task(task_name, frames=(frame_key, reference_key))
         if desired is None:
             desired = self.initial_pose(reference_key).InvertAndCompose(self.initial_pose(frame_key))
         feature = FeaturePoint6dRelative(selection=selection, name=feature_name(task_name), desired=desired)
         task = self._add_task(task_name, feature, gain)
-        self._connect_frame(op, feature)
-        self._connect_frame(ref, feature, "Ref")
+        self._connect_frame(self.op_point(frame_key), feature)
+        self._connect_frame(self.op_point(reference_key), feature, "Ref")
         return task
 
     def add_com_task(
@@ -375,10 +402,10 @@ class HumanoidTaskBuilder:
             camera: the camera frame's logical name.
             gain: λ [1/s]; desired: s* (2,) in normalised image coordinates; selection: of x, y.
         """
-        op = self.op_point(camera)
+        self._check_new_task(task_name, frames=(camera,))
         feature = FeatureVisualPoint(selection=selection, name=feature_name(task_name), desired=desired)
         task = self._add_task(task_name, feature, gain)
-        self._connect_frame(op, feature)
+        self._connect_frame(self.op_point(camera), feature)
         self.builder.Connect(point, feature.GetInputPort("point"))
         if point_velocity is not None:
             self.builder.Connect(point_velocity, feature.GetInputPort("point_velocity"))
@@ -434,27 +461,26 @@ class HumanoidTaskBuilder:
         if side not in ("right", "left"):
             raise ValueError(f"side {side!r} must be 'right' or 'left'")
         sensor_joint = self.info.force_sensors[f"{side}_wrist"]
+        joint = self.control_plant.GetJointByName(sensor_joint)
+        hand_mass, hand_com = payload(self.control_plant, sensor_joint, self._probe_context)
+        controller = AdmittanceController(  # its arguments checked before the builder changes
+            mass=mass,
+            damping=damping,
+            stiffness=stiffness,
+            hand_mass=hand_mass,
+            hand_com=hand_com,
+            period=self.control_period,
+            max_velocity=max_velocity,
+            weighted=weighted,
+            name=name,
+        )
         sensor = self.builder.AddSystem(ForceSensor(self.plant, sensor_joint))
         sensor.set_name(f"{side}_wrist_sensor")
         self.builder.Connect(
             self.plant.get_reaction_forces_output_port(), sensor.GetInputPort("reaction_forces")
         )
-        joint = self.control_plant.GetJointByName(sensor_joint)
         sensor_op = self.op_point(f"{side}_wrist_sensor", joint.frame_on_child().name())
-        hand_mass, hand_com = payload(self.control_plant, sensor_joint, self._probe_context)
-        admittance = self.builder.AddSystem(
-            AdmittanceController(
-                mass=mass,
-                damping=damping,
-                stiffness=stiffness,
-                hand_mass=hand_mass,
-                hand_com=hand_com,
-                period=self.control_period,
-                max_velocity=max_velocity,
-                weighted=weighted,
-                name=name,
-            )
-        )
+        admittance = self.builder.AddSystem(controller)
         hand = self.op_point(f"{side}_hand")
         if weighted:
             self.builder.Connect(self.dyn.GetOutputPort("inertia"), admittance.GetInputPort("inertia"))
@@ -503,6 +529,8 @@ class HumanoidTaskBuilder:
             the controller, whose ``active``, ``wrench_ref`` inputs are left for the
             scenario to drive (active and zero when unconnected).
         """
+        self._check_new_task(task_name, frames=(f"{side}_hand",) if side in ("right", "left") else (),
+                             selection=selection)  # fmt: skip
         admittance = self.add_admittance_controller(
             f"admittance_{task_name}",
             side,
@@ -631,6 +659,7 @@ class HumanoidTaskBuilder:
     ) -> PointAbovePlane:
         """A point (``offset`` in a humanoid frame) kept ``clearance`` above a plane
         (``PointAbovePlane``; e.g. a hand above a table). An inequality task."""
+        self._check_new_task(task_name, frames=(frame_key,))
         task = self._add_inequality(
             PointAbovePlane(
                 normal=normal, origin=origin, clearance=clearance, offset=offset, gain=gain, name=task_name
@@ -652,6 +681,7 @@ class HumanoidTaskBuilder:
     ) -> DistanceAbove:
         """Two humanoid frames' points kept at least ``minimum`` apart (``DistanceAbove``; e.g. a
         hand and the torso, each inside a sphere). An inequality task."""
+        self._check_new_task(task_name, frames=(frame_a, frame_b))
         task = self._add_inequality(
             DistanceAbove(minimum=minimum, offset_a=offset_a, offset_b=offset_b, gain=gain, name=task_name)
         )

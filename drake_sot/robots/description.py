@@ -21,10 +21,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
+from drake_sot import validation
 from drake_sot.footsteps import StepLimits, StepTiming
 from drake_sot.robots.errors import RobotFileError, RobotFileMissing
 from drake_sot.robots.model_tree import ModelJoint
 from drake_sot.robots.urdf import AddedWeld
+from drake_sot.validation import shown
 
 #: The logical frames every robot gives (sole = the sole plane under the ankle, x
 #: forward; hand = the tool point of the hand; head_camera = optical axis z forward,
@@ -48,6 +50,45 @@ LOGICAL_FRAMES = (
 OPTICAL_RPY = (-math.pi / 2, 0.0, -math.pi / 2)
 #: The force/torque sensors every robot gives.
 FORCE_SENSORS = ("left_ankle", "right_ankle", "left_wrist", "right_wrist")
+
+#: The bounds of a description's numbers, checked when a description is made (from a file or
+#: in Python), before any reaches Drake (whose assertions end the interpreter): a value beyond
+#: is a typo, never a humanoid. Offsets [m] and angles [rad] of frames, welds and shapes:
+OFFSET_BOUND = 100.0
+#: The largest side of a sole [m] and radius of its contact spheres [m].
+SOLE_BOUND = 2.0
+CONTACT_RADIUS_BOUND = 0.1
+#: The largest dimension of a collision shape [m].
+SHAPE_BOUND = 10.0
+#: The largest stiffness [N m/rad], damping [N m s/rad], effort [N m] and rotor inertia
+#: [kg m^2] of a drive (TALOS's knee: 10^4, 120, 300, 0.1).
+DRIVE_BOUNDS = {"kp": 1e7, "kd": 1e6, "effort": 1e6, "rotor_inertia": 1e3}
+
+
+def check_number(
+    what: str, value, low: float, high: float, *, open_low: bool = False, unit: str = ""
+) -> float:
+    """``value`` as a float in [``low``, ``high``] (and > ``low`` with ``open_low``), or a
+    ValueError naming ``what`` and the value (:func:`drake_sot.validation.bounded`: NaN, a bool,
+    a string, an integer beyond float range refused)."""
+    number = validation.bounded(what, value, low, high, unit=unit)
+    if open_low and not number > low:
+        raise ValueError(f"{what} = {shown(value)}: must be > {low:g}{' ' + unit if unit else ''}")
+    return number
+
+
+def check_numbers(what: str, values, size: int, low: float, high: float, **kwargs) -> None:
+    """Each of ``size`` ``values`` checked by :func:`check_number` (``what[i]`` named)."""
+    if not isinstance(values, tuple | list) or len(values) != size:
+        raise ValueError(f"{what} = {shown(values)}: must be {size} numbers")
+    for i, value in enumerate(values):
+        check_number(f"{what}[{i}]", value, low, high, **kwargs)
+
+
+def check_offset(what: str, xyz, rpy) -> None:
+    """A position ``xyz`` [m] and roll-pitch-yaw ``rpy`` [rad] within ±:data:`OFFSET_BOUND`."""
+    check_numbers(f"{what}.xyz", xyz, 3, -OFFSET_BOUND, OFFSET_BOUND)
+    check_numbers(f"{what}.rpy", rpy, 3, -OFFSET_BOUND, OFFSET_BOUND)
 
 
 def xml_root(path: Path, what: str) -> ET.Element:
@@ -75,6 +116,11 @@ class FrameSpec:
     xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
+    def __post_init__(self) -> None:
+        if not (isinstance(self.parent, str) and self.parent):
+            raise ValueError(f"frame parent = {shown(self.parent)}: must be a non-empty string")
+        check_offset(f"frame on {self.parent!r}", self.xyz, self.rpy)
+
 
 @dataclass(frozen=True)
 class Drive:
@@ -85,6 +131,12 @@ class Drive:
     kd: float
     effort: float
     rotor_inertia: float = 0.0
+
+    def __post_init__(self) -> None:
+        for key in ("kp", "kd", "effort", "rotor_inertia"):
+            check_number(
+                f"drive {key}", getattr(self, key), 0.0, DRIVE_BOUNDS[key], open_low=key in ("kp", "effort")
+            )
 
 
 @dataclass(frozen=True)
@@ -97,6 +149,14 @@ class CollisionShape:
     dims: tuple[float, ...]
     xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        dims = {"box": 3, "sphere": 1, "capsule": 2}.get(self.kind)
+        if dims is None:
+            raise ValueError(f"collision shape kind = {shown(self.kind)}: must be box, sphere or capsule")
+        what = f"collision shape on {self.body!r}"
+        check_numbers(f"{what}.dims", self.dims, dims, 0.0, SHAPE_BOUND, open_low=True, unit="m")
+        check_offset(what, self.xyz, self.rpy)
 
 
 @dataclass(frozen=True)
@@ -142,6 +202,22 @@ class RobotDescription:
     step_limits: StepLimits = StepLimits()
 
     def __post_init__(self) -> None:
+        try:
+            check_numbers("sole_size", self.sole_size, 2, 0.0, SOLE_BOUND, open_low=True, unit="m")
+            check_number(
+                "contact_radius", self.contact_radius, 0.0, CONTACT_RADIUS_BOUND, open_low=True, unit="m"
+            )
+            for weld in self.added_welds:
+                check_offset(f"added weld {weld.name!r}", weld.xyz, (0.0, 0.0, 0.0))
+            for name, drive in self.drives.items():
+                if not isinstance(drive, Drive):
+                    raise ValueError(f"drive of joint {name!r} = {shown(drive)}: must be a Drive")
+            for name, limits in self.joint_limits.items():
+                lower, upper = limits
+                if not (lower <= upper):  # NaN refused
+                    raise ValueError(f"joint_limits[{name!r}] = {limits!r}: lower must be <= upper")
+        except ValueError as exc:
+            raise ValueError(f"robot {self.name!r}: {exc}") from None
         missing = [f for f in LOGICAL_FRAMES if f not in self.frames]
         if missing:
             raise ValueError(f"robot {self.name!r}: logical frames {missing} are not given")

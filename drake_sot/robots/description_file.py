@@ -11,7 +11,7 @@ The keys (``[name]`` a table, ``name[]`` an array of tables; defaults in parenth
     name = "myrobot"              # (the file's stem) the robot's name
     title = "..."                 # (the model file's name) one line for `drake-sot list --robots`
     model = "myrobot.urdf"        # the model (.urdf, .sdf, or .xml for MJCF), relative to this file
-    base_body = "pelvis"          # the floating base body
+    base_body = "pelvis"          # the floating base body: the model's root link
     sole_size = [0.23, 0.13]      # [m] sole length (x) and width (y), centred on the sole frame
     contact_radius = 0.01         # (0.01) [m] the four contact spheres under each sole
     frozen_joints = []            # (none) model joints made fixed at load (grippers, mimics)
@@ -54,7 +54,7 @@ from drake_sot.robots.description import (
     RobotDescription,
 )
 from drake_sot.robots.errors import RobotFileError, RobotFileMissing
-from drake_sot.robots.model_tree import MODEL_FORMATS, model_joints, model_root
+from drake_sot.robots.model_tree import MODEL_FORMATS, model_root, read_model_tree
 from drake_sot.robots.urdf import AddedWeld
 from drake_sot.validation import shown
 
@@ -313,7 +313,13 @@ class _Reader:
         if not isinstance(frozen, list):
             raise self.error("frozen_joints", frozen, "must be an array of joint names")
         frozen = tuple(self.string(f"frozen_joints[{i}]", j) for i, j in enumerate(frozen))
-        joints = model_joints(model, frozen)
+        tree = read_model_tree(model)
+        joints = tree.model_joints(frozen)
+        base_body = self.string("base_body", self.get(data, "base_body", ""))
+        if base_body != tree.root:
+            raise self.error(
+                "base_body", base_body, f"must be the model's root link {tree.root!r} (its floating base)"
+            )
 
         frames_table = self.table("frames", self.get(data, "frames", ""))
         self.keys("frames: ", frames_table, LOGICAL_FRAMES)
@@ -386,7 +392,7 @@ class _Reader:
                 ),
                 model_file=model,
                 packages=packages,
-                base_body=self.string("base_body", self.get(data, "base_body", "")),
+                base_body=base_body,
                 frames=frames,
                 sole_size=(sole[0], sole[1]),
                 contact_radius=radius,

@@ -40,6 +40,7 @@ from drake_sot.robots.errors import RobotFileError, RobotFileMissing
 from drake_sot.robots.meshes import cache_dir, converted_mesh
 from drake_sot.robots.mjcf import prepare_mjcf
 from drake_sot.robots.model_tree import model_format
+from drake_sot.robots.model_values import check_model_values
 from drake_sot.robots.sdf import prepare_sdf
 from drake_sot.robots.urdf import prepare_urdf
 
@@ -68,8 +69,10 @@ def model_text(
 
     Raises RobotFileMissing (a FileNotFoundError) naming the model file or a mesh when it is
     missing, RobotFileError naming the model file when it is not well-formed XML (or not
-    text) or of an unknown suffix, a mesh that cannot be converted or a mesh cache that
-    cannot be written.
+    text) or of an unknown suffix, holds a number out of range (a mass, an inertia, an origin:
+    :func:`~drake_sot.robots.model_values.check_model_values`), names a mesh package the robot
+    does not map, a frozen joint or a weld's link it does not have, a mesh that cannot be
+    converted or a mesh cache that cannot be written.
     """
     if robot.model_file is None:
         raise ValueError(f"robot {robot.name!r} is built in code: it has no model file")
@@ -80,7 +83,10 @@ def model_text(
     fmt = model_format(path)
 
     def mesh_uri(source: Path, scale: tuple[float, float, float]) -> str:
-        return f"package://{MESH_PACKAGE}/{converted_mesh(source, scale, mesh_cache).name}"
+        converted = converted_mesh(source, scale, mesh_cache)
+        if converted == source:  # an .obj at unit scale, read where it is
+            return converted.resolve().as_uri()
+        return f"package://{MESH_PACKAGE}/{converted.name}"
 
     def mesh_path(source: Path, scale: tuple[float, float, float]) -> str:
         return str(converted_mesh(source, scale, mesh_cache).resolve())
@@ -88,6 +94,7 @@ def model_text(
     fixes = {"frozen_joints": robot.frozen_joints, "added_welds": robot.added_welds}
     try:
         text = path.read_text()
+        check_model_values(path, fmt, ET.fromstring(text))  # before Drake reads a number
         if fmt == "mjcf":
             mesh_file = mesh_path if geometry else None
             return fmt, *prepare_mjcf(text, directory=path.parent, mesh_file=mesh_file, **fixes)
@@ -96,11 +103,17 @@ def model_text(
             return fmt, *prepare_sdf(
                 text, directory=path.parent, packages=robot.packages, mesh_file=mesh_file, **fixes
             )
-        return fmt, *prepare_urdf(text, packages=robot.packages, mesh_file=mesh_file, **fixes)
+        return fmt, *prepare_urdf(
+            text, packages=robot.packages, mesh_file=mesh_file, directory=path.parent, **fixes
+        )
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise RobotFileError(
             f"robot {robot.name!r}: model file {path}: not well-formed XML ({exc}): truncated or corrupt?"
         ) from None
+    except OSError:  # RobotFileMissing, RobotFileError: they name their file
+        raise
+    except ValueError as exc:  # an unknown mesh package, a frozen joint or weld not in the model
+        raise RobotFileError(f"robot {robot.name!r}: model file {path}: {exc}") from None
 
 
 def load_robot(

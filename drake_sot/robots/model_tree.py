@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from drake_sot.robots.errors import RobotFileError, RobotFileMissing
+from drake_sot.robots.model_values import check_model_values
 
 #: The model formats by file suffix (an ``.xml`` must be MJCF: its root ``<mujoco>``).
 MODEL_FORMATS = {".urdf": "urdf", ".sdf": "sdf", ".xml": "mjcf"}
@@ -227,6 +228,14 @@ class ModelTree:
         """The revolute joints (mimic followers left out: the loader fixes them)."""
         return [j for j in self.joints.values() if j.kind == "revolute" and not j.follower]
 
+    def model_joints(self, frozen: tuple[str, ...] = ()) -> dict[str, ModelJoint]:
+        """The moving joints (less the ``frozen`` ones) with their limits and effort, in file order."""
+        return {
+            j.name: ModelJoint(j.limits[0], j.limits[1], j.effort)
+            for j in self.moving()
+            if j.name not in frozen
+        }
+
 
 def read_model_tree(path: str | Path) -> ModelTree:
     """The tree of the model file ``path`` (see the module docstring for what each format gives).
@@ -234,11 +243,14 @@ def read_model_tree(path: str | Path) -> ModelTree:
     Raises:
         RobotFileMissing: ``path`` does not exist.
         RobotFileError: an unknown suffix, not well-formed XML, not the format its suffix says,
-            an element that cannot be read (a joint, a pose, a limit), a feature refused (see the
-            module docstring), not a tree with one root; each naming the file.
+            a number out of range (a mass, an inertia, an origin: see
+            :mod:`~drake_sot.robots.model_values`), an element that cannot be read (a joint, a
+            pose, a limit), a feature refused (see the module docstring), not a tree with one
+            root; each naming the file.
     """
     path = Path(path)
     fmt, root = model_root(path)
+    check_model_values(path, fmt, root)
     reader = {"urdf": _Urdf, "sdf": _Sdf, "mjcf": _Mjcf}[fmt](path, root)
     return ModelTree(path, fmt, *reader.read())
 
@@ -248,11 +260,7 @@ def model_joints(path: str | Path, frozen: tuple[str, ...] = ()) -> dict[str, Mo
 
     Raises RobotFileMissing or RobotFileError as :func:`read_model_tree`.
     """
-    return {
-        j.name: ModelJoint(j.limits[0], j.limits[1], j.effort)
-        for j in read_model_tree(path).moving()
-        if j.name not in frozen
-    }
+    return read_model_tree(path).model_joints(frozen)
 
 
 class _Reader:

@@ -24,7 +24,6 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
-from drake_sot.robots.errors import RobotFileMissing
 from drake_sot.robots.urdf import (
     ADDED_LINK_INERTIA,
     ADDED_LINK_MASS,
@@ -32,18 +31,8 @@ from drake_sot.robots.urdf import (
     check_added_weld,
     geometry_fixes,
     mesh_scale,
-    resolve_package_uri,
+    mesh_source,
 )
-
-
-def _mesh_source(uri: str, directory: Path, packages: Mapping[str, Path]) -> Path:
-    """The file of a mesh URI: ``package://``, ``file://`` or a path relative to ``directory``."""
-    if uri.startswith("package://"):
-        return resolve_package_uri(uri, packages)
-    path = directory / uri.removeprefix("file://")
-    if not path.is_file():
-        raise RobotFileMissing(f"mesh URI {uri!r}: file {path} does not exist")
-    return path
 
 
 def prepare_sdf(
@@ -130,7 +119,7 @@ def prepare_sdf(
             if mesh is None:
                 continue
             uri = mesh.find("uri")
-            source = _mesh_source((uri.text or "").strip() if uri is not None else "", directory, packages)
+            source = mesh_source((uri.text or "").strip() if uri is not None else "", directory, packages)
             scale = mesh.find("scale")
             uri.text = mesh_file(source, mesh_scale(None if scale is None else scale.text))
             if scale is not None:

@@ -6,8 +6,9 @@ sentence naming what it changed and how many times), for the log and the tests:
 
 - ``package:///pkg/…`` (an empty host: 93 typos in ``talos_full_v2.urdf``) → ``package://pkg/…``;
 - every ``package://`` URI is resolved through the robot's own package map (the URIs say
-  ``example-robot-data`` while the package.xml names ``example_robot_descriptions``),
-  an unknown package or a missing file is an error naming it;
+  ``example-robot-data`` while the package.xml names ``example_robot_descriptions``), a mesh
+  path against the model's directory; an unknown package or a missing file is an error
+  naming it;
 - a material defined twice with different colours (TALOS's ``DarkGrey``) keeps its
   first top-level definition; the inline redefinitions lose their colour;
 - joints with a ``<mimic>`` element and the robot's frozen joints (TALOS's gripper
@@ -95,6 +96,23 @@ def resolve_package_uri(uri: str, packages: Mapping[str, Path]) -> Path:
     return path
 
 
+def mesh_source(uri: str, directory: Path | None, packages: Mapping[str, Path]) -> Path:
+    """The file of a mesh URI: ``package://`` (through ``packages``), else ``file://`` or a path
+    relative to ``directory`` (the model file's, as Drake reads a model from its file).
+
+    Raises UnknownNameError for an unknown package, RobotFileMissing for a file not there, and
+    ValueError for a path when no ``directory`` is given (each naming the URI).
+    """
+    if uri.startswith("package://"):
+        return resolve_package_uri(uri, packages)
+    if directory is None:
+        raise ValueError(f"mesh URI {uri!r}: a path, and no model directory to read it from")
+    path = Path(directory) / uri.removeprefix("file://")
+    if not uri.strip() or not path.is_file():
+        raise RobotFileMissing(f"mesh URI {uri!r}: file {path} does not exist")
+    return path
+
+
 def mesh_scale(text: str | None) -> tuple[float, float, float]:
     """The three scale factors of a mesh's ``scale`` (1 or 3 numbers; None: unit scale); a
     ValueError names a text of another count."""
@@ -115,12 +133,14 @@ def prepare_urdf(
     mesh_file: Callable[[Path, tuple[float, float, float]], str] | None,
     frozen_joints: Sequence[str] = (),
     added_welds: Sequence[AddedWeld] = (),
+    directory: Path | None = None,
 ) -> tuple[str, list[str]]:
     """Apply the fixes listed in the module docstring to URDF ``text``.
 
     Args:
         text: the URDF as read from its file.
         packages: package name → directory, for ``package://`` URIs.
+        directory: the model file's directory, for mesh file names that are paths.
         mesh_file: (source mesh, scale) → the URI of the mesh to load (a converted OBJ,
             scale baked in); None drops the visuals.
         frozen_joints: joints to make fixed (must exist).
@@ -204,7 +224,7 @@ def prepare_urdf(
             mesh = visual.find("geometry/mesh")
             if mesh is None:
                 continue
-            source = resolve_package_uri(mesh.get("filename", ""), packages)
+            source = mesh_source(mesh.get("filename", ""), directory, packages)
             mesh.set("filename", mesh_file(source, mesh_scale(mesh.get("scale"))))
             mesh.attrib.pop("scale", None)
             meshes += 1

@@ -26,6 +26,7 @@ from pydrake.systems.framework import Context
 from drake_sot import inequalities as ineq
 from drake_sot import validation
 from drake_sot.signals import BoundedTaskSignal
+from drake_sot.stack import task_name
 from drake_sot.systems.features import _one_dof_joint_names, joint_units
 from drake_sot.systems.leaf import SotLeafSystem
 
@@ -45,7 +46,7 @@ class InequalityTask(SotLeafSystem):
 
     def __init__(self, name: str, dimension: int, units: str | Sequence[str]) -> None:
         super().__init__()
-        self.set_name(validation.nonempty_string("task name", name))
+        self.set_name(task_name(name))
         self._m = validation.positive_int(f"task {name!r}: dimension", dimension)
         self._units = (units,) * self._m if isinstance(units, str) else tuple(units)
 

@@ -13,6 +13,7 @@ from drake_sot import features as fmath
 from drake_sot.features import SelectionLike
 from drake_sot.gains import MAX_GAIN_PERIOD, AdaptiveGain, Gain, check_gain_period, validate_gain
 from drake_sot.signals import FeatureSignal, TaskSignal
+from drake_sot.stack import task_name
 from drake_sot.systems._context import own_context, settable_context
 from drake_sot.systems.features import Feature
 from drake_sot.systems.leaf import SotLeafSystem
@@ -56,7 +57,7 @@ class Task(SotLeafSystem):
 
     def __init__(self, name: str, *, gain: Gain = 1.0, period: float | None = None) -> None:
         super().__init__()
-        self.set_name(name)
+        self.set_name(task_name(name))
         gain = validate_gain(gain, name=name, period=period)
         self._period: float | None = None if period is None else float(period)
         # (input port, dimension, rows of the feature's output the task keeps or None for all)
@@ -95,15 +96,15 @@ class Task(SotLeafSystem):
             )
         if self.HasInputPort(name):
             raise ValueError(f"task {self.get_name()!r} already has a feature named {name!r}")
-        port = self.DeclareAbstractInputPort(
-            name, AbstractValue.Make(FeatureSignal(np.zeros(0), np.zeros((0, 0)), np.zeros(0)))
-        )
-        rows = (
+        rows = (  # checked before the port is declared: a refused call leaves the task as it was
             None
             if selection is None
             else fmath.selection_indices(
                 selection, feature.dimension, name=f"selection of {name!r} in task {self.get_name()!r}"
             )
+        )
+        port = self.DeclareAbstractInputPort(
+            name, AbstractValue.Make(FeatureSignal(np.zeros(0), np.zeros((0, 0)), np.zeros(0)))
         )
         if rows is not None and rows.size and (np.diff(rows) == 1).all():
             rows = slice(int(rows[0]), int(rows[-1]) + 1)  # consecutive components: views, not copies
