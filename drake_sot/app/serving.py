@@ -380,8 +380,8 @@ class Serving:
             if isinstance(command, Get) or (
                 isinstance(command, Call) and command.command in ("list", "help")
             ):
-                return self._session.execute(statement, context), False
-            return self._session.execute(statement, context), True
+                return self._session.execute(statement, context, served=True), False
+            return self._session.execute(statement, context, served=True), True
         if isinstance(command, Get):
             signal = f"{command.signal.entity}.{command.signal.name}"
             self._port(signal)
