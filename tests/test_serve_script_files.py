@@ -16,6 +16,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
+from drake_sot.diagrams.script_session import MAX_OUTPUT_FILES
 from drake_sot.remote import Client, RemoteError
 from drake_sot.remote.shell import execute
 
@@ -50,25 +51,63 @@ def _stop(proc: subprocess.Popen) -> str:
     return err
 
 
+def _announced(proc: subprocess.Popen) -> Path:
+    """The fresh directory a served script writes into, named on stderr before the address."""
+    line = proc.stderr.readline()
+    match = re.fullmatch(
+        r"the script writes its files \(pool\.writegraph\) into (\S+) \(removed when the server stops\)\n",
+        line,
+    )
+    assert match is not None, line
+    return Path(match.group(1))
+
+
 def test_a_served_script_without_out_writes_into_a_fresh_directory_only(tmp_path):
     script = tmp_path / "served.sot"
     script.write_text(SCRIPT)
     proc, port = _serve(script)
     try:
+        announced = _announced(proc)
         with Client("127.0.0.1", port) as client:
             answer = client.run("pool.writegraph graph.dot")
             for name in ("../served.sot", "sub/graph.dot", str(tmp_path / "x.dot"), ".."):
                 with pytest.raises(RemoteError, match="must be a plain file name"):
                     client.run(f'pool.writegraph "{name}"')
             assert client.run("pool.writegraph graph.dot") == answer  # its own file again
+            written = Path(answer.removeprefix("wrote "))
+            assert written == announced / "graph.dot" and written.read_text().startswith("digraph")
+            assert announced.resolve() != tmp_path.resolve()
+            assert os.listdir(announced) == ["graph.dot"]  # no directory made, no other file
     finally:
-        err = _stop(proc)
-    (announced,) = re.findall(r"the script writes its files \(pool\.writegraph\) into (\S+)", err)
-    written = Path(answer.removeprefix("wrote "))
-    assert written == Path(announced) / "graph.dot" and written.read_text().startswith("digraph")
-    assert Path(announced).resolve() != tmp_path.resolve()
+        _stop(proc)
     assert os.listdir(tmp_path) == ["served.sot"] and script.read_text() == SCRIPT
-    assert os.listdir(announced) == ["graph.dot"]  # no directory made, no other file
+    assert not announced.exists()  # removed with the server
+
+
+def test_a_served_script_writes_a_bounded_number_of_files(tmp_path):
+    """A client naming new files fills no disk: the session writes at most MAX_OUTPUT_FILES, and
+    rewrites those; the SVG's stand-in .dot (no renderer) counts and replaces nothing."""
+    script = tmp_path / "served.sot"
+    script.write_text(SCRIPT)
+    proc, port = _serve(script)
+    try:
+        announced = _announced(proc)
+        (announced / "other.dot").write_text("not the session's")
+        with Client("127.0.0.1", port) as client:
+            with pytest.raises(RemoteError, match="'other.dot': .* exists and this session did not write it"):
+                client.run("pool.writegraph other.svg")
+            for k in range(MAX_OUTPUT_FILES):
+                client.run(f"pool.writegraph g{k}.dot")
+            with pytest.raises(
+                RemoteError, match=f"wrote {MAX_OUTPUT_FILES} files already, the most it writes"
+            ):
+                client.run("pool.writegraph one_more.dot")
+            assert client.run("pool.writegraph g0.dot") == f"wrote {announced / 'g0.dot'}"
+            assert len(os.listdir(announced)) == MAX_OUTPUT_FILES + 1  # and other.dot, untouched
+            assert (announced / "other.dot").read_text() == "not the session's"
+    finally:
+        _stop(proc)
+    assert not announced.exists()
 
 
 def test_a_served_script_never_replaces_a_file_it_did_not_write(tmp_path):

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -700,7 +701,11 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
     # bound: only now is a script's fresh directory made (a refusal before leaves nothing behind)
-    scenario = served if isinstance(served, Scenario) else _served_script(served, args.out, args.robot)
+    fresh = None
+    if isinstance(served, Scenario):
+        scenario = served
+    else:
+        scenario, fresh = _served_script(served, args.out, args.robot)
 
     bar = ProgressBar()  # not drawn: it says when a signal came (before the run, or after it)
 
@@ -775,7 +780,11 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
         return exit_status(result, unwritten)
 
-    return _interruptible(serve, bar, args.out or "no output directory")
+    try:
+        return _interruptible(serve, bar, args.out or "no output directory")
+    finally:
+        if fresh is not None:  # what the clients wrote there lived as long as the server
+            shutil.rmtree(fresh, ignore_errors=True)
 
 
 def _served(target: str, parser: argparse.ArgumentParser) -> tuple[Scenario | ScriptProgram, float | None]:
@@ -792,13 +801,20 @@ def _served(target: str, parser: argparse.ArgumentParser) -> tuple[Scenario | Sc
     return program, program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
 
 
-def _served_script(program: ScriptProgram, out: str | None, robot: str | None) -> Scenario:
+def _served_script(program: ScriptProgram, out: str | None, robot: str | None) -> tuple[Scenario, str | None]:
     """The scenario of a served script driving ``robot`` (None: the embedded one), its files in
-    ``out`` or, when None, in a fresh directory (never the working one), named on stderr."""
+    ``out`` or, when None, in a fresh directory (never the working one), named on stderr, which the
+    server removes when it stops; and that fresh directory (None: ``out`` was given)."""
+    fresh = None
     if out is None:
-        out = tempfile.mkdtemp(prefix=f"drake_sot_{program.path.stem}_")
-        print(f"the script writes its files (pool.writegraph) into {out}", file=sys.stderr, flush=True)
-    return script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
+        out = fresh = tempfile.mkdtemp(prefix=f"drake_sot_{program.path.stem}_")
+        print(
+            f"the script writes its files (pool.writegraph) into {out} (removed when the server stops)",
+            file=sys.stderr,
+            flush=True,
+        )
+    scenario = script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
+    return scenario, fresh
 
 
 def _echo(statement: Statement, time: float, output: str, stream: TextIO | None = None) -> None:

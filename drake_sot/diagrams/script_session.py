@@ -90,9 +90,12 @@ its errors show nothing the file holds: whether the name is not a ``.sot``, miss
 not a script, the reply is the same line (only a script that runs tells that it exists); a command
 of it that is refused is named by its rank, and why is logged on the server's side alone.
 ``pool.writegraph FILE`` writes a plain file name (no directory part, not
-``.`` or ``..``) into the session's output directory, creates no directory, and never replaces
-a file that this session did not write itself (the script, another user's file); without an
-output directory the session makes a fresh temporary one, never the working directory.
+``.`` or ``..``) into the session's output directory, creates no directory, never replaces
+a file that this session did not write itself (the script, another user's file), and writes at
+most :data:`MAX_OUTPUT_FILES` files (writing one of them again is always allowed): a client of a
+served session cannot fill a disk by naming new files. Without an output directory the session
+makes a fresh temporary one, never the working directory (``drake-sot serve`` removes its own
+when the server stops).
 
 The run-time entry point, for a command server or a shell, is
 :meth:`ScriptSession.execute`: ``session.execute("sot.push taskCom", root_context)`` returns
@@ -164,6 +167,9 @@ from drake_sot.script import (
 from drake_sot.systems.sot import StackOfTasks
 
 _log = logging.getLogger(__name__)
+
+#: The files a session may write into its output directory (``pool.writegraph``): one more is refused.
+MAX_OUTPUT_FILES = 64
 
 #: The suffix of the script files a client of a served session may run.
 SCRIPT_SUFFIX = ".sot"
@@ -331,7 +337,8 @@ class ScriptSession:
 
         Raises:
             SessionError: ``name`` is not a plain file name (empty, ``.``, ``..``, a separator,
-                a NUL), or names a file (or link) that exists and that this session did not write.
+                a NUL), or names a file (or link) that exists and that this session did not write,
+                or a new file when the session wrote :data:`MAX_OUTPUT_FILES` already.
         """
         if name in ("", ".", "..") or any(c in name for c in ("/", "\\", os.sep, "\0")):
             raise SessionError(
@@ -339,9 +346,16 @@ class ScriptSession:
                 f"written into the output directory {str(self.output_dir)!r}"
             )
         path = self.output_dir / name
-        if path not in self._written and (path.exists() or path.is_symlink()):
+        if path in self._written:
+            return path
+        if path.exists() or path.is_symlink():
             raise SessionError(
                 f"{name!r}: {str(path)!r} exists and this session did not write it: not replaced"
+            )
+        if len(self._written) >= MAX_OUTPUT_FILES:
+            raise SessionError(
+                f"{name!r}: this session wrote {MAX_OUTPUT_FILES} files already, the most it writes "
+                f"(write one of those again instead)"
             )
         self._written.add(path)
         return path
