@@ -394,6 +394,40 @@ def test_the_token_option_says_it_shows_in_ps_and_names_the_environment_variable
         assert "$DRAKE_SOT_TOKEN" in token_help and "`ps`" in token_help, token_help
 
 
+def test_a_token_on_the_command_line_gets_one_warning_line_naming_the_environment_variable():
+    warning = (
+        "drake-sot: warning: --token shows in /proc/PID/cmdline (`ps`) to every user of this machine; "
+        "give it in $DRAKE_SOT_TOKEN instead"
+    )
+    with socket.socket() as unused:  # a port nobody listens on: the shell cannot connect
+        unused.bind(("127.0.0.1", 0))
+        port = unused.getsockname()[1]
+    given = subprocess.run(
+        [*DRAKE_SOT, "shell", "--port", str(port), "--token", "T"],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
+        stdin=subprocess.DEVNULL,
+    )
+    assert given.returncode == 1
+    assert given.stderr.splitlines()[0] == warning and given.stderr.count("--token shows") == 1
+    assert "cannot connect" in given.stderr.splitlines()[1]
+    quiet = subprocess.run(  # the same token from the environment: no warning
+        [*DRAKE_SOT, "shell", "--port", str(port)],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
+        stdin=subprocess.DEVNULL,
+        env={**os.environ, "DRAKE_SOT_TOKEN": "T"},
+    )
+    assert quiet.returncode == 1 and "--token shows" not in quiet.stderr
+    proc, host, port = start("--port", "0", "--duration", "60", "--token", "T")
+    stop(proc)
+    assert proc.stderr.read().count(warning) == 1  # serve says it too, once
+
+
 # --- every writable declares its bounds; one Writable type, one check ---------------------------
 
 

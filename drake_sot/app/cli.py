@@ -568,6 +568,12 @@ def exit_status(result: RunResult, unwritten: Mapping[str, str] | None = None) -
     return FELL if result.fell is not None else 0
 
 
+#: The one line a ``--token`` on the command line gets on stderr: argv is not a secret.
+TOKEN_IN_ARGV = (
+    f"drake-sot: warning: --token shows in /proc/PID/cmdline (`ps`) to every user of this machine; "
+    f"give it in ${TOKEN_ENV} instead"
+)
+
 #: The exit status of a command whose standard output's reader went away (``drake-sot list | head``),
 #: as for a process ended by SIGPIPE (128 + 13).
 EXIT_BROKEN_PIPE = 141
@@ -588,6 +594,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     parser, run, script = _parser()
     args = parser.parse_args(_joined_option_values(sys.argv[1:] if argv is None else argv))
+    if getattr(args, "token", None) is not None:  # serve, shell, run --connect
+        print(TOKEN_IN_ARGV, file=sys.stderr, flush=True)
     limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     if args.command == "script":
         return _script(args, script)
