@@ -454,6 +454,67 @@ def test_a_target_position_beyond_the_reach_bound_is_refused_naming_it(server, v
         assert len(client.read("dyn.com")) == 3
 
 
+def test_a_stance_foot_target_lifted_over_the_server_is_refused_naming_the_value(server):
+    """The reach's feet hold the robot up: a target 1.5 m over where a foot stands is refused with
+    the value, the robot stands on; the reach is the robot's stride, from where the foot stood."""
+    _, host, port = server
+    from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+
+    builder = HumanoidSoTBuilder()
+    stride = builder.robot.step_limits.max_stride
+    with Client(host, port) as client:
+        writable = client.list()["writable"]
+        assert "reach" not in writable["taskRH.position_des"]  # a hand goes where it is sent
+        for task, frame in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
+            stood = builder.initial_pose(frame).translation()
+            assert writable[f"{task}.position_des"]["reach"] == stride == 0.35
+            np.testing.assert_allclose(writable[f"{task}.position_des"]["anchor"], stood, atol=1e-12)
+            lifted = stood + [0.0, 0.0, 1.5]
+            with pytest.raises(RemoteError) as refused:
+                client.write(f"{task}.position_des", lifted.tolist())
+            message = str(refused.value)
+            assert message.startswith(f"{task}.position_des: value = [") and "1.5 from [" in message
+            assert f"{lifted[2]:.4g}]" in message and "beyond the reach 0.35 (m, world frame)" in message
+            with pytest.raises(RemoteError, match="beyond the reach"):  # just past a stride, sideways
+                client.write(f"{task}.position_des", (stood + [0.0, 1.001 * stride, 0.0]).tolist())
+            client.write(f"{task}.position_des", stood.tolist())  # where it stands: accepted
+        pelvis_height = client.read("dyn.com")[2]
+        assert 0.5 < pelvis_height  # the CoM of a robot that stands
+
+
+def test_a_served_run_whose_stance_foot_was_sent_up_ends_standing_with_exit_0():
+    from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+
+    stood = HumanoidSoTBuilder().initial_pose("left_foot").translation()
+    proc, host, port = start("--port", "0", "--duration", "2")
+    try:
+        with Client(host, port) as client:
+            try:
+                client.write("taskLF.position_des", (stood + [0.0, 0.0, 1.5]).tolist())
+                refusal = None
+            except RemoteError as refused:
+                refusal = str(refused)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        stop(proc)
+    assert proc.returncode == 0, err  # 3 when the lifted foot threw the robot down
+    assert out.splitlines()[-1].startswith("served up to t = 2.000 s; 0 requests applied"), out
+    assert refusal.startswith("taskLF.position_des: value = [") and "beyond the reach" in refusal
+
+
+def test_a_reach_is_measured_from_its_anchor_and_needs_one():
+    writable = server_module.Writable(3, "m", 10.0, reach=0.5, anchor=(1.0, 0.0, 0.0))
+    assert writable.check("s", (1.0, 0.3, 0.4)) is None  # 0.5 from the anchor: the reach itself
+    assert writable.check("s", (1.0, 0.3, 0.41)) == (
+        f"s: value = [1, 0.3, 0.41]: {math.sqrt(0.3**2 + 0.41**2):g} from [1, 0, 0], "
+        "beyond the reach 0.5 (m) of that anchor"
+    )
+    with pytest.raises(ValueError, match="give both or neither"):
+        server_module.Writable(3, "m", 10.0, reach=0.5)
+    with pytest.raises(ValueError, match="Writable.reach = nan m"):
+        server_module.Writable(3, "m", 10.0, reach=float("nan"), anchor=(0.0, 0.0, 0.0))
+
+
 def test_a_declared_writable_has_a_bound_checked_by_the_one_check():
     assert validation.REACH_BOUND == 10.0
     assert serving.Writable is server_module.Writable  # one type: the host's and the server's
