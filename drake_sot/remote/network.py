@@ -157,7 +157,7 @@ class NetworkThread:
         self._wake_r.setblocking(False)
         self._pending: deque[tuple[int, bytes]] = deque()
         self._connections: dict[int, _Connection] = {}  # in the order they were accepted
-        self._lingering: dict[int, _Lingering] = {}  # refused connections, oldest first (by file number)
+        self._lingering: dict[int, _Lingering] = {}  # refused connections, oldest first
         self._swept = time.monotonic()  # when the deadlines were last checked
         self._next_id = 0
         self._stop = threading.Event()
