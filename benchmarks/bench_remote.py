@@ -2,6 +2,7 @@
 
     python benchmarks/bench_remote.py [--scenario reach]
     python benchmarks/bench_remote.py --baseline 8074b69
+    python benchmarks/bench_remote.py --baseline abdad51 --socket-thread
 
 
 Starts ``drake-sot serve reach`` (or ``--scenario``'s; controller at 200 Hz, paced at 1 x real
@@ -26,12 +27,20 @@ front-ends had their own package), one client each; blocks of ``read sot.errors`
 between the two (the order swapped every block), so that both see the same machine load. Prints
 each side's median and p99 and the median of the per-block ratios of medians (this tree /
 baseline).
+
+With ``--baseline COMMIT --socket-thread``: the same A/B of the socket thread alone, in this
+process, without a simulation (whose pace, on a loaded machine, hides a change of the socket
+thread): this tree's :class:`~drake_sot.remote.network.NetworkThread` and ``COMMIT``'s (its
+``network.py`` loaded from the extracted tree; the protocol module is this tree's), each with a
+token and one authenticated client, answer ``read`` from values published before each read (32
+signals, as the serving loop publishes them after a tick), in blocks that alternate as above.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.util
 import os
 import random
 import re
@@ -175,6 +184,54 @@ def against_baseline(
     )
 
 
+def socket_thread_against_baseline(commit: str, blocks: int, block: int) -> None:
+    """The socket-thread A/B of the module docstring: ``blocks`` alternations of ``block`` reads."""
+    with tempfile.TemporaryDirectory() as baseline:
+        extract(commit, Path(baseline))
+        spec = importlib.util.spec_from_file_location(
+            "baseline_network", Path(baseline) / "drake_sot" / "remote" / "network.py"
+        )
+        module = sys.modules["baseline_network"] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    token = "bench-token"
+    signals = [f"system{k}.port" for k in range(32)]
+    # two ticks' values, in turn for each round of the signals: a read is answered once per tick
+    ticks = [{signal: (float(t), [0.1, 0.2, 0.3], {}) for signal in signals} for t in (0, 1)]
+    threads = {"baseline": module.NetworkThread, "tree": NetworkThread}
+    with contextlib.ExitStack() as stack:
+        clients = {}
+        for name, kind in threads.items():
+            thread = threads[name] = kind("127.0.0.1", 0, token=token)
+            thread.start()
+            stack.callback(thread.close)
+            clients[name] = stack.enter_context(Client(*thread.address, token=token))
+        samples: dict[str, list[float]] = {"baseline": [], "tree": []}
+        ratios = []
+        for k in range(blocks):
+            order = ("baseline", "tree") if k % 2 == 0 else ("tree", "baseline")
+            got = {}
+            for name in order:
+                rtt = got[name] = []
+                for i in range(len(samples[name]), len(samples[name]) + block):
+                    threads[name].publish(ticks[(i // len(signals)) % 2])
+                    start = time.perf_counter()
+                    clients[name].read(signals[i % len(signals)])
+                    rtt.append(time.perf_counter() - start)
+                samples[name] += rtt
+            ratios.append(statistics.median(got["tree"]) / statistics.median(got["baseline"]))
+    for name, label in (("tree", "this tree"), ("baseline", f"commit {commit}")):
+        rtt = samples[name]
+        print(
+            f"socket thread alone, read round trip, {label}: median {1e6 * statistics.median(rtt):.0f} us, "
+            f"p99 {1e6 * p99(rtt):.0f} us ({len(rtt)} reads)"
+        )
+    print(
+        f"this tree / baseline: {statistics.median(ratios):.3f} (median of {blocks} per-block ratios of "
+        f"medians, {block} reads a block); of all reads: "
+        f"{statistics.median(samples['tree']) / statistics.median(samples['baseline']):.3f}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     parser.add_argument("--baseline", metavar="COMMIT", help="A/B the round trip against COMMIT's tree")
@@ -199,7 +256,15 @@ def main() -> None:
     parser.add_argument(
         "--scenario", default="reach", metavar="NAME", help="the scenario served (default reach)"
     )
+    parser.add_argument(
+        "--socket-thread",
+        action="store_true",
+        help="A/B: the socket thread alone, in this process, no simulation (see the docstring)",
+    )
     args = parser.parse_args()
+    if args.baseline and args.socket_thread:
+        socket_thread_against_baseline(args.baseline, args.blocks, args.block)
+        return
     if args.baseline:
         against_baseline(args.baseline, args.blocks, args.block, args.realtime, args.settle, args.spaced)
         return

@@ -394,6 +394,40 @@ def test_the_token_option_says_it_shows_in_ps_and_names_the_environment_variable
         assert "$DRAKE_SOT_TOKEN" in token_help and "`ps`" in token_help, token_help
 
 
+def test_a_token_on_the_command_line_gets_one_warning_line_naming_the_environment_variable():
+    warning = (
+        "drake-sot: warning: --token shows in /proc/PID/cmdline (`ps`) to every user of this machine; "
+        "give it in $DRAKE_SOT_TOKEN instead"
+    )
+    with socket.socket() as unused:  # a port nobody listens on: the shell cannot connect
+        unused.bind(("127.0.0.1", 0))
+        port = unused.getsockname()[1]
+    given = subprocess.run(
+        [*DRAKE_SOT, "shell", "--port", str(port), "--token", "T"],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
+        stdin=subprocess.DEVNULL,
+    )
+    assert given.returncode == 1
+    assert given.stderr.splitlines()[0] == warning and given.stderr.count("--token shows") == 1
+    assert "cannot connect" in given.stderr.splitlines()[1]
+    quiet = subprocess.run(  # the same token from the environment: no warning
+        [*DRAKE_SOT, "shell", "--port", str(port)],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
+        stdin=subprocess.DEVNULL,
+        env={**os.environ, "DRAKE_SOT_TOKEN": "T"},
+    )
+    assert quiet.returncode == 1 and "--token shows" not in quiet.stderr
+    proc, host, port = start("--port", "0", "--duration", "60", "--token", "T")
+    stop(proc)
+    assert proc.stderr.read().count(warning) == 1  # serve says it too, once
+
+
 # --- every writable declares its bounds; one Writable type, one check ---------------------------
 
 
@@ -418,6 +452,67 @@ def test_a_target_position_beyond_the_reach_bound_is_refused_naming_it(server, v
         with pytest.raises(RemoteError, match=re.escape(f"taskRH.position_des: {named}")):
             client.write("taskRH.position_des", value)
         assert len(client.read("dyn.com")) == 3
+
+
+def test_a_stance_foot_target_lifted_over_the_server_is_refused_naming_the_value(server):
+    """The reach's feet hold the robot up: a target 1.5 m over where a foot stands is refused with
+    the value, the robot stands on; the reach is the robot's stride, from where the foot stood."""
+    _, host, port = server
+    from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+
+    builder = HumanoidSoTBuilder()
+    stride = builder.robot.step_limits.max_stride
+    with Client(host, port) as client:
+        writable = client.list()["writable"]
+        assert "reach" not in writable["taskRH.position_des"]  # a hand goes where it is sent
+        for task, frame in (("taskLF", "left_foot"), ("taskRF", "right_foot")):
+            stood = builder.initial_pose(frame).translation()
+            assert writable[f"{task}.position_des"]["reach"] == stride == 0.35
+            np.testing.assert_allclose(writable[f"{task}.position_des"]["anchor"], stood, atol=1e-12)
+            lifted = stood + [0.0, 0.0, 1.5]
+            with pytest.raises(RemoteError) as refused:
+                client.write(f"{task}.position_des", lifted.tolist())
+            message = str(refused.value)
+            assert message.startswith(f"{task}.position_des: value = [") and "1.5 from [" in message
+            assert f"{lifted[2]:.4g}]" in message and "beyond the reach 0.35 (m, world frame)" in message
+            with pytest.raises(RemoteError, match="beyond the reach"):  # just past a stride, sideways
+                client.write(f"{task}.position_des", (stood + [0.0, 1.001 * stride, 0.0]).tolist())
+            client.write(f"{task}.position_des", stood.tolist())  # where it stands: accepted
+        pelvis_height = client.read("dyn.com")[2]
+        assert 0.5 < pelvis_height  # the CoM of a robot that stands
+
+
+def test_a_served_run_whose_stance_foot_was_sent_up_ends_standing_with_exit_0():
+    from drake_sot.diagrams.humanoid import HumanoidSoTBuilder
+
+    stood = HumanoidSoTBuilder().initial_pose("left_foot").translation()
+    proc, host, port = start("--port", "0", "--duration", "2")
+    try:
+        with Client(host, port) as client:
+            try:
+                client.write("taskLF.position_des", (stood + [0.0, 0.0, 1.5]).tolist())
+                refusal = None
+            except RemoteError as refused:
+                refusal = str(refused)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        stop(proc)
+    assert proc.returncode == 0, err  # 3 when the lifted foot threw the robot down
+    assert out.splitlines()[-1].startswith("served up to t = 2.000 s; 0 requests applied"), out
+    assert refusal.startswith("taskLF.position_des: value = [") and "beyond the reach" in refusal
+
+
+def test_a_reach_is_measured_from_its_anchor_and_needs_one():
+    writable = server_module.Writable(3, "m", 10.0, reach=0.5, anchor=(1.0, 0.0, 0.0))
+    assert writable.check("s", (1.0, 0.3, 0.4)) is None  # 0.5 from the anchor: the reach itself
+    assert writable.check("s", (1.0, 0.3, 0.41)) == (
+        f"s: value = [1, 0.3, 0.41]: {math.sqrt(0.3**2 + 0.41**2):g} from [1, 0, 0], "
+        "beyond the reach 0.5 (m) of that anchor"
+    )
+    with pytest.raises(ValueError, match="give both or neither"):
+        server_module.Writable(3, "m", 10.0, reach=0.5)
+    with pytest.raises(ValueError, match="Writable.reach = nan m"):
+        server_module.Writable(3, "m", 10.0, reach=float("nan"), anchor=(0.0, 0.0, 0.0))
 
 
 def test_a_declared_writable_has_a_bound_checked_by_the_one_check():

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -567,6 +568,12 @@ def exit_status(result: RunResult, unwritten: Mapping[str, str] | None = None) -
     return FELL if result.fell is not None else 0
 
 
+#: The one line a ``--token`` on the command line gets on stderr: argv is not a secret.
+TOKEN_IN_ARGV = (
+    f"drake-sot: warning: --token shows in /proc/PID/cmdline (`ps`) to every user of this machine; "
+    f"give it in ${TOKEN_ENV} instead"
+)
+
 #: The exit status of a command whose standard output's reader went away (``drake-sot list | head``),
 #: as for a process ended by SIGPIPE (128 + 13).
 EXIT_BROKEN_PIPE = 141
@@ -587,6 +594,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     parser, run, script = _parser()
     args = parser.parse_args(_joined_option_values(sys.argv[1:] if argv is None else argv))
+    if getattr(args, "token", None) is not None:  # serve, shell, run --connect
+        print(TOKEN_IN_ARGV, file=sys.stderr, flush=True)
     limit_blas_threads(1)  # small matrices: one BLAS thread (drake_sot.blas says why)
     if args.command == "script":
         return _script(args, script)
@@ -700,7 +709,11 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except (ValueError, OSError) as exc:
         parser.error(f"serve: {exc}")
     # bound: only now is a script's fresh directory made (a refusal before leaves nothing behind)
-    scenario = served if isinstance(served, Scenario) else _served_script(served, args.out, args.robot)
+    fresh = None
+    if isinstance(served, Scenario):
+        scenario = served
+    else:
+        scenario, fresh = _served_script(served, args.out, args.robot)
 
     bar = ProgressBar()  # not drawn: it says when a signal came (before the run, or after it)
 
@@ -775,7 +788,11 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"the run failed at t = {result.end_time:.3f} s: {result.failure}", file=sys.stderr)
         return exit_status(result, unwritten)
 
-    return _interruptible(serve, bar, args.out or "no output directory")
+    try:
+        return _interruptible(serve, bar, args.out or "no output directory")
+    finally:
+        if fresh is not None:  # what the clients wrote there lived as long as the server
+            shutil.rmtree(fresh, ignore_errors=True)
 
 
 def _served(target: str, parser: argparse.ArgumentParser) -> tuple[Scenario | ScriptProgram, float | None]:
@@ -792,13 +809,20 @@ def _served(target: str, parser: argparse.ArgumentParser) -> tuple[Scenario | Sc
     return program, program.scripted_duration if program.scripted_duration > 0 else SERVED_SCRIPT_DURATION
 
 
-def _served_script(program: ScriptProgram, out: str | None, robot: str | None) -> Scenario:
+def _served_script(program: ScriptProgram, out: str | None, robot: str | None) -> tuple[Scenario, str | None]:
     """The scenario of a served script driving ``robot`` (None: the embedded one), its files in
-    ``out`` or, when None, in a fresh directory (never the working one), named on stderr."""
+    ``out`` or, when None, in a fresh directory (never the working one), named on stderr, which the
+    server removes when it stops; and that fresh directory (None: ``out`` was given)."""
+    fresh = None
     if out is None:
-        out = tempfile.mkdtemp(prefix=f"drake_sot_{program.path.stem}_")
-        print(f"the script writes its files (pool.writegraph) into {out}", file=sys.stderr, flush=True)
-    return script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
+        out = fresh = tempfile.mkdtemp(prefix=f"drake_sot_{program.path.stem}_")
+        print(
+            f"the script writes its files (pool.writegraph) into {out} (removed when the server stops)",
+            file=sys.stderr,
+            flush=True,
+        )
+    scenario = script_scenario(program, output_dir=out, echo=_echo_stderr, robot=robot or "embedded")
+    return scenario, fresh
 
 
 def _echo(statement: Statement, time: float, output: str, stream: TextIO | None = None) -> None:

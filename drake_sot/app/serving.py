@@ -380,8 +380,8 @@ class Serving:
             if isinstance(command, Get) or (
                 isinstance(command, Call) and command.command in ("list", "help")
             ):
-                return self._session.execute(statement, context), False
-            return self._session.execute(statement, context), True
+                return self._session.execute(statement, context, served=True), False
+            return self._session.execute(statement, context, served=True), True
         if isinstance(command, Get):
             signal = f"{command.signal.entity}.{command.signal.name}"
             self._port(signal)
@@ -465,9 +465,12 @@ def _runnable(entity: Entity) -> list[str]:
 
 
 def _listed(writable: Writable) -> dict[str, Any]:
-    """A writable as ``list`` shows it (its radius when it has one)."""
+    """A writable as ``list`` shows it (its radius, its reach and anchor, when it has them)."""
     listed = {"size": writable.size, "units": writable.units, "bound": writable.bound}
-    return listed if writable.radius is None else {**listed, "radius": writable.radius}
+    for name in ("radius", "reach", "anchor"):
+        if getattr(writable, name) is not None:
+            listed[name] = getattr(writable, name)
+    return listed
 
 
 def _resolve(result: Any) -> Any:

@@ -33,6 +33,10 @@ from drake_sot.systems.feedforward import TorqueFeedforward
 from drake_sot.systems.sot import StackOfTasks
 from drake_sot.systems.stack_history import StackHistory
 
+#: The logical frames of the feet: a served 6D task on one holds the foot in stance (its target's
+#: reach, :meth:`HumanoidSoTBuilder._serve_desired_poses`).
+STANCE_FRAMES = ("left_foot", "right_foot")
+
 
 @dataclass
 class HumanoidSoT(BuiltHumanoid):
@@ -87,7 +91,10 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
     def _serve_desired_poses(self, remote: RemoteCommandServer) -> None:
         """Wire the desired pose of each ``FeaturePoint6d`` task that no other system feeds from
         ``remote``'s state, starting at the feature's own (a feature shared by tasks: under the
-        first task's name)."""
+        first task's name). A foot's (a task on the frame ``left_foot`` or ``right_foot``) holds
+        it in stance: a client's target for it stays within one stride of the robot
+        (``robot.step_limits.max_stride``, 0.35 m for the embedded humanoid) of where it stood,
+        since a foot the robot stands on, sent farther (lifted 1.5 m), throws the robot down."""
         for task_name, feature in self.features.items():
             if not isinstance(feature, FeaturePoint6d):
                 continue
@@ -95,7 +102,9 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
             if self.builder.IsConnectedOrExported(port):
                 continue
             initial = feature.desired(feature.CreateDefaultContext())
-            self.builder.Connect(remote.declare_desired_pose(task_name, initial), port)
+            foot = self._pose_feature_frames.get(feature) in STANCE_FRAMES
+            reach = self.robot.step_limits.max_stride if foot else None
+            self.builder.Connect(remote.declare_desired_pose(task_name, initial, reach=reach), port)
 
     def build(
         self,
@@ -132,8 +141,8 @@ class HumanoidSoTBuilder(HumanoidTaskBuilder):
                 driving the solver's stack commands (``built.remote``), to serve the diagram; a
                 builder that declared writable signals has one whatever this says. The server then
                 holds the desired pose of each ``FeaturePoint6d`` task whose ``position_des`` no
-                other system feeds (clients write its position, ``TASK.position_des``; set it with
-                :meth:`HumanoidSoT.set_desired`).
+                other system feeds (clients write its position, ``TASK.position_des``, a foot's
+                within a stride of where it stood; set it with :meth:`HumanoidSoT.set_desired`).
             damping: the ``StackOfTasks``' damped least squares (its ``damping``: one μ for every
                 task, or, with ``solver="hqp"``, μ by task name); 0, exact.
         """

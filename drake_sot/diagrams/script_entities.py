@@ -483,7 +483,10 @@ class PoolEntity(Entity):
     )
     def writegraph(self, args: tuple[Value, ...], context: Context | None) -> str:
         _arity(args, "writegraph FILE", 1)
-        path = self.session.claim_output(_text(args[0], "the file name"))
+        name = _text(args[0], "the file name")
+        if name.endswith(".svg"):  # without a renderer, the source is written beside it as .dot
+            self.session.claim_output(name.removesuffix(".svg") + ".dot")
+        path = self.session.claim_output(name)
         try:
             write_graph(self.session.built.diagram, path)
         except WRITE_ERRORS as exc:

@@ -83,11 +83,19 @@ output (``plug sot.errors decision.errors``: a sequencer's guard on the task err
 connected when the build makes the solver, which is last. An entity cannot take its size from
 ``sot.errors`` (``FeatureGeneric.errorIN``): it is known only then.
 
-Files: ``run FILE`` reads inside the session's script directory (a path that resolves outside
-it is refused). ``pool.writegraph FILE`` writes a plain file name (no directory part, not
-``.`` or ``..``) into the session's output directory, creates no directory, and never replaces
-a file that this session did not write itself (the script, another user's file); without an
-output directory the session makes a fresh temporary one, never the working directory.
+Files: ``run FILE`` reads a regular file inside the session's script directory (a path that
+resolves outside it is refused). A client of a served session was not given those files, so its
+``run FILE`` (``execute(..., served=True)``) runs only a ``.sot`` file that reads and parses, and
+its errors show nothing the file holds: whether the name is not a ``.sot``, missing, unreadable or
+not a script, the reply is the same line (only a script that runs tells that it exists); a command
+of it that is refused is named by its rank, and why is logged on the server's side alone.
+``pool.writegraph FILE`` writes a plain file name (no directory part, not
+``.`` or ``..``) into the session's output directory, creates no directory, never replaces
+a file that this session did not write itself (the script, another user's file), and writes at
+most :data:`MAX_OUTPUT_FILES` files (writing one of them again is always allowed): a client of a
+served session cannot fill a disk by naming new files. Without an output directory the session
+makes a fresh temporary one, never the working directory (``drake-sot serve`` removes its own
+when the server stops).
 
 The run-time entry point, for a command server or a shell, is
 :meth:`ScriptSession.execute`: ``session.execute("sot.push taskCom", root_context)`` returns
@@ -98,6 +106,7 @@ that owns the context, between simulation steps; it is not thread-safe.
 
 from __future__ import annotations
 
+import logging
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -156,6 +165,14 @@ from drake_sot.script import (
     parse_script,
 )
 from drake_sot.systems.sot import StackOfTasks
+
+_log = logging.getLogger(__name__)
+
+#: The files a session may write into its output directory (``pool.writegraph``): one more is refused.
+MAX_OUTPUT_FILES = 64
+
+#: The suffix of the script files a client of a served session may run.
+SCRIPT_SUFFIX = ".sot"
 
 __all__ = [
     "Phase",
@@ -320,7 +337,8 @@ class ScriptSession:
 
         Raises:
             SessionError: ``name`` is not a plain file name (empty, ``.``, ``..``, a separator,
-                a NUL), or names a file (or link) that exists and that this session did not write.
+                a NUL), or names a file (or link) that exists and that this session did not write,
+                or a new file when the session wrote :data:`MAX_OUTPUT_FILES` already.
         """
         if name in ("", ".", "..") or any(c in name for c in ("/", "\\", os.sep, "\0")):
             raise SessionError(
@@ -328,9 +346,16 @@ class ScriptSession:
                 f"written into the output directory {str(self.output_dir)!r}"
             )
         path = self.output_dir / name
-        if path not in self._written and (path.exists() or path.is_symlink()):
+        if path in self._written:
+            return path
+        if path.exists() or path.is_symlink():
             raise SessionError(
                 f"{name!r}: {str(path)!r} exists and this session did not write it: not replaced"
+            )
+        if len(self._written) >= MAX_OUTPUT_FILES:
+            raise SessionError(
+                f"{name!r}: this session wrote {MAX_OUTPUT_FILES} files already, the most it writes "
+                f"(write one of those again instead)"
             )
         self._written.add(path)
         return path
@@ -357,7 +382,13 @@ class ScriptSession:
         raise TypeError(f"{command!r} is not a script command")
 
     # --- executing --------------------------------------------------------------------------
-    def execute(self, command: str | ScriptCommand | Statement, context: Context | None = None) -> str:
+    def execute(
+        self,
+        command: str | ScriptCommand | Statement,
+        context: Context | None = None,
+        *,
+        served: bool = False,
+    ) -> str:
         """Run one script command; return its output text ("" when it writes nothing).
 
         Build-time commands record the diagram; the first run-time command builds it and
@@ -365,7 +396,8 @@ class ScriptSession:
         or, when None, the context of the session's own simulator (made at the build).
         ``get`` writes the value in the script's syntax (see :func:`format_signal_value`).
         ``run DURATION`` advances the session's own simulator. ``run FILE`` runs the file's
-        commands in order.
+        commands in order; ``served``: the command came from a client of the server, whose ``run
+        FILE`` is a ``.sot`` file and whose errors tell nothing of the file (module docstring).
 
         Raises:
             ScriptError: a line out of the grammar (with its line and column).
@@ -384,6 +416,8 @@ class ScriptSession:
         command = statement.command if statement else command
         previous, self._statement = self._statement, statement
         try:
+            if served and isinstance(command, Run):
+                return self._run_for_client(command.path, context)
             return self._dispatch(command, context)
         except ScriptError:
             raise  # a line of an included script: it says where
@@ -465,6 +499,33 @@ class ScriptSession:
     def _included(self, name: str) -> tuple[Statement, ...]:
         path = _inside(self.script_dir, name, "the script directory")
         return _expand(path, self.script_dir, ())
+
+    def _run_for_client(self, name: str, context: Context | None) -> str:
+        """``run FILE`` from a client of the server: a ``.sot`` file of the script directory, run
+        command by command; no error says what the file holds (module docstring)."""
+        try:
+            if not name.endswith(SCRIPT_SUFFIX):
+                raise SessionError(f"not a {SCRIPT_SUFFIX} file")
+            statements = self._included(name)
+        except (SessionError, ScriptError, ValueError, OSError) as error:
+            _log.warning("a client's run %r: %s", name, error)
+            raise SessionError(
+                f"{name!r}: no script to run by that name (a client runs a {SCRIPT_SUFFIX} file of the "
+                "served script's directory that reads and parses; which of these it is not, is not told)"
+            ) from None
+        outputs = []
+        for k, statement in enumerate(statements, 1):
+            try:
+                output = self.execute(statement, context)
+            except Exception as error:  # noqa: BLE001 - any message may quote the file: none is shown
+                _log.warning("a client's run %r: %s", name, error)
+                raise SessionError(
+                    f"{name!r}: its command {k} of {len(statements)} was refused, after {k - 1} acted "
+                    "(why is in the server's log: a client is not shown what the file holds)"
+                ) from None
+            if output:
+                outputs.append(output)
+        return "\n".join(outputs)
 
     # --- build-phase commands -------------------------------------------------------------
     def _new(self, cls: str, name: str) -> str:
@@ -828,6 +889,8 @@ def _expand(path: Path, root: Path, chain: tuple[Path, ...]) -> tuple[Statement,
             f"{chain[-1].name}); at most {MAX_INCLUDE_DEPTH}"
         )
     try:
+        if not path.is_file():  # a directory, a FIFO (whose read waits forever), a device
+            raise OSError(f"{str(path)!r} is not a regular file")
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:
         raise SessionError(f"cannot read the script {str(path)!r}: {error}") from None

@@ -13,8 +13,17 @@ reply); a client that leaves more than :data:`MAX_OUTBOX` bytes of replies unrea
 disconnected; a partial line left when the client disconnects is dropped, so it changes nothing.
 A client that half-closes (``shutdown(SHUT_WR)`` after its last request) still gets the replies
 of the requests it sent: the connection is closed once they are all sent.
-At most :data:`MAX_CONNECTIONS` connections at once: one more is answered with an error line and
-closed. When ``accept`` fails (no file descriptor left: EMFILE, ENFILE), the listener rests
+At most :data:`MAX_CONNECTIONS` authenticated connections at once (without a token, every connection
+is); one more is answered with an error line. With a token, the connections that have not
+authenticated yet are counted apart, so that no number of them keeps a token holder out: at most
+:data:`MAX_UNAUTHENTICATED` wait at once (a newer one takes the place of the oldest, which is
+closed), and each has :data:`AUTH_TIMEOUT` s (checked every :data:`_SWEEP` s) to send a matching
+``auth``, after which it is closed. A connection refused or closed so gets its error line, then
+the end of the stream (``shutdown``), and what it still sends is read and discarded for at most
+:data:`LINGER` s before the socket is closed: closing a socket with unread input makes the kernel
+reset the connection, and a reset loses the refusal line before the client reads it (at most
+:data:`MAX_LINGERING` such sockets at once, the oldest closed first).
+When ``accept`` fails (no file descriptor left: EMFILE, ENFILE), the listener rests
 :data:`ACCEPT_BACKOFF` s and tries again (the client waits in the backlog); the connections
 open are served meanwhile. Whatever a line holds, it gets an error reply
 (:func:`~drake_sot.remote.protocol.parse_request` raises nothing but ProtocolError); should
@@ -49,8 +58,21 @@ from drake_sot.remote.protocol import MAX_LINE, ProtocolError, Request, encode, 
 _CHUNK = 65536
 #: Bytes waiting for a client beyond which it is disconnected (it reads nothing).
 MAX_OUTBOX = 16 * 1024 * 1024
-#: Connections open at once; one more gets an error line and is closed.
+#: Authenticated connections open at once (every connection without a token); one more gets an
+#: error line and is closed.
 MAX_CONNECTIONS = 64
+#: Connections waiting to authenticate at once (a server with a token); a newer one closes the oldest.
+MAX_UNAUTHENTICATED = 64
+#: [s] a connection to a server with a token has to authenticate before it is closed.
+AUTH_TIMEOUT = 10.0
+#: [s] a refused connection's input is read and discarded after its error line, before the close.
+LINGER = 2.0
+#: Refused connections lingering so at once; one more closes the oldest at once.
+MAX_LINGERING = 64
+#: The refusal of a connection beyond :data:`MAX_CONNECTIONS`.
+_TOO_MANY = f"too many connections: at most {MAX_CONNECTIONS} authenticated at once"
+#: [s] how often the deadlines of the connections waiting to authenticate, or lingering, are checked.
+_SWEEP = 0.25
 #: [s] the listener rests after ``accept`` failed for want of a descriptor (EMFILE, ENFILE...).
 ACCEPT_BACKOFF = 0.2
 
@@ -68,6 +90,17 @@ class _Connection:
     watched: int = selectors.EVENT_READ  # the events the selector watches (0: unregistered)
     allowance: float = 0.0
     last: float = field(default_factory=time.monotonic)
+    opened: float = field(default_factory=time.monotonic)  # when it was accepted [s, monotonic]
+
+
+@dataclass
+class _Lingering:
+    """A refused connection: its error line is sent, then the end of the stream; its input is read
+    and discarded until the client closes or ``until`` [s, monotonic]."""
+
+    sock: socket.socket
+    outbox: bytes
+    until: float
 
 
 class NetworkThread:
@@ -80,6 +113,8 @@ class NetworkThread:
         token: the shared secret clients send with ``auth``; None: no authentication.
         rate: requests per second accepted from a connection (sustained), > 0.
         burst: requests accepted at once from a connection, >= 1.
+        auth_timeout: [s] how long a connection may wait before it authenticates (with a token),
+            > 0 (:data:`AUTH_TIMEOUT` by default).
 
     Raises:
         ValueError: a non-loopback ``host`` without a token, or an empty token or one that is not
@@ -88,7 +123,14 @@ class NetworkThread:
     """
 
     def __init__(
-        self, host: str, port: int, *, token: str | None = None, rate: float = 1000.0, burst: int = 2000
+        self,
+        host: str,
+        port: int,
+        *,
+        token: str | None = None,
+        rate: float = 1000.0,
+        burst: int = 2000,
+        auth_timeout: float = AUTH_TIMEOUT,
     ) -> None:
         if token is not None and not token:
             raise ValueError("token: empty (give a secret, or none for loopback only)")
@@ -103,6 +145,9 @@ class NetworkThread:
                 "token: not Unicode text (a byte that is not UTF-8 in --token or DRAKE_SOT_TOKEN)"
             ) from None
         self._rate, self._burst = float(rate), float(burst)
+        if not (0.0 < auth_timeout < math.inf):
+            raise ValueError(f"auth_timeout = {auth_timeout!r} s: must be finite and > 0")
+        self._auth_timeout = float(auth_timeout)
         self._listener = socket.create_server((host, port), family=_family(host))
         self._listener.setblocking(False)
         self.address: tuple[str, int] = self._listener.getsockname()[:2]
@@ -111,7 +156,9 @@ class NetworkThread:
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._pending: deque[tuple[int, bytes]] = deque()
-        self._connections: dict[int, _Connection] = {}
+        self._connections: dict[int, _Connection] = {}  # in the order they were accepted
+        self._lingering: dict[int, _Lingering] = {}  # refused connections, oldest first
+        self._swept = time.monotonic()  # when the deadlines were last checked
         self._next_id = 0
         self._stop = threading.Event()
         self.connected = threading.Event()  # set at the first connection
@@ -141,6 +188,8 @@ class NetworkThread:
             self._thread.join(timeout=5.0)
         for conn in list(self._connections.values()):
             conn.sock.close()
+        for lingering in list(self._lingering.values()):
+            lingering.sock.close()
         self._listener.close()
         self._wake_r.close()
         self._wake_w.close()
@@ -181,7 +230,7 @@ class NetworkThread:
     def _loop(self) -> None:
         while not self._stop.is_set():
             resting = self._resting_until is not None
-            for key, events in self._selector.select(timeout=ACCEPT_BACKOFF if resting else 0.5):
+            for key, events in self._selector.select(timeout=ACCEPT_BACKOFF if resting else _SWEEP):
                 if key.data == "listen":
                     self._accept()
                 elif key.data == "wake":
@@ -189,6 +238,8 @@ class NetworkThread:
                         self._wake_r.recv(4096)
                     except BlockingIOError:
                         pass
+                elif isinstance(key.data, tuple):  # ("linger", id): a refused connection
+                    self._linger(key.data[1], events)
                 else:
                     self._guarded(key.data, events)
             while self._pending:
@@ -201,6 +252,23 @@ class NetworkThread:
             if self._resting_until is not None and time.monotonic() >= self._resting_until:
                 self._resting_until = None
                 self._selector.register(self._listener, selectors.EVENT_READ, "listen")
+            if time.monotonic() - self._swept >= _SWEEP:
+                self._sweep()
+
+    def _sweep(self) -> None:
+        """Close the connections that did not authenticate within the timeout, and the refused
+        ones whose lingering is over."""
+        now = self._swept = time.monotonic()
+        if self._token is not None:
+            late = [
+                cid
+                for cid, conn in self._connections.items()
+                if not conn.authed and not now - conn.opened < self._auth_timeout
+            ]
+            for cid in late:
+                self._refuse(cid, f"closing: not authenticated within {self._auth_timeout:g} s")
+        for lid in [lid for lid, lingering in self._lingering.items() if not now < lingering.until]:
+            self._end_lingering(lid)
 
     def _guarded(self, cid: int, events: int) -> None:
         """Read from and write to connection ``cid``; should that raise, tell the client and close it."""
@@ -229,19 +297,69 @@ class NetworkThread:
             self._selector.unregister(self._listener)
             self._resting_until = time.monotonic() + ACCEPT_BACKOFF
             return
-        if len(self._connections) >= MAX_CONNECTIONS:
-            try:
-                sock.send(encode(error(None, f"too many connections: at most {MAX_CONNECTIONS} at once")))
-            except OSError:
-                pass
-            sock.close()
-            return
         sock.setblocking(False)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        if self._token is None and len(self._connections) >= MAX_CONNECTIONS:
+            self._linger_socket(sock, encode(error(None, _TOO_MANY)))
+            return
+        if self._token is not None:  # the oldest waiting to authenticate makes room for this one
+            waiting = [cid for cid, conn in self._connections.items() if not conn.authed]
+            if len(waiting) >= MAX_UNAUTHENTICATED:
+                self._refuse(
+                    waiting[0],
+                    f"closing: not authenticated, and at most {MAX_UNAUTHENTICATED} connections wait "
+                    "to authenticate at once (a newer one took this place)",
+                )
         cid, self._next_id = self._next_id, self._next_id + 1
         self._connections[cid] = _Connection(sock, authed=self._token is None, allowance=self._burst)
         self._selector.register(sock, selectors.EVENT_READ, cid)
         self.connected.set()
+
+    def _refuse(self, cid: int, message: str) -> None:
+        """Close connection ``cid`` with the error line ``message`` after the replies it has (a
+        connection the serving loop never heard of: not authenticated, or refused at ``auth``)."""
+        conn = self._connections.pop(cid)
+        if conn.watched:
+            self._selector.unregister(conn.sock)
+        self._linger_socket(conn.sock, bytes(conn.outbox) + encode(error(None, message)))
+
+    def _linger_socket(self, sock: socket.socket, outbox: bytes) -> None:
+        """Send ``outbox``, end the stream, and read what the client still sends until it closes or
+        :data:`LINGER` s have passed: then close (see the module docstring)."""
+        if len(self._lingering) >= MAX_LINGERING:
+            self._end_lingering(next(iter(self._lingering)))
+        lid, self._next_id = self._next_id, self._next_id + 1
+        self._lingering[lid] = _Lingering(sock, outbox, time.monotonic() + LINGER)
+        self._selector.register(sock, selectors.EVENT_READ, ("linger", lid))
+        self._linger(lid, selectors.EVENT_WRITE)
+
+    def _linger(self, lid: int, events: int) -> None:
+        lingering = self._lingering[lid]
+        try:
+            if events & selectors.EVENT_READ:
+                try:
+                    if not lingering.sock.recv(_CHUNK):
+                        self._end_lingering(lid)  # the client closed: nothing can be reset any more
+                        return
+                except BlockingIOError:
+                    pass
+            if events & selectors.EVENT_WRITE and lingering.outbox:
+                try:
+                    sent = lingering.sock.send(lingering.outbox)
+                except BlockingIOError:
+                    sent = 0
+                lingering.outbox = lingering.outbox[sent:]
+                if not lingering.outbox:
+                    lingering.sock.shutdown(socket.SHUT_WR)
+            wanted = selectors.EVENT_READ | (selectors.EVENT_WRITE if lingering.outbox else 0)
+            self._selector.modify(lingering.sock, wanted, ("linger", lid))
+        except OSError:  # reset by the client, or gone
+            self._end_lingering(lid)
+
+    def _end_lingering(self, lid: int) -> None:
+        lingering = self._lingering.pop(lid)
+        self._selector.unregister(lingering.sock)
+        lingering.sock.close()
 
     def _drop(self, cid: int) -> None:
         conn = self._connections.pop(cid, None)
@@ -329,6 +447,9 @@ class NetworkThread:
             if self._token is None:
                 self._reply(cid, ok(request.id, "no token required", float("nan")))
             elif hmac.compare_digest(request.token.encode(), self._token):
+                if sum(c.authed for c in self._connections.values()) >= MAX_CONNECTIONS:
+                    self._refuse(cid, _TOO_MANY)
+                    return
                 conn.authed = True
                 self._reply(cid, ok(request.id, "authenticated", float("nan")))
             else:

@@ -41,6 +41,7 @@ signal at every tick for the few a client reads, and could not reach the signals
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -78,27 +79,39 @@ Inbox = Callable[[], list[tuple[int, Request | None]]]
 @dataclass(frozen=True)
 class Writable:
     """A signal clients may write, the one type of them: its ``size``, ``units``, ``bound`` (the
-    largest magnitude of each entry, in its units: a finite value can still be absurd, and one
-    beyond what the signal can mean is refused before it reaches Drake) and ``radius`` (the largest
-    Euclidean norm of the whole value, in its units — a position's distance from the origin of its
-    frame — or None: no such bound). ``list`` shows them.
+        largest magnitude of each entry, in its units: a finite value can still be absurd, and one
+        beyond what the signal can mean is refused before it reaches Drake) and ``radius`` (the largest
+        Euclidean norm of the whole value, in its units — a position's distance from the origin of its
+        frame — or None: no such bound) and ``reach`` (the largest Euclidean distance of the value from
+    ``anchor``, in its units — a stance foot's target from where the foot stood — or None: no such
+    bound). ``list`` shows them.
 
-    Raises:
-        ValueError: a size < 1, a bound not finite and > 0, a radius neither None nor finite and > 0.
+        Raises:
+            ValueError: a size < 1, a bound not finite and > 0, a radius or a reach neither None nor
+                finite and > 0, a reach without an anchor of ``size`` finite values (or one without
+                the other).
     """
 
     size: int
     units: str
     bound: float
     radius: float | None = None
+    reach: float | None = None
+    anchor: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "size", validation.positive_int("Writable.size", self.size))
         object.__setattr__(self, "bound", validation.positive("Writable.bound", self.bound, unit=self.units))
-        if self.radius is not None:
-            object.__setattr__(
-                self, "radius", validation.positive("Writable.radius", self.radius, unit=self.units)
-            )
+        for name in ("radius", "reach"):
+            if getattr(self, name) is not None:
+                object.__setattr__(
+                    self, name, validation.positive(f"Writable.{name}", getattr(self, name), unit=self.units)
+                )
+        if (self.reach is None) != (self.anchor is None):
+            raise ValueError("Writable: a reach is measured from an anchor: give both or neither")
+        if self.anchor is not None:
+            anchor = validation.vector("Writable.anchor", self.anchor, self.size)
+            object.__setattr__(self, "anchor", tuple(float(x) for x in anchor))
 
     def check(self, signal: str, value: Sequence[float]) -> str | None:
         """Why writing ``value`` to ``signal`` is refused — not ``size`` values, an entry not
@@ -114,7 +127,19 @@ class Writable:
             norm = math.hypot(*value)  # finite: every entry is within the bound
             if not (norm <= self.radius):
                 return f"{signal}: |value| = {norm:g}: beyond the radius {self.radius:g} ({self.units})"
+        if self.reach is not None:
+            distance = math.dist(value, self.anchor)
+            if not (distance <= self.reach):
+                return (
+                    f"{signal}: value = {_shown(value)}: {distance:g} from {_shown(self.anchor)}, beyond "
+                    f"the reach {self.reach:g} ({self.units}) of that anchor"
+                )
         return None
+
+
+def _shown(value: Sequence[float]) -> str:
+    """A short vector for a message: ``[0.01, 0.095, 1.5]``."""
+    return "[" + ", ".join(f"{x:.4g}" for x in value) + "]"
 
 
 #: What a client may write in a 6D task's desired pose: its position (m, world frame), each
@@ -222,23 +247,30 @@ class RemoteCommandServer(SotLeafSystem):
         self._signals[signal] = _Slot(writable, index)
         return self.DeclareStateOutputPort(name, index)
 
-    def declare_desired_pose(self, task: str, initial: RigidTransform) -> OutputPort:
+    def declare_desired_pose(
+        self, task: str, initial: RigidTransform, *, reach: float | None = None
+    ) -> OutputPort:
         """Hold the desired pose of the 6D task ``task`` (world frame), starting at ``initial``:
         clients write its position as ``<task>.position_des`` (:data:`DESIRED_POSITION_WRITABLE`,
         the orientation kept); the host sets the whole pose with :meth:`set_desired_pose`. Returns
         the abstract ``RigidTransform`` output port to wire into the feature's ``position_des``.
-        Call before the diagram is built.
+        ``reach`` [m]: a written position also stays within it of the initial one (a stance foot's
+        target near where the foot stands); None: no such bound. Call before the diagram is built.
 
         Raises:
             ValueError: a task declared already; an initial pose not finite, or its position
-                beyond ``WORKSPACE_RADIUS`` of the world origin.
+                beyond ``WORKSPACE_RADIUS`` of the world origin; a reach not finite and > 0.
             TypeError: an initial value that is not a ``RigidTransform``.
         """
         signal = f"{task}.{DESIRED_POSITION}"
         if signal in self._signals:
             raise ValueError(f"{self.get_name()}: the desired pose of {task!r} is declared already")
-        index = self.DeclareAbstractState(AbstractValue.Make(check_desired_pose(signal, initial)))
-        self._signals[signal] = _Slot(DESIRED_POSITION_WRITABLE, index, pose=True)
+        initial = check_desired_pose(signal, initial)
+        writable = DESIRED_POSITION_WRITABLE
+        if reach is not None:
+            writable = dataclasses.replace(writable, reach=reach, anchor=tuple(initial.translation()))
+        index = self.DeclareAbstractState(AbstractValue.Make(initial))
+        self._signals[signal] = _Slot(writable, index, pose=True)
         return self.DeclareStateOutputPort(signal, index)
 
     def holds_desired_pose(self, task: str) -> bool:
