@@ -22,6 +22,7 @@ from drake_sot import features, kernels, so3
 from drake_sot.blas import limit_blas_threads
 from drake_sot.inequalities import distance_rows_numpy
 from drake_sot.preview import PreviewController
+from drake_sot.stabilization import StabilizerGains, stabilizer_step, stabilizer_step_numpy
 
 
 def _cases() -> dict[str, tuple[Callable[[], object], Callable[[], object]]]:
@@ -38,7 +39,25 @@ def _cases() -> dict[str, tuple[Callable[[], object], Callable[[], object]]]:
     distances, normals = rng.uniform(0.0, 0.05, size=4), rng.normal(size=(4, 3))
     witnesses = rng.normal(size=(8, 3, 36))
     pairs = (distances, normals, witnesses[0::2], witnesses[1::2], 0.01, 40.0, 6, 200.0)
+    sole = np.array([[-0.1, -0.15], [0.12, -0.15], [0.12, 0.05], [-0.1, 0.05]])
+    tick = {
+        "com_ref": np.array([0.01, 0.0]),
+        "com_vel_ref": np.array([0.1, 0.02]),
+        "zmp_ref": np.array([0.0, -0.02]),
+        "com": np.array([0.015, 0.003]),
+        "com_vel": np.array([0.12, 0.0]),
+        "zmp": np.array([0.02, -0.01]),
+        "polygon": sole,
+        "omega": 3.5,
+        "dt": 0.005,
+        "gains": StabilizerGains(),
+    }
+    state = (np.zeros(2), np.zeros(2), np.array([0.01, 0.0]))
     return {
+        "stabilization.stabilizer_step (a 4-vertex support polygon)": (
+            lambda: stabilizer_step(*state, **tick),
+            lambda: stabilizer_step_numpy(*state, **tick),
+        ),
         "inequalities.distance_rows (4 pairs in 6 rows, nv 36)": (
             lambda: core.distance_rows(*pairs),
             lambda: distance_rows_numpy(*pairs),
@@ -78,7 +97,10 @@ def main() -> None:
     print("|---|---|---|---|")
     np.seterr(invalid="ignore")
     for name, (compiled, oracle) in _cases().items():
-        for a, b in zip(compiled(), oracle(), strict=True):
+        pair = compiled(), oracle()
+        if hasattr(pair[0], "zmp_desired"):  # a StabilizerStep: its arrays
+            pair = tuple((r.offset, r.offset_rate, r.zmp_filtered, r.zmp_desired) for r in pair)
+        for a, b in zip(*pair, strict=True):
             a, b = np.asarray(a).ravel(), np.asarray(b).ravel()
             same = a == b  # the infinite bounds too (inf - inf is nan below, and not close)
             assert (

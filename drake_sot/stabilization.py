@@ -102,7 +102,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_sot import validation
+from drake_sot import kernels, validation
 
 #: Standard gravity [m/s²] of the LIPM.
 GRAVITY = 9.81
@@ -196,7 +196,21 @@ def project_into_polygon(polygon: np.ndarray, point: np.ndarray, margin: float =
     Raises:
         ValueError: the polygon has fewer than 3 vertices (not in line) or is not convex (naming
             the vertex); the polygon shrunk by ``margin`` is empty (named with the margin).
+
+    The compiled kernel computes it where built (:mod:`drake_sot.kernels`, the same checks);
+    :func:`project_into_polygon_numpy` is its oracle and fallback, and names what the kernel cannot
+    take (a shape, a type).
     """
+    if kernels.compiled is not None:
+        try:
+            return kernels.compiled.project_into_polygon(polygon, point, margin)
+        except TypeError:  # not arrays of floats of the shapes above: the numpy path names what
+            pass
+    return project_into_polygon_numpy(polygon, point, margin)
+
+
+def project_into_polygon_numpy(polygon: np.ndarray, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """:func:`project_into_polygon` in numpy: the compiled kernel's oracle and fallback."""
     polygon = validation.matrix("polygon", polygon, (None, 2))
     point = validation.magnitude("point", point, COORDINATE_BOUND, 2, unit="m")
     margin = validation.nonnegative("margin", margin, unit="m")
@@ -404,13 +418,124 @@ def stabilizer_step(
     was; while there is none, only the damping acts on the offset's rate. ``hands``: the
     external wrenches at the hands, the desired ZMP then from eq. 6 and 2' instead of 2
     (None: no external wrench, eq. 2).
+
+    The compiled kernel computes it where built (:mod:`drake_sot.kernels`; the same checks, as
+    ValueError); :func:`stabilizer_step_numpy` is its oracle and fallback.
     """
+    if kernels.compiled is not None:
+        try:
+            return _stabilizer_step_compiled(
+                offset,
+                offset_rate,
+                zmp_filtered,
+                com_ref,
+                com_vel_ref,
+                zmp_ref,
+                com,
+                com_vel,
+                zmp,
+                polygon,
+                omega,
+                dt,
+                gains,
+                hands,
+            )
+        except TypeError:  # not arrays of floats of the shapes above: the numpy path names what
+            pass
+    return stabilizer_step_numpy(
+        offset,
+        offset_rate,
+        zmp_filtered,
+        com_ref=com_ref,
+        com_vel_ref=com_vel_ref,
+        zmp_ref=zmp_ref,
+        com=com,
+        com_vel=com_vel,
+        zmp=zmp,
+        polygon=polygon,
+        omega=omega,
+        dt=dt,
+        gains=gains,
+        hands=hands,
+    )
+
+
+def _stabilizer_step_compiled(
+    offset: np.ndarray,
+    offset_rate: np.ndarray,
+    zmp_filtered: np.ndarray,
+    com_ref: np.ndarray,
+    com_vel_ref: np.ndarray,
+    zmp_ref: np.ndarray,
+    com: np.ndarray,
+    com_vel: np.ndarray,
+    zmp: np.ndarray,
+    polygon: np.ndarray,
+    omega: float,
+    dt: float,
+    gains: StabilizerGains,
+    hands: HandLoad | None,
+) -> StabilizerStep:
+    """:func:`stabilizer_step` by the compiled kernel (TypeError for what it cannot take)."""
+    if hands is None:
+        base, scale = zmp_ref, 1.0
+    else:
+        base, scale = hands.zmp(zmp_ref), hands.feedback_scale()
+    offset, rate, filtered, desired, zmp_saturated, offset_saturated = kernels.compiled.stabilizer_step(
+        offset,
+        offset_rate,
+        zmp_filtered,
+        com_ref,
+        com_vel_ref,
+        base,
+        com,
+        com_vel,
+        zmp,
+        polygon,
+        omega,
+        dt,
+        scale,
+        gains.dcm,
+        gains.zmp,
+        gains.damping,
+        gains.zmp_filter,
+        gains.max_offset,
+        gains.margin,
+    )
+    return StabilizerStep(
+        offset=offset,
+        offset_rate=rate,
+        zmp_filtered=filtered,
+        zmp_desired=desired,
+        zmp_saturated=zmp_saturated,
+        offset_saturated=offset_saturated,
+    )
+
+
+def stabilizer_step_numpy(
+    offset: np.ndarray,
+    offset_rate: np.ndarray,
+    zmp_filtered: np.ndarray,
+    *,
+    com_ref: np.ndarray,
+    com_vel_ref: np.ndarray,
+    zmp_ref: np.ndarray,
+    com: np.ndarray,
+    com_vel: np.ndarray,
+    zmp: np.ndarray,
+    polygon: np.ndarray,
+    omega: float,
+    dt: float,
+    gains: StabilizerGains,
+    hands: HandLoad | None = None,
+) -> StabilizerStep:
+    """:func:`stabilizer_step` in numpy: the compiled kernel's oracle and fallback."""
     dcm_error = divergent_component(com, com_vel, omega) - divergent_component(com_ref, com_vel_ref, omega)
     if hands is None:
         raw = np.asarray(zmp_ref, dtype=float) + (1.0 + gains.dcm / omega) * dcm_error
     else:
         raw = hands.zmp(zmp_ref) + (1.0 + gains.dcm / omega) * hands.feedback_scale() * dcm_error
-    desired = project_into_polygon(polygon, raw, gains.margin)
+    desired = project_into_polygon_numpy(polygon, raw, gains.margin)
     zmp, filtered = np.asarray(zmp, dtype=float), np.asarray(zmp_filtered, dtype=float)
     filtered = low_pass(filtered, zmp, dt, gains.zmp_filter)
     rate = np.asarray(offset_rate, dtype=float)
