@@ -6,6 +6,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from drake_sot import kernels
+
 
 def sole_corners(x: float, y: float, yaw: float, size: tuple[float, float]) -> np.ndarray:
     """The 4 corners (4, 2) [m] of a sole of ``size`` = (length, width) centred at (x, y), turned by yaw."""
@@ -18,11 +20,20 @@ def sole_corners(x: float, y: float, yaw: float, size: tuple[float, float]) -> n
 def support_polygon(soles: Sequence[np.ndarray]) -> np.ndarray:
     """Convex hull (k, 2), counter-clockwise, of the corners of the soles on the ground.
 
-    Andrew's monotone chain on the few corners (8 for two soles), in plain Python: about ten
+    Andrew's monotone chain on the few corners (8 for two soles): in plain Python about ten
     times faster than qhull (``scipy.spatial.ConvexHull``) at this size, which matters in the
-    balance stabilizer's control tick. Points on an edge are not vertices.
+    balance stabilizer's control tick, and compiled where built (:mod:`drake_sot.kernels`;
+    :func:`support_polygon_numpy` is its oracle and fallback). Points on an edge are not vertices.
     """
     points = np.vstack(soles)
+    if kernels.compiled is not None:
+        return kernels.compiled.support_polygon(points)
+    return support_polygon_numpy(points)
+
+
+def support_polygon_numpy(points: np.ndarray) -> np.ndarray:
+    """:func:`support_polygon` of the stacked corners ``points`` (n, 2) in Python: the compiled
+    kernel's oracle and fallback."""
     xy = points.tolist()
     order = sorted(range(len(xy)), key=lambda i: (xy[i][0], xy[i][1]))
 

@@ -13,6 +13,7 @@ from drake_sot.stabilization import (
     stabilizer_step,
     stabilizer_step_numpy,
 )
+from drake_sot.support import sole_corners, support_polygon_numpy
 
 
 def _polygon(rng: np.random.Generator) -> np.ndarray:
@@ -117,3 +118,17 @@ def test_a_stabilizer_tick_matches_numpy(seed):
         _close(getattr(got, field), getattr(expected, field))
     assert got.zmp_saturated == expected.zmp_saturated
     assert got.offset_saturated == expected.offset_saturated
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_the_support_polygon_matches_numpy(seed):
+    core = compiled_kernels()
+    rng = np.random.default_rng(900 + seed)
+    soles = [
+        sole_corners(*rng.normal(scale=0.2, size=2), float(rng.uniform(-np.pi, np.pi)), (0.22, 0.12))
+        for _ in range(int(rng.integers(1, 4)))
+    ]
+    points = np.vstack(soles)
+    if seed % 4 == 0:
+        points = np.vstack((points, points[:2], 0.5 * (points[0] + points[1])))  # repeated, on an edge
+    np.testing.assert_array_equal(core.support_polygon(points), support_polygon_numpy(points))

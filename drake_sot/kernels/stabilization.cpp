@@ -2,6 +2,7 @@
 // component's feedback, projected into the support polygon shrunk by a margin, and the CoM offset
 // driven by the filtered measured ZMP, semi-implicit Euler). Oracles: stabilization.stabilizer_step
 // and project_into_polygon's numpy versions; the same checks, raised as ValueError.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -158,9 +159,41 @@ py::tuple stabilizer_step(const Vector2d& offset, const Vector2d& offset_rate, c
   return py::make_tuple(bounded, rate, filtered, desired, desired != raw, held_any);
 }
 
+// support.support_polygon: Andrew's monotone chain, counter-clockwise, points on an edge dropped;
+// the ties of the sort broken by index, as Python's stable sort of (x, y).
+Polygon support_polygon(const Polygon& points) {
+  const Eigen::Index n = points.rows();
+  std::vector<Eigen::Index> order(n);
+  for (Eigen::Index i = 0; i < n; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) {
+    return points(a, 0) < points(b, 0) || (points(a, 0) == points(b, 0) && points(a, 1) < points(b, 1));
+  });
+  auto cross = [&](Eigen::Index o, Eigen::Index a, Eigen::Index b) {
+    return (points(a, 0) - points(o, 0)) * (points(b, 1) - points(o, 1)) -
+           (points(a, 1) - points(o, 1)) * (points(b, 0) - points(o, 0));
+  };
+  auto chain = [&](const std::vector<Eigen::Index>& indices) {
+    std::vector<Eigen::Index> hull;
+    for (Eigen::Index i : indices) {
+      while (hull.size() >= 2 && cross(hull[hull.size() - 2], hull.back(), i) <= 0.0) hull.pop_back();
+      hull.push_back(i);
+    }
+    return hull;
+  };
+  const std::vector<Eigen::Index> lower = chain(order);
+  const std::vector<Eigen::Index> upper = chain({order.rbegin(), order.rend()});
+  std::vector<Eigen::Index> vertices(lower.begin(), lower.end() - (lower.empty() ? 0 : 1));
+  vertices.insert(vertices.end(), upper.begin(), upper.end() - (upper.empty() ? 0 : 1));
+  Polygon hull(static_cast<Eigen::Index>(vertices.size()), 2);
+  for (std::size_t k = 0; k < vertices.size(); ++k) hull.row(static_cast<Eigen::Index>(k)) = points.row(vertices[k]);
+  return hull;
+}
+
 }  // namespace
 
 void bind_stabilization(py::module_& m) {
+  m.def("support_polygon", &support_polygon, py::arg("points"),
+        "support.support_polygon: the convex hull (k, 2), counter-clockwise, of the points (n, 2).");
   m.def("project_into_polygon", &project, py::arg("polygon"), py::arg("point"), py::arg("margin"),
         "stabilization.project_into_polygon: the nearest point of the polygon shrunk by margin.");
   m.def("stabilizer_step", &stabilizer_step, py::arg("offset"), py::arg("offset_rate"), py::arg("zmp_filtered"),
