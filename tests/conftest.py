@@ -21,6 +21,9 @@ KERNEL_TESTS = {
     "test_preview.py",
     "test_stabilization.py",
     "test_so3.py",
+    "test_support.py",
+    "test_recovery.py",
+    "test_bad_input_helpers.py",
 }
 
 
