@@ -6,5 +6,6 @@
 namespace drake_sot {
 
 void bind_so3(pybind11::module_& m);
+void bind_generalized(pybind11::module_& m);
 
 }  // namespace drake_sot
