@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drake_sot import kernels, so3
+from drake_sot import so3
 
 SelectionLike = str | Sequence[bool] | Sequence[int] | None
 
@@ -67,26 +67,16 @@ def point6d(
     Returns:
         ``(e (6,), J_e (6, nv), feedforward (6,))`` where ``feedforward = -∂e/∂t``.
     """
-    # e and J_e in one compiled call (drake_sot.kernels), else in numpy (its oracle).
-    compiled = kernels.compiled
-    e, J_e = (compiled.point6d if compiled is not None else point6d_numpy)(R, p, J, R_des, p_des)
+    # ndarray.dot rather than @ on these small arrays: ~1 µs less a product (numpy 2's matmul dispatch).
+    e_o = so3.log(R.dot(R_des.T))
+    e = np.concatenate((p - p_des, e_o))
+    J_e = np.concatenate((J[3:], so3.left_jacobian_inverse(e_o).dot(J[:3])))
     if velocity_des is None:
         feedforward = np.zeros(6)
     else:
         # X = R R*ᵀ moves as dX/dt = -X [ω*]ₓ when only the reference moves.
-        feedforward = np.concatenate((velocity_des[:3], so3.right_jacobian_inverse(e[3:]) @ velocity_des[3:]))
+        feedforward = np.concatenate((velocity_des[:3], so3.right_jacobian_inverse(e_o) @ velocity_des[3:]))
     return e, J_e, feedforward
-
-
-def point6d_numpy(
-    R: np.ndarray, p: np.ndarray, J: np.ndarray, R_des: np.ndarray, p_des: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(e, J_e)`` of :func:`point6d` in numpy: the compiled kernel's oracle and fallback."""
-    # ndarray.dot rather than @ on these small arrays: ~1 µs less a product (numpy 2's matmul dispatch).
-    e_o = so3.log(R.dot(R_des.T))
-    return np.concatenate((p - p_des, e_o)), np.concatenate(
-        (J[3:], so3.left_jacobian_inverse(e_o).dot(J[:3]))
-    )
 
 
 def point6d_relative(

@@ -1,13 +1,10 @@
 // SO(3) and the 6D pose features of Mansard et al. 2009 (FeaturePoint6d): the numpy oracles are
 // drake_sot.so3 and drake_sot.features.point6d.
 #include <cmath>
-#include <stdexcept>
-#include <utility>
 
 #include <Eigen/Dense>
 #include <pybind11/eigen.h>
 #include <pybind11/pybind11.h>
-#include <pybind11/stl.h>
 
 #include "kernels.h"
 
@@ -54,31 +51,12 @@ Matrix3d left_jacobian_inverse(const Vector3d& w) {
   return J;
 }
 
-using Jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>;
-// Any strides: Drake's (6, nv) frame Jacobians arrive in column order, and are read where they are.
-using AnyJacobian = Eigen::Ref<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>;
-
-// features.point6d without the feed-forward: e = [p - p*; log(R R*ᵀ)], J_e = [J_v; J_l⁻¹(e_o) J_ω].
-std::pair<Eigen::Matrix<double, 6, 1>, Jacobian> point6d(const Matrix3d& R, const Vector3d& p, const AnyJacobian& J,
-                                                          const Matrix3d& R_des, const Vector3d& p_des) {
-  if (J.rows() != 6) throw std::invalid_argument("point6d: J must have 6 rows [ω; v]");
-  const Vector3d e_o = log_so3(R * R_des.transpose());
-  Eigen::Matrix<double, 6, 1> e;
-  e << p - p_des, e_o;
-  Jacobian J_e(6, J.cols());
-  J_e.topRows<3>() = J.bottomRows<3>();
-  J_e.bottomRows<3>().noalias() = left_jacobian_inverse(e_o) * J.topRows<3>();
-  return {e, J_e};
-}
-
 }  // namespace
 
 void bind_so3(py::module_& m) {
   m.def("so3_log", &log_so3, py::arg("R"), "so3.log: the rotation vector (3,) of R (3, 3).");
   m.def("so3_left_jacobian_inverse", &left_jacobian_inverse, py::arg("w"),
         "so3.left_jacobian_inverse: J_l^{-1}(w) (3, 3).");
-  m.def("point6d", &point6d, py::arg("R"), py::arg("p"), py::arg("J"), py::arg("R_des"), py::arg("p_des"),
-        "features.point6d without the feed-forward: (e (6,), J_e (6, nv)).");
 }
 
 }  // namespace drake_sot
