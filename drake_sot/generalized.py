@@ -25,6 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.linalg.lapack
 
+from drake_sot import kernels
 from drake_sot.linalg import pinv
 from drake_sot.statics import contact_torques
 from drake_sot.validation import nonnegative, positive_int
@@ -34,6 +35,7 @@ __all__ = [
     "generalized_projector",
     "generalized_projectors",
     "inertia_weighted",
+    "inertia_weighted_numpy",
     "priority_matrix",
     "ProjectedJacobians",
     "projected_jacobians",
@@ -512,15 +514,24 @@ class ProjectedJacobians:
         self._plan: list[_Share] = []
 
     def __call__(self, stacked: np.ndarray, alpha: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """Write ``J_i P_i(A_i)`` of every task into ``out`` and return it.
+        """Write ``J_i P_i(A_i)`` of every task into ``out`` and return it: the compiled kernel
+        (:mod:`drake_sot.kernels`), else :meth:`numpy`.
 
         Args:
             stacked: (Σ m_i, nv) the tasks' Jacobians stacked in task order, finite (not checked:
                 the quasi-static QP checks what it is given).
             alpha: (n, n) the priority parameters, each in [0, 1] (not checked), as in
                 :func:`generalized_projectors`.
-            out: (Σ m_i, nv) where the projected rows go (not ``stacked``).
+            out: (Σ m_i, nv) C-contiguous float64, where the projected rows go (not ``stacked``).
         """
+        if kernels.compiled is not None:
+            kernels.compiled.projected_jacobians(stacked, alpha, self._starts, self._tol, out)
+            return out
+        return self.numpy(stacked, alpha, out)
+
+    def numpy(self, stacked: np.ndarray, alpha: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """:meth:`__call__` in numpy: the compiled kernel's oracle and fallback. Which rows eq. 8
+        takes, in which order and groups, is worked out again only when α or the zero rows changed."""
         unit, nonzero = _unit(stacked)
         key = alpha.tobytes() + (b"" if nonzero.all() else nonzero.tobytes())
         if key != self._key:
@@ -583,7 +594,29 @@ def inertia_weighted(
 
     Raises:
         RuntimeError: ``M`` not positive definite (LAPACK's ``info`` named).
+
+    The compiled kernel (:mod:`drake_sot.kernels`) takes the Cholesky path, one task's block at a
+    time; where it cannot (M not positive definite, dependent rows), :func:`inertia_weighted_numpy`
+    runs, as it does when the kernels are numpy's.
     """
+    if kernels.compiled is not None:
+        starts = [rows.start for rows in tasks]
+        starts.append(tasks[-1].stop if tasks else 0)
+        weighted = kernels.compiled.inertia_weighted(J, starts, M, accelerations, _INDEPENDENT)
+        if weighted is not None:
+            return weighted
+    return inertia_weighted_numpy(J, tasks, M, accelerations, blocks, rank_threshold)
+
+
+def inertia_weighted_numpy(
+    J: np.ndarray,
+    tasks: Sequence[slice],
+    M: np.ndarray,
+    accelerations: np.ndarray,
+    blocks: np.ndarray,
+    rank_threshold: float,
+) -> np.ndarray:
+    """:func:`inertia_weighted` in numpy (LAPACK): the compiled kernel's oracle and fallback."""
     L, info = _POTRF(M, lower=True, clean=True)
     if info != 0:
         raise RuntimeError(f"the mass matrix is not positive definite (LAPACK dpotrf info = {info})")

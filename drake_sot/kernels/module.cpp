@@ -16,4 +16,5 @@ PYBIND11_MODULE(_compiled, m) {
   drake_sot::bind_preview(m);
   drake_sot::bind_inequalities(m);
   drake_sot::bind_stabilization(m);
+  drake_sot::bind_generalized(m);
 }

@@ -336,6 +336,7 @@ class GeneralizedHierarchyController(SotLeafSystem):
         self.set_name(name)
         self._plant = plant
         self._plant_context = plant.CreateDefaultContext()
+        self._world = plant.world_frame()  # kept: each call of world_frame() makes a new binding
         self._gravity_rows = _gravity_rows(plant)
         nq, nv, na = plant.num_positions(), plant.num_velocities(), len(actuated_joints)
         self._nq, self._nv, self._na = nq, nv, na
@@ -617,8 +618,7 @@ class GeneralizedHierarchyController(SotLeafSystem):
             rows[:goal_rows] = jacobians
         else:
             self._projected(jacobians, alpha, rows[:goal_rows])
-        contact_jacobians = self._contact_jacobians()
-        rows[goal_rows:] = contact_jacobians
+        contact_jacobians = self._contact_jacobians(rows[goal_rows:])
         solution = self._stacked.solve(rows, desired, g)
         saturation = np.zeros(self._na)
         if solution.status is SolveStatus.OPTIMAL:
@@ -715,11 +715,17 @@ class GeneralizedHierarchyController(SotLeafSystem):
             )
         )
 
-    def _contact_jacobians(self) -> np.ndarray:
-        """(3·k, nv): the translational Jacobians of all the contact points, stacked (world)."""
-        plant, pc, world = self._plant, self._plant_context, self._plant.world_frame()
-        blocks = [
-            plant.CalcJacobianTranslationalVelocity(pc, JacobianWrtVariable.kV, frame, points, world, world)
-            for points, frame in zip(self._contact_offsets, self._contact_frames, strict=True)
-        ]
-        return np.vstack(blocks) if blocks else np.zeros((0, self._nv))
+    def _contact_jacobians(self, out: np.ndarray | None = None) -> np.ndarray:
+        """(3·k, nv): the translational Jacobians of all the contact points, stacked (world), written
+        into ``out`` when given (and returned)."""
+        plant, pc, world = self._plant, self._plant_context, self._world
+        if out is None:
+            out = np.empty((3 * len(self._contact_points), self._nv))
+        begin = 0
+        for points, frame in zip(self._contact_offsets, self._contact_frames, strict=True):
+            end = begin + 3 * points.shape[1]
+            out[begin:end] = plant.CalcJacobianTranslationalVelocity(
+                pc, JacobianWrtVariable.kV, frame, points, world, world
+            )
+            begin = end
+        return out

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 from pydrake.common.value import AbstractValue, Value
-from pydrake.systems.framework import Context, InputPort
+from pydrake.systems.framework import AbstractParameterIndex, Context, InputPort, ValueProducer
 
 from drake_sot import features as fmath
 from drake_sot.features import SelectionLike
@@ -67,6 +67,19 @@ class Task(SotLeafSystem):
         self._gain = self.DeclareAbstractParameter(Value[object](gain))
         self._default_gain = gain
         self._gain_input = self.DeclareVectorInputPort(GAIN_PORT, 1)
+        # λ now, recomputed (and checked) only when the gain input or parameter changes: one
+        # evaluation a tick instead of asking whether the input is connected and reading the parameter.
+        self._gain_now = self.DeclareCacheEntry(
+            "gain now",
+            ValueProducer(
+                allocate=lambda: Value[object](gain),
+                calc=lambda context, value: value.set_value(self._current_gain(context)),
+            ),
+            {
+                self.input_port_ticket(self._gain_input.get_index()),
+                self.abstract_parameter_ticket(AbstractParameterIndex(self._gain)),
+            },
+        )
         self.DeclareAbstractOutputPort(
             "task",
             lambda: AbstractValue.Make(TaskSignal(name, np.zeros(0), np.zeros((0, 0)), np.zeros(0))),
@@ -178,7 +191,7 @@ class Task(SotLeafSystem):
             e = np.concatenate([s[0] for s in signals])
             J = np.vstack([s[1] for s in signals])
             ff = np.concatenate([s[2] for s in signals])
-        gain = self._current_gain(context)
+        gain = self._gain_now.Eval(context)
         if isinstance(gain, AdaptiveGain):  # ‖e‖ only for a gain that depends on it
             gain = gain(math.sqrt(float(e @ e)))
         value.set_value(TaskSignal(self.get_name(), e, J, ff - gain * e))
