@@ -97,6 +97,7 @@ test-compat:
 	  .venv-$$v/bin/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -p no:cacheprovider -m "$(COMPAT_TESTS)" || exit 1; \
 	done
 bench: $(VENV)/.installed
+	PYTHONPATH=$(CURDIR) $(BIN)/python benchmarks/bench_kernels.py
 	$(BIN)/python benchmarks/bench_sot.py
 	$(BIN)/python benchmarks/bench_walk.py
 	$(BIN)/python benchmarks/bench_generalized.py
