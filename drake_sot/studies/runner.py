@@ -384,7 +384,8 @@ def run_study(
 
     Raises:
         ValueError: a study the target's ``declared`` parameters refuse, a table in ``out_dir``
-            that :func:`read_table` refuses (other columns, an edited row, not a regular file), ``workers`` with ``scheduler`` or below 1 (before anything starts).
+            that :func:`read_table` refuses (other columns, an edited row, not a regular file),
+            ``workers`` with ``scheduler`` or below 1 (before anything starts).
         OSError: ``out_dir`` cannot be written (before anything starts), or no scheduler answers
             at ``scheduler``, or what answers there is no Dask scheduler (:func:`check_speaks_dask`:
             ConnectionError; the directories made for ``out_dir`` are removed again when empty).
