@@ -117,10 +117,14 @@ def _progress(done: int, failed: int, total: int, left: float) -> None:
 def _check_out(parser: argparse.ArgumentParser, out: str) -> None:
     """Exit 2 with one line, as ``run --out`` does, when ``out`` cannot be the output directory (an
     empty name, a file, a path under a file, no write permission); the directories the check made
-    are removed again (the study makes them, and removes them when no scheduler answers)."""
-    made = missing_directories(Path(out)) if out else []
+    are removed again (the study makes them, and removes them when no scheduler answers); a name
+    that is no path (a NUL byte, a character the file system's encoding refuses) is refused too."""
+    made: list[Path] = []
     try:
+        made = missing_directories(Path(out)) if out else []
         output_directory(out)
+    except ValueError as exc:  # a NUL byte, a lone surrogate the file system's encoding refuses
+        parser.error(f"--out: {out!r}: not a path ({exc})")
     except OSError as exc:
         parser.error(f"--out: {exc}")
     finally:

@@ -525,7 +525,7 @@ def remove_empty(directories: Sequence[Path]) -> None:
     for directory in directories:
         try:
             directory.rmdir()
-        except OSError:
+        except (OSError, ValueError):  # not empty, gone; a name no directory can have (a NUL byte)
             return
 
 
