@@ -114,14 +114,16 @@ def _value(text: str) -> bool | float | str:
 
 
 def _as_written(text: str) -> bool:
-    """Whether a cell that reads as a number is one as this module writes it: an int's ``str`` or
-    a float's ``repr`` (``nan``, ``inf`` and ``-inf`` included); not ``1e400``, not 5000 digits,
-    not ``0.50``. A cell that reads as no number is left to its column's check."""
+    """Whether a cell that reads as a number is one as this module writes it: an int's ``str`` (an
+    int a float holds exactly, as it is read back) or a float's ``repr`` (``nan``, ``inf`` and
+    ``-inf`` included); not ``1e400``, not 5000 digits, not 2**53 + 1, not ``0.50``. A cell that
+    reads as no number is left to its column's check."""
     if not is_number(text):
         return True
-    with contextlib.suppress(ValueError):  # beyond 4300 digits, or not an integer
-        if str(int(text)) == text:
-            return True
+    with contextlib.suppress(ValueError, OverflowError):  # not an integer, beyond 4300 digits or floats
+        number = int(text)
+        if str(number) == text:
+            return float(number) == number
     return repr(float(text)) == text
 
 
@@ -135,11 +137,15 @@ def _odd_cell(
 ) -> tuple[str, str] | None:
     """The first cell of a whole row that no run writes, and why (None when there is none): in a
     column of numbers (:data:`NUMBER_COLUMNS`, the parameters, the metrics) a number not as
-    written (:func:`_as_written`); a metric of an ``ok`` run that is no bool nor number (empty
-    included); a parameter its declaration in ``declared`` refuses."""
+    written (:func:`_as_written`); in :data:`NUMBER_COLUMNS` no number (empty is a failed run's
+    wall time); a metric of an ``ok`` run that is no bool nor number (empty included); a
+    parameter its declaration in ``declared`` refuses."""
     for column in (*study.parameter_names(), *study.metrics, *NUMBER_COLUMNS):
         if not _as_written(row[column]):
             return column, "not a number as a run writes it"
+    for column in NUMBER_COLUMNS:
+        if (row[column] or row["status"] == "ok") and not is_number(row[column]):
+            return column, "a number (empty in a failed run's row only)"
     if row["status"] == "ok":
         for metric in study.metrics:
             if not (row[metric] in ("True", "False") or is_number(row[metric])):
