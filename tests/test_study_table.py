@@ -194,3 +194,14 @@ def test_an_edited_cell_is_read_as_written_or_refused_in_one_line_naming_the_fil
     if edited is not None and column in NUMBER_COLUMNS and is_number(cell):
         value = edited[column]
         assert cell == repr(value) or (value.is_integer() and cell == str(int(value))), (cell, value)
+
+
+def test_a_table_that_is_a_directory_or_a_link_to_nothing_is_refused_naming_it(tmp_path):
+    (tmp_path / "fake_runs.csv").mkdir()
+    assert _read(tmp_path / "fake_runs.csv")[2] == (
+        f"{tmp_path / 'fake_runs.csv'}: not a regular file (a directory): give another output directory"
+    )
+    (tmp_path / "other_runs.csv").symlink_to(tmp_path / "nowhere")
+    assert _read(tmp_path / "other_runs.csv")[2] == (
+        f"{tmp_path / 'other_runs.csv'}: a link to nothing: give another output directory"
+    )

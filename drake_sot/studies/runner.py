@@ -191,11 +191,12 @@ def read_table(
         return {}
     except OSError as exc:
         raise ValueError(f"{path}: cannot be read ({exc.strerror}): give another output directory") from None
+    kind = os.fstat(handle).st_mode
+    if not stat.S_ISREG(kind):
+        os.close(handle)
+        what = "a FIFO" if stat.S_ISFIFO(kind) else "a directory" if stat.S_ISDIR(kind) else "a device"
+        raise ValueError(f"{path}: not a regular file ({what}): give another output directory")
     with open(handle, newline="", encoding="utf-8") as file:
-        kind = os.fstat(handle).st_mode
-        if not stat.S_ISREG(kind):
-            what = "a FIFO" if stat.S_ISFIFO(kind) else "a directory" if stat.S_ISDIR(kind) else "a device"
-            raise ValueError(f"{path}: not a regular file ({what}): give another output directory")
         try:
             reader = csv.reader(file)
             header = tuple(next(reader, ()))
