@@ -20,8 +20,9 @@ is left at zero runs is the cluster's start and stop.
 
 **Against a baseline** (``--baseline COMMIT``): the throughput study on a local cluster of 2
 workers, run by this tree and by the tree of ``COMMIT`` (``git archive`` into a temporary
-directory), each in a fresh interpreter, one after the other round after round; :func:`on_cluster`
-alone is timed (the cluster's start, the runs, the table; not the interpreter's imports). The ratio
+directory), each in a fresh interpreter, one after the other round after round (the baseline
+first in odd rounds, second in even ones); :func:`on_cluster` alone is timed (the cluster's
+start, the runs, the table; not the interpreter's imports). The ratio
 baseline / this tree above 1 means this tree is faster.
 
 Prints the tables of benchmarks/README.md.
@@ -134,9 +135,13 @@ def against(baseline: str, rounds: int, runs: int, duration: float) -> None:
         columns = f"runs x {duration:g} s of reach, 2 workers | {baseline} [s] | this tree [s] | ratio"
         print(f"\n| round | {columns} |")
         print("|---|---|---|---|---|")
-        for k in range(rounds):
-            before = timed_on(tree, runs, duration)
-            now = timed_on(here, runs, duration)
+        for k in range(rounds):  # in turn first and second: a load that drifts favours neither
+            if k % 2:
+                now = timed_on(here, runs, duration)
+                before = timed_on(tree, runs, duration)
+            else:
+                before = timed_on(tree, runs, duration)
+                now = timed_on(here, runs, duration)
             print(f"| {k + 1} | {runs} | {before:.1f} | {now:.1f} | {before / now:.2f} |", flush=True)
         load = os.getloadavg()
         print(f"load average after: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
