@@ -2,6 +2,8 @@
 process, and the engine's cost per run.
 
     PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_study.py [--rounds 2] [--runs 16] [--duration 6]
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_study.py --baseline COMMIT [--rounds 3] [--runs 8]
+        [--duration 2]
 
 **Throughput.** A grid of ``--runs`` runs of ``reach`` (the right hand's gain varied, ``--duration`` s
 each)
@@ -16,6 +18,13 @@ runs called directly, for two counts of runs: the difference of the differences,
 what the engine adds to a run (scheduling, the result's transfer, the table's flushed row); what
 is left at zero runs is the cluster's start and stop.
 
+**Against a baseline** (``--baseline COMMIT``): the throughput study on a local cluster of 2
+workers, run by this tree and by the tree of ``COMMIT`` (``git archive`` into a temporary
+directory), each in a fresh interpreter, one after the other round after round (the baseline
+first in odd rounds, second in even ones); :func:`on_cluster` alone is timed (the cluster's
+start, the runs, the table; not the interpreter's imports). The ratio
+baseline / this tree above 1 means this tree is faster.
+
 Prints the tables of benchmarks/README.md.
 """
 
@@ -23,8 +32,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import pathlib
+import subprocess
+import sys
 import tempfile
 import time
+
+from baseline_tree import extract
 
 from drake_sot.blas import limit_blas_threads
 from drake_sot.diagrams.study_runs import TARGETS, measure
@@ -75,12 +89,74 @@ def on_cluster(chosen: Study, workers: int) -> float:
     return wall
 
 
+#: Run in a fresh interpreter on a tree (its ``PYTHONPATH``; argv: this folder, runs, duration):
+#: :func:`on_cluster`'s wall time [s] on the throughput study, printed alone on the last line.
+TIMED = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from bench_study import limit_blas_threads, on_cluster, study
+
+if __name__ == "__main__":  # the cluster's workers are spawned: they import this file
+    limit_blas_threads(1)
+    print(on_cluster(study(int(sys.argv[2]), float(sys.argv[3]), "throughput"), 2))
+"""
+
+
+def timed_on(tree: pathlib.Path, runs: int, duration: float) -> float:
+    """[s] :func:`on_cluster`'s wall time on the throughput study, in a fresh interpreter on ``tree``."""
+    with tempfile.TemporaryDirectory() as scratch:
+        script = pathlib.Path(scratch) / "timed_study.py"
+        script.write_text(TIMED)
+        env = dict(os.environ, PYTHONPATH=str(tree), OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+        out = subprocess.run(
+            [
+                sys.executable,
+                str(script),
+                str(pathlib.Path(__file__).resolve().parent),
+                str(runs),
+                str(duration),
+            ],
+            env=env,
+            cwd=scratch,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    return float(out.stdout.split()[-1])
+
+
+def against(baseline: str, rounds: int, runs: int, duration: float) -> None:
+    """The table of ``--baseline``: this tree's study against ``baseline``'s, round after round."""
+    here = pathlib.Path(__file__).resolve().parent.parent
+    with tempfile.TemporaryDirectory() as tmp:
+        tree = extract(baseline, pathlib.Path(tmp))
+        load = os.getloadavg()
+        print(f"load average before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
+        columns = f"runs x {duration:g} s of reach, 2 workers | {baseline} [s] | this tree [s] | ratio"
+        print(f"\n| round | {columns} |")
+        print("|---|---|---|---|---|")
+        for k in range(rounds):  # in turn first and second: a load that drifts favours neither
+            if k % 2:
+                now = timed_on(here, runs, duration)
+                before = timed_on(tree, runs, duration)
+            else:
+                before = timed_on(tree, runs, duration)
+                now = timed_on(here, runs, duration)
+            print(f"| {k + 1} | {runs} | {before:.1f} | {now:.1f} | {before / now:.2f} |", flush=True)
+        load = os.getloadavg()
+        print(f"load average after: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--runs", type=int, default=16, help="runs of the throughput study (<= 16)")
     parser.add_argument("--duration", type=float, default=6.0, help="[s] simulated per run (default 6)")
+    parser.add_argument("--baseline", metavar="COMMIT", help="this tree's study against COMMIT's, alone")
     args = parser.parse_args()
+    if args.baseline is not None:
+        against(args.baseline, args.rounds, args.runs, args.duration)
+        return
     limit_blas_threads(1)
     measure("reach", {"robot": "embedded"}, 0.02, 0)  # imports and first-build caches, outside the timing
     load = os.getloadavg()

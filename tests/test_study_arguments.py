@@ -7,6 +7,9 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import tempfile
+from datetime import timedelta
+from pathlib import Path
 from unittest import mock
 
 import pytest
@@ -19,6 +22,7 @@ from drake_sot.diagrams.alpha_sweep import MAX_WORKERS
 from drake_sot.diagrams.artifacts import Artefacts
 from drake_sot.diagrams.run import MAX_DURATION
 from drake_sot.diagrams.study_session import StudySession
+from drake_sot.studies.catalog import STUDIES
 
 #: Any text, lone surrogates included (what a command line decoded with surrogateescape holds).
 TEXT = st.text(st.characters(codec=None, exclude_categories=()), max_size=30)
@@ -135,3 +139,49 @@ def test_a_refusal_names_the_value(option, value, named):
     status, err, calls = _run(option, value)
     _refused_in_one_line(status, err, calls, option.removeprefix("--"), value)
     assert named in err
+
+
+#: Each example's bound [s]: a check of the arguments never hangs (a FIFO, a device, a slow disk).
+BOUNDED = settings(max_examples=200, deadline=timedelta(seconds=5), derandomize=True)
+
+
+@BOUNDED
+@given(name=st.one_of(TEXT, st.sampled_from(["../x", "/dev/zero", "a\x00b", "-", "9" * 5000])))
+def test_a_path_given_to_out_is_a_writable_directory_or_refused_in_one_line_leaving_nothing(name):
+    """Under a fresh directory (no name reaches outside it): any text, NUL bytes and lone
+    surrogates included, and an empty ``--out``; an existing file and a path under it."""
+    with tempfile.TemporaryDirectory() as root:
+        (Path(root) / "file").write_text("")
+        for value in (f"{root}/{name}", f"{root}/file/{name}", "" if not name else f"{root}/file"):
+            before = sorted(Path(root).rglob("*"))
+            status, err, calls = _run("--out", value)
+            if status == 0:  # a name of a directory there is or can be: under no file, no NUL
+                assert value and "\x00" not in value and calls[0][1] == Path(value), (value, err)
+                assert not any(p.is_file() for p in (Path(value), *Path(value).parents)), (value, err)
+            else:
+                assert status == 2 and not calls, (value, status, err)
+                assert "Traceback" not in err
+                lines = err.splitlines()
+                assert len(lines) == 1 and lines[0].startswith("drake-sot study: error: --out: "), (
+                    value,
+                    err,
+                )
+            assert sorted(Path(root).rglob("*")) == before  # the check made nothing that stays
+
+
+@BOUNDED
+@given(name=st.one_of(TEXT, NUMBERS))
+def test_a_study_name_is_one_of_the_catalog_or_refused_in_one_line(name):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        with mock.patch.object(command, "run_with_figures") as run:
+            try:
+                status = cli.main(["study", "--", name])
+            except SystemExit as exit_:
+                status = exit_.code
+    if name in STUDIES:
+        assert run.called
+        return
+    assert status == 2 and not run.called, (name, err.getvalue())
+    lines = err.getvalue().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("drake-sot study: error: "), lines

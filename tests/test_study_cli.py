@@ -14,6 +14,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import psutil
 import pytest
 
@@ -247,3 +248,60 @@ def test_a_worker_killed_mid_run_loses_no_run(tmp_path):
     assert proc.returncode == 0, err
     rows = _table(tmp_path / "tiny_runs.csv")
     assert len(rows) == 2 and {r["status"] for r in rows.values()} == {"ok"}, rows
+
+
+#: When the signals of the next test are sent: seconds after the study's first child process (the
+#: local cluster's worker) appears, through the cluster's start; then on the progress line of a
+#: run done (``(k, seconds after it)``), through the first runs.
+AFTER_START = (0.0, 0.3, 0.6, 1.0, 1.5, 2.0, 3.0)
+AFTER_RUN = ((1, 0.0), (1, 0.4), (2, 0.0))
+
+
+@pytest.mark.parametrize(
+    ("when", "signum"),
+    [(("start", t), (signal.SIGINT, signal.SIGTERM)[k % 2]) for k, t in enumerate(AFTER_START)]
+    + [(("run", r), (signal.SIGTERM, signal.SIGINT)[k % 2]) for k, r in enumerate(AFTER_RUN)],
+    ids=[f"start+{t}s" for t in AFTER_START] + [f"run{k}+{t}s" for k, t in AFTER_RUN],
+)
+def test_a_signal_at_any_point_of_the_clusters_start_or_the_first_runs_ends_the_study_cleanly(
+    tmp_path, when, signum
+):
+    """Exit 128 + the signal, one line besides the progress, no traceback, no process left, and
+    every run said done is in the table (and its npz): a signal while the cluster started left it
+    half-started (Dask's exit hook then failed on it) and drew the figures of no run."""
+    proc = _start(tmp_path, 4, 0.3, "--workers", "1", "--out", str(tmp_path / "out"))
+    children: set[int] = set()
+    lines: list[str] = []
+    try:
+        if when[0] == "start":
+            deadline = time.monotonic() + 120
+            while not children and time.monotonic() < deadline and proc.poll() is None:
+                children = {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
+                time.sleep(0.01)
+            time.sleep(when[1])
+        else:
+            runs, after = when[1]
+            for line in proc.stderr:
+                lines.append(line)
+                if line.startswith(f"{runs}/4 runs done"):
+                    break
+            time.sleep(after)
+        children |= {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
+        proc.send_signal(signum)
+    except psutil.NoSuchProcess:
+        pass
+    _, rest = proc.communicate(timeout=120)
+    lines += rest.splitlines(keepends=True)
+    said = [line.rstrip("\n") for line in lines if " runs done, " not in line]
+    assert proc.returncode == 128 + signum, lines
+    assert len(said) == 1 and said[0].startswith(f"interrupted by {signal.Signals(signum).name}: "), lines
+    assert children and _gone(children) == set(), lines
+    done = len(lines) - len(said)  # the progress lines: a line per run recorded
+    table = tmp_path / "out" / "tiny_runs.csv"
+    rows = _table(table) if table.exists() else {}
+    assert len(rows) == done and {r["status"] for r in rows.values()} <= {"ok"}, lines
+    if rows:
+        with np.load(tmp_path / "out" / "tiny_runs.npz") as npz:
+            assert sorted(npz["run_id"]) == sorted(rows)
+    if when[0] == "run":
+        assert done >= when[1][0]

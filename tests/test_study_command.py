@@ -142,7 +142,7 @@ def test_a_full_disk_costs_the_study_its_figures_with_one_line_and_exit_1(tmp_pa
 
     def ran(study, out, **kwargs):
         table.write_text("run_id\n")
-        return StudyOutcome(table, tmp_path / "gain_sweep_runs.npz", {})
+        return StudyOutcome(table, tmp_path / "gain_sweep_runs.npz", {"0" * 16: {"status": "ok"}})
 
     def full(study, rows, out):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(out / "gain_sweep.png"))

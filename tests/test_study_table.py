@@ -8,12 +8,16 @@ from __future__ import annotations
 import csv
 import io
 import math
+import tempfile
+from datetime import timedelta
+from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_studies import counting, grid_study, run_in_threads
+from test_studies import DECLARED, counting, grid_study, run_in_threads
 
 from drake_sot.studies.runner import read_table, table_columns
+from drake_sot.validation import is_number
 
 STUDY = grid_study()
 COLUMNS = table_columns(STUDY)
@@ -140,3 +144,64 @@ def test_a_blank_line_is_no_row_and_nothing_is_said(tmp_path):
     path.write_bytes(_table(3).removesuffix(b"\n") + b"\r\n" + _table(6)[len(_table(3)) :])
     rows, said, refusal = _read(path)
     assert refusal is None and set(rows) == set(WRITTEN) and said == []
+
+
+#: What an edited cell may hold: numbers of any size and form, text (lone surrogates and the
+#: characters CSV quotes included), empty.
+CELLS = st.one_of(
+    st.sampled_from(
+        ["", "nan", "inf", "-inf", "1e400", "-1e400", "9" * 5000, "0.50", "True", "False", "true"]
+    ),
+    st.integers(min_value=-(10**400), max_value=10**400).map(str),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.text(st.characters(codec=None, exclude_categories=()), max_size=30),
+)
+NUMBER_COLUMNS = (*STUDY.parameter_names(), *STUDY.metrics, "seed", "duration", "wall_time")
+
+
+@settings(max_examples=300, deadline=timedelta(seconds=5), derandomize=True)
+@given(row=st.integers(min_value=0, max_value=5), column=st.sampled_from(COLUMNS), cell=CELLS)
+def test_an_edited_cell_is_read_as_written_or_refused_in_one_line_naming_the_file(row, column, cell):
+    """Any cell of a whole table replaced by any text (written as UTF-8, a lone surrogate as the
+    bytes it would be): read back, or refused (ValueError, one line naming the file, its line and
+    column); never another exception. What is read is what a run writes: its numbers as a float's
+    repr or an int's str, an ok run's metrics a bool or a number, its parameters in their bounds."""
+    lines = _table(6).decode().split("\r\n")
+    cells = next(csv.reader([lines[1 + row]]))
+    cells[COLUMNS.index(column)] = cell
+    text = io.StringIO(newline="")
+    csv.writer(text).writerow(cells)
+    lines[1 + row] = text.getvalue().removesuffix("\r\n")
+    with tempfile.TemporaryDirectory() as directory:
+        path = Path(directory) / "fake_runs.csv"
+        path.write_bytes("\r\n".join(lines).encode("utf-8", "surrogatepass"))
+        try:
+            rows = read_table(path, STUDY, declared=DECLARED)
+        except ValueError as exc:
+            message = str(exc)
+            assert message.startswith(f"{path}: ") and "\n" not in message, message
+            return
+    for read in rows.values():
+        for name in NUMBER_COLUMNS:
+            value = read[name]
+            if isinstance(value, float) and not isinstance(value, bool):
+                assert math.isnan(value) or math.isinf(value) or abs(value) < 1.8e308
+        if read["status"] == "ok":
+            assert all(isinstance(read[m], bool | float) for m in STUDY.metrics), read
+            assert all(type(read[c]) is float for c in ("seed", "duration", "wall_time")), read
+        assert 0.0 <= read["force"] <= 1000.0 and 0.0 <= read["phase"] <= 1.0, read
+    edited = rows.get(cells[0]) if column != "run_id" else None
+    if edited is not None and column in NUMBER_COLUMNS and is_number(cell):
+        value = edited[column]
+        assert cell == repr(value) or (value.is_integer() and cell == str(int(value))), (cell, value)
+
+
+def test_a_table_that_is_a_directory_or_a_link_to_nothing_is_refused_naming_it(tmp_path):
+    (tmp_path / "fake_runs.csv").mkdir()
+    assert _read(tmp_path / "fake_runs.csv")[2] == (
+        f"{tmp_path / 'fake_runs.csv'}: not a regular file (a directory): give another output directory"
+    )
+    (tmp_path / "other_runs.csv").symlink_to(tmp_path / "nowhere")
+    assert _read(tmp_path / "other_runs.csv")[2] == (
+        f"{tmp_path / 'other_runs.csv'}: a link to nothing: give another output directory"
+    )

@@ -25,11 +25,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from drake_sot.diagrams.alpha_sweep import MAX_WORKERS, WORKERS
-from drake_sot.diagrams.artifacts import report_unwritten
+from drake_sot.diagrams.artifacts import output_directory, report_unwritten
 from drake_sot.diagrams.run import MAX_DURATION, check_duration
 from drake_sot.diagrams.study_session import run_with_figures
 from drake_sot.studies.catalog import STUDIES
 from drake_sot.studies.description import Study
+from drake_sot.studies.runner import missing_directories, remove_empty
 from drake_sot.validation import is_number
 
 EPILOG = (
@@ -113,6 +114,23 @@ def _progress(done: int, failed: int, total: int, left: float) -> None:
     print(f"{done}/{total} runs done, {failed} failed{eta}", file=sys.stderr, flush=True)
 
 
+def _check_out(parser: argparse.ArgumentParser, out: str) -> None:
+    """Exit 2 with one line, as ``run --out`` does, when ``out`` cannot be the output directory (an
+    empty name, a file, a path under a file, no write permission); the directories the check made
+    are removed again (the study makes them, and removes them when no scheduler answers); a name
+    that is no path (a NUL byte, a character the file system's encoding refuses) is refused too."""
+    made: list[Path] = []
+    try:
+        made = missing_directories(Path(out)) if out else []
+        output_directory(out)
+    except ValueError as exc:  # a NUL byte, a lone surrogate the file system's encoding refuses
+        parser.error(f"--out: {out!r}: not a path ({exc})")
+    except OSError as exc:
+        parser.error(f"--out: {exc}")
+    finally:
+        remove_empty(made)
+
+
 def describe(study: Study) -> str:
     """The line ``--list`` (and ``drake-sot list``) gives ``study`` after its name."""
     return f"{study.description} ({study.total()} runs of {study.scenario})"
@@ -132,6 +150,7 @@ def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDI
         parser.error(f"study {args.name!r}: unknown; one of: {', '.join(sorted(studies))}")
     if args.scheduler is not None and args.workers is not None:
         parser.error("--workers is for the local cluster: a --scheduler's cluster has its own workers")
+    _check_out(parser, args.out)
     study = studies[args.name]
     if args.duration is not None:
         study = dataclasses.replace(study, duration=args.duration)
@@ -141,7 +160,7 @@ def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDI
         )
     except ValueError as exc:  # refused before anything ran: the study, the table, the workers
         parser.error(str(exc))
-    except OSError as exc:  # --out not writable, or no scheduler at --scheduler
+    except OSError as exc:  # no scheduler at --scheduler (or --out made unwritable since its check)
         print(f"drake-sot study: {exc}", file=sys.stderr)
         return 1
     files, unwritten = session.artefacts.files, session.artefacts.unwritten
@@ -150,10 +169,8 @@ def study_command(args: argparse.Namespace, studies: Mapping[str, Study] = STUDI
     report_unwritten(unwritten)
     table = Path(args.out) / f"{study.name}_runs.csv"
     if session.stopped is not None:
-        print(
-            f"interrupted by {session.stopped.signum.name}: the {len(session.rows)} runs done are in {table}",
-            file=sys.stderr,
-        )
+        done = f"the {len(session.rows)} runs done are in {table}" if session.rows else "no run was done"
+        print(f"interrupted by {session.stopped.signum.name}: {done}", file=sys.stderr)
         return 128 + session.stopped.signum
     if session.failed:
         print(f"{session.failed} runs failed: their errors are in {table}", file=sys.stderr)

@@ -58,21 +58,24 @@ def run_with_figures(
 ) -> StudySession:
     """Run ``study`` into ``out`` (see :func:`~drake_sot.studies.runner.run_study`: a local
     cluster of ``workers`` processes, or the Dask scheduler at ``scheduler``), then write its
-    figures (when :data:`STUDY_FIGURES` has some) from every run of its table. Ctrl-C or SIGTERM
-    stops it: the pending runs are cancelled, the figures cover the finished ones and the signal
-    is in :attr:`StudySession.stopped` (a further signal waits until the files are written).
+    figures (when :data:`STUDY_FIGURES` has some, and a run of its table is ok: none when none
+    is, as when a signal stops the study before its first run ends) from every run of its table.
+    Ctrl-C or SIGTERM stops it: the pending runs are cancelled, the figures cover the finished ones
+    and the signal is in :attr:`StudySession.stopped` (a further signal waits until the files are
+    written).
 
     Raises:
         ValueError: the study, the table in ``out`` or ``workers`` refused before anything ran.
         OSError: ``out`` cannot be written, or no scheduler answers at ``scheduler``.
     """
     stopped: Interrupted | None = None
+    declared = TARGETS[study.scenario].parameters
     with SignalGuard() as guard:
         try:
             outcome = run_study(
                 study,
                 out,
-                declared=TARGETS[study.scenario].parameters,
+                declared=declared,
                 measure=measure,
                 scheduler=scheduler,
                 workers=workers,
@@ -82,10 +85,10 @@ def run_with_figures(
             rows, failed = outcome.rows, outcome.failed
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (SignalGuard raises Interrupted)
             stopped = exc if isinstance(exc, Interrupted) else Interrupted(signal.SIGINT)
-            rows, failed = read_table(out / f"{study.name}_runs.csv", study), 0
+            rows, failed = read_table(out / f"{study.name}_runs.csv", study, declared=declared), 0
         table = {"table": out / f"{study.name}_runs.csv", "runs": out / f"{study.name}_runs.npz"}
         artefacts = Artefacts(files={key: path for key, path in table.items() if path.exists()})
-        if study.name in STUDY_FIGURES:
+        if study.name in STUDY_FIGURES and any(row["status"] == "ok" for row in rows.values()):
             write = STUDY_FIGURES[study.name]
             artefacts.write_several(str(out / f"{study.name}.*"), lambda: write(study, rows, out))
     return StudySession(rows, failed, artefacts, stopped)

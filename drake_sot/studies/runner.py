@@ -20,19 +20,26 @@ A run that raises, or whose worker dies, is retried once (Dask ``retries=1``; a 
 also makes the scheduler move its task to another worker), then recorded as failed with its error;
 the study goes on. A KeyboardInterrupt (Ctrl-C, or SIGTERM turned into one by the caller) cancels
 what is pending, keeps every finished row, closes the cluster (its processes end) and is raised
-again.
+again; one that comes while the cluster and its client start is held until they are up (they
+cannot be closed half-started), then raised.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
 import os
 import re
+import signal
+import socket
+import stat
+import struct
 import sys
 import tempfile
+import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -41,8 +48,9 @@ from typing import Any
 import numpy as np
 
 from drake_sot.blas import limit_blas_threads
-from drake_sot.parameters import Parameter
+from drake_sot.parameters import Parameter, check_parameters
 from drake_sot.studies.description import Metrics, Plan, Run, Study, plans
+from drake_sot.validation import is_number
 
 __all__ = [
     "RUN_COLUMNS",
@@ -50,7 +58,10 @@ __all__ = [
     "Measure",
     "Progress",
     "StudyOutcome",
+    "check_speaks_dask",
+    "missing_directories",
     "read_table",
+    "remove_empty",
     "run_study",
     "table_columns",
     "worker_count",
@@ -83,6 +94,8 @@ def table_columns(study: Study) -> tuple[str, ...]:
     return ("run_id", *study.parameter_names(), *study.metrics, *RUN_COLUMNS)
 
 
+#: The columns of :data:`RUN_COLUMNS` that hold numbers (empty in a failed run's row: its wall time).
+NUMBER_COLUMNS = ("seed", "duration", "wall_time")
 #: The statuses of a run in the table.
 STATUSES = ("ok", "failed")
 #: A run id as :func:`~drake_sot.studies.description.run_id` makes it.
@@ -100,8 +113,57 @@ def _value(text: str) -> bool | float | str:
         return text
 
 
+def _as_written(text: str) -> bool:
+    """Whether a cell that reads as a number is one as this module writes it: an int's ``str`` (an
+    int a float holds exactly, as it is read back) or a float's ``repr`` (``nan``, ``inf`` and
+    ``-inf`` included); not ``1e400``, not 5000 digits, not 2**53 + 1, not ``0.50``. A cell that
+    reads as no number is left to its column's check."""
+    if not is_number(text):
+        return True
+    with contextlib.suppress(ValueError, OverflowError):  # not an integer, beyond 4300 digits or floats
+        number = int(text)
+        if str(number) == text:
+            return float(number) == number
+    return repr(float(text)) == text
+
+
+def _clipped(text: str) -> str:
+    """``repr(text)``, its middle cut when it is long (a cell of thousands of characters)."""
+    return repr(text) if len(text) <= 40 else f"{text[:16]!r}…{text[-8:]!r} ({len(text)} characters)"
+
+
+def _odd_cell(
+    study: Study, row: Mapping[str, str], declared: Sequence[Parameter] | None
+) -> tuple[str, str] | None:
+    """The first cell of a whole row that no run writes, and why (None when there is none): in a
+    column of numbers (:data:`NUMBER_COLUMNS`, the parameters, the metrics) a number not as
+    written (:func:`_as_written`); in :data:`NUMBER_COLUMNS` no number (empty is a failed run's
+    wall time); a metric of an ``ok`` run that is no bool nor number (empty included); a
+    parameter its declaration in ``declared`` refuses."""
+    for column in (*study.parameter_names(), *study.metrics, *NUMBER_COLUMNS):
+        if not _as_written(row[column]):
+            return column, "not a number as a run writes it"
+    for column in NUMBER_COLUMNS:
+        if (row[column] or row["status"] == "ok") and not is_number(row[column]):
+            return column, "a number (empty in a failed run's row only)"
+    if row["status"] == "ok":
+        for metric in study.metrics:
+            if not (row[metric] in ("True", "False") or is_number(row[metric])):
+                return metric, "a metric of an ok run is a number or a bool"
+    if declared is not None:
+        for name in study.parameter_names():
+            try:
+                check_parameters(study.scenario, declared, {name: _value(row[name])})
+            except ValueError as exc:
+                return name, str(exc)
+    return None
+
+
 def read_table(
-    path: str | Path, study: Study, say: Callable[[str], None] = lambda line: None
+    path: str | Path,
+    study: Study,
+    say: Callable[[str], None] = lambda line: None,
+    declared: Sequence[Parameter] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """The rows of the table at ``path`` (none when there is no file) by run id, the last row of
     a run id winning, cells as :func:`_value` reads them. A row that is not whole (a field
@@ -110,18 +172,32 @@ def read_table(
     many were, with the file: their runs are run again.
 
     Raises:
-        ValueError: the file is not a readable table (not UTF-8 text, a NUL byte, a malformed
-            quote) or its header is not the study's (another study, or other parameters or
-            metrics), naming the file and what is wrong.
+        ValueError: the file is not a readable table (not a regular file: a FIFO, a device, a
+            link to one, a directory; not UTF-8 text, a NUL byte, a malformed quote), its header
+            is not the study's (another study, or other parameters or metrics), or a whole row
+            holds a cell no run writes (a number such as ``1e400`` or of 5000 digits, an ``ok``
+            run's metric that is empty or no number, a parameter ``declared`` refuses: an edited
+            table), naming the file and what is wrong (and the line and column of a cell).
     """
     path = Path(path)
-    if not path.exists():
-        return {}
     columns = table_columns(study)
     rows: dict[str, dict[str, Any]] = {}
     skipped = 0
-    try:
-        with open(path, newline="", encoding="utf-8") as file:
+    try:  # not blocking on a FIFO's open: refused by its type below
+        handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except FileNotFoundError:
+        if os.path.lexists(path):
+            raise ValueError(f"{path}: a link to nothing: give another output directory") from None
+        return {}
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot be read ({exc.strerror}): give another output directory") from None
+    kind = os.fstat(handle).st_mode
+    if not stat.S_ISREG(kind):
+        os.close(handle)
+        what = "a FIFO" if stat.S_ISFIFO(kind) else "a directory" if stat.S_ISDIR(kind) else "a device"
+        raise ValueError(f"{path}: not a regular file ({what}): give another output directory")
+    with open(handle, newline="", encoding="utf-8") as file:
+        try:
             reader = csv.reader(file)
             header = tuple(next(reader, ()))
             if header != columns:
@@ -140,9 +216,16 @@ def read_table(
                 ):
                     skipped += 1
                     continue
+                odd = _odd_cell(study, row, declared)
+                if odd is not None:
+                    column, why = odd
+                    raise ValueError(
+                        f"{path}: line {reader.line_num}: {column} = {_clipped(row[column])}: {why} "
+                        "(an edited table?): give another output directory"
+                    )
                 rows[row["run_id"]] = {k: _value(v) for k, v in row.items()}
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise ValueError(f"{path}: not a study table ({exc}): give another output directory") from None
+        except (UnicodeDecodeError, csv.Error) as exc:
+            raise ValueError(f"{path}: not a study table ({exc}): give another output directory") from None
     if skipped:
         say(f"{path}: {skipped} rows not whole (a line cut short?) skipped: their runs are run again")
     return rows
@@ -218,10 +301,12 @@ class StudyOutcome:
 class _Table:
     """The CSV table, appended to one flushed row at a time."""
 
-    def __init__(self, path: Path, study: Study, say: Callable[[str], None]) -> None:
+    def __init__(
+        self, path: Path, study: Study, say: Callable[[str], None], declared: Sequence[Parameter]
+    ) -> None:
         self.path = path
         self.columns = table_columns(study)
-        self.rows = read_table(path, study, say)
+        self.rows = read_table(path, study, say, declared)
 
     def append(self, row: Mapping[str, Any]) -> None:
         new = not self.path.exists() or self.path.stat().st_size == 0
@@ -306,9 +391,11 @@ def run_study(
 
     Raises:
         ValueError: a study the target's ``declared`` parameters refuse, a table in ``out_dir``
-            with other columns, ``workers`` with ``scheduler`` or below 1 (before anything starts).
+            that :func:`read_table` refuses (other columns, an edited row, not a regular file),
+            ``workers`` with ``scheduler`` or below 1 (before anything starts).
         OSError: ``out_dir`` cannot be written (before anything starts), or no scheduler answers
-            at ``scheduler`` (the directories made for ``out_dir`` are removed again when empty).
+            at ``scheduler``, or what answers there is no Dask scheduler (:func:`check_speaks_dask`:
+            ConnectionError; the directories made for ``out_dir`` are removed again when empty).
         KeyboardInterrupt: the study was interrupted: the pending runs were cancelled, every
             finished run is in the table and the cluster is closed.
     """
@@ -318,9 +405,9 @@ def run_study(
     if workers is not None and not (workers >= 1):
         raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
     out = Path(out_dir)
-    created = _missing_directories(out)
+    created = missing_directories(out)
     out.mkdir(parents=True, exist_ok=True)
-    table = _Table(out / f"{study.name}_runs.csv", study, say)
+    table = _Table(out / f"{study.name}_runs.csv", study, say, declared)
     outcome = StudyOutcome(table.path, out / f"{study.name}_runs.npz", table.rows)
     total = study.total()
     per_plan = total // len(study_plans)
@@ -359,9 +446,13 @@ def run_study(
     try:
         # in the try: a signal while the cluster starts closes what started
         try:
-            client, cluster = _connect(scheduler, workers, len(pending), processes, say)
+            if scheduler is not None:
+                say(f"connecting to the Dask scheduler at {scheduler}")
+                check_speaks_dask(scheduler)
+            with _signals_deferred():  # a cluster or a client started in part cannot be closed
+                client, cluster = _connect(scheduler, workers, len(pending), processes, say)
         except Exception:  # no scheduler there: no directory of ours is left behind either
-            _remove_empty(created)
+            remove_empty(created)
             raise
         start = time.perf_counter()
         from distributed import as_completed
@@ -426,7 +517,7 @@ def run_study(
     return outcome
 
 
-def _missing_directories(out: Path) -> list[Path]:
+def missing_directories(out: Path) -> list[Path]:
     """``out`` and those of its parents that do not exist yet, the deepest first."""
     missing = []
     for path in (out, *out.parents):
@@ -436,19 +527,114 @@ def _missing_directories(out: Path) -> list[Path]:
     return missing
 
 
-def _remove_empty(directories: Sequence[Path]) -> None:
+def remove_empty(directories: Sequence[Path]) -> None:
     """Remove ``directories`` (the deepest first), stopping at the first that is not empty."""
     for directory in directories:
         try:
             directory.rmdir()
-        except OSError:
+        except (OSError, ValueError):  # not empty, gone; a name no directory can have (a NUL byte)
             return
+
+
+@contextlib.contextmanager
+def _signals_deferred(signals: Sequence[signal.Signals] = (signal.SIGINT, signal.SIGTERM)) -> Iterator[None]:
+    """Hold ``signals`` while the block runs, then deliver the first that came (its handler runs,
+    e.g. raises KeyboardInterrupt, as the block ends). Around the start of a cluster and of its
+    client: interrupted in their middle, they returned nothing to close, and Dask's own clean-up at
+    exit failed on a worker still starting (``AssertionError: Status.init``) while its processes
+    lived on; deferred, the signal comes once they are up, and they are closed. Only the signals
+    with a Python handler are held (not one ignored, nor SIGTERM's default: it ends the process),
+    and only in the main thread (the only one Python delivers signals to)."""
+    held: list[int] = []
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in signals:
+            handler = signal.getsignal(signum)
+            if callable(handler):
+                previous[signum] = handler
+                signal.signal(signum, lambda number, frame: held.append(number))
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if held:
+            signal.raise_signal(held[0])
 
 
 def _pauses(dask_worker: Any) -> bool:
     """Whether a Dask worker pauses at a share of its memory limit (run on it by :func:`_connect`)."""
     manager = dask_worker.memory_manager
     return bool(manager.memory_limit and manager.memory_pause_fraction)
+
+
+#: How long a scheduler has to send its first message, Dask's handshake [s].
+HANDSHAKE_TIMEOUT = 10.0
+#: The most bytes a scheduler's handshake may announce (distributed 2026.8 sends 58: its
+#: compression, Python version and pickle protocol).
+MAX_HANDSHAKE = 64 * 1024
+
+
+def check_speaks_dask(address: str, timeout: float = HANDSHAKE_TIMEOUT) -> None:
+    """Check that what listens at ``address`` (``tcp://HOST:PORT``) is a Dask scheduler before a
+    Dask client talks to it: the first message a scheduler sends on a new connection is its
+    handshake, a small msgpack map; a Dask client waits for it without a deadline (a listener that
+    says nothing hangs it) and makes room for as many bytes as its first 8 announce (random bytes
+    ask for exbibytes). Here the handshake must come within ``timeout`` seconds and announce at
+    most :data:`MAX_HANDSHAKE` bytes. Nothing is checked at a ``tls://`` address (the handshake
+    comes after TLS's), nor when the connection itself fails (the Dask client retries it, and
+    names the address when it gives up).
+
+    Raises:
+        ConnectionError: naming ``address``, when what listens there sends nothing within
+            ``timeout``, or what is not a Dask handshake.
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.protocol.core import loads
+    from distributed.protocol.utils import unpack_frames
+
+    scheme, location = parse_address(address)
+    if scheme != "tcp":
+        return
+    deadline = time.monotonic() + timeout
+    try:
+        connection = socket.create_connection(parse_host_port(location), timeout=timeout)
+    except OSError:
+        return
+    with connection:
+        try:
+            (size,) = struct.unpack("Q", _receive(connection, 8, deadline))
+            if not (0 < size <= MAX_HANDSHAKE):
+                raise ConnectionError(f"its first message announces {size} bytes")
+            frames, buffers = unpack_frames(_receive(connection, size, deadline), partial=True)
+            handshake = loads(frames, deserialize=False)
+            if buffers or not (
+                isinstance(handshake, dict) and {"python", "pickle-protocol"} <= set(handshake)
+            ):
+                raise ConnectionError("its first message is no handshake")
+        except TimeoutError:
+            raise ConnectionError(
+                f"no Dask scheduler at {address}: what listens there sent no handshake in {timeout:g} s"
+            ) from None
+        except Exception as exc:  # noqa: BLE001 - Dask's frames and msgpack, given any bytes, raise anything
+            why = str(exc) if isinstance(exc, ConnectionError) else "its first message is not Dask's"
+            raise ConnectionError(f"no Dask scheduler at {address}: {why}") from None
+
+
+def _receive(connection: socket.socket, size: int, deadline: float) -> bytes:
+    """``size`` bytes from ``connection`` by ``deadline`` (``time.monotonic``); TimeoutError when
+    they do not come by then, ConnectionError when the connection is closed before."""
+    data = bytearray()
+    while len(data) < size:
+        left = deadline - time.monotonic()
+        if not (left > 0):
+            raise TimeoutError
+        connection.settimeout(left)
+        chunk = connection.recv(min(size - len(data), 65536))
+        if not chunk:
+            raise ConnectionError(f"it closed the connection after {len(data)} of {size} bytes")
+        data += chunk
+    return bytes(data)
 
 
 def _connect(
@@ -460,7 +646,6 @@ def _connect(
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        say(f"connecting to the Dask scheduler at {scheduler}")
         client = Client(scheduler, timeout="10s")
         try:
             pausing = sorted(address for address, pauses in client.run(_pauses).items() if pauses)
