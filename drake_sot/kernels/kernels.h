@@ -5,6 +5,7 @@
 
 namespace drake_sot {
 
+void bind_hqp(pybind11::module_& m);
 void bind_so3(pybind11::module_& m);
 
 }  // namespace drake_sot

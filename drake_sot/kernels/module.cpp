@@ -12,5 +12,6 @@
 PYBIND11_MODULE(_compiled, m) {
   m.doc() = "drake_sot's compiled kernels (C++ over Eigen); see drake_sot.kernels.";
   m.attr("SOURCE_HASH") = DRAKE_SOT_SOURCE_HASH;
+  drake_sot::bind_hqp(m);
   drake_sot::bind_so3(m);
 }
