@@ -51,43 +51,6 @@ using Binding = std::map<int, std::pair<std::vector<Index>, std::vector<double>>
 MatrixXd take_rows(const MatrixXd& A, const Rows& rows) { return A(rows, Eigen::all); }
 VectorXd take(const VectorXd& v, const Rows& rows) { return v(rows); }
 
-// drake_sot.linalg.SvdSplit: A (m, k) = U diag(s) V[:, :p]ᵀ, U thin, V complete (k, k); singular
-// values <= max(rank_threshold, max(m, k) eps s_max) are zero.
-struct SvdSplit {
-  MatrixXd U;
-  VectorXd s;
-  MatrixXd V;
-  Index rank = 0;
-
-  static SvdSplit of(const MatrixXd& A, double rank_threshold) {
-    SvdSplit out;
-    const Index m = A.rows(), k = A.cols();
-    if (m && k) {
-      Eigen::BDCSVD<MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeFullV);
-      out.U = svd.matrixU();
-      out.s = svd.singularValues();
-      out.V = svd.matrixV();
-    } else {
-      out.U = MatrixXd::Zero(m, 0);
-      out.s = VectorXd(0);
-      out.V = MatrixXd::Identity(k, k);
-    }
-    const double floor =
-        out.s.size() ? std::max(rank_threshold, double(std::max(m, k)) * kEps * out.s(0)) : rank_threshold;
-    out.rank = (out.s.array() > floor).count();
-    return out;
-  }
-
-  // A⁺ b (k,).
-  VectorXd solve(const VectorXd& b) const {
-    const Index r = rank;
-    return V.leftCols(r) * ((U.leftCols(r).transpose() * b).cwiseQuotient(s.head(r)));
-  }
-
-  // An orthonormal basis of ker A (k, k - rank).
-  MatrixXd null_basis() const { return V.rightCols(V.cols() - rank); }
-};
-
 // The upper triangle of a square block, inverted; false when its diagonal has an exact zero (LAPACK's
 // dtrtri info > 0).
 bool upper_inverse(const Eigen::Ref<const MatrixXd>& R, MatrixXd& R_inv) {
@@ -97,6 +60,97 @@ bool upper_inverse(const Eigen::Ref<const MatrixXd>& R, MatrixXd& R_inv) {
   R_inv = R.triangularView<Eigen::Upper>().solve(MatrixXd::Identity(k, k));
   return true;
 }
+
+// drake_sot.linalg.SvdSplit's decisions on A (m, k), from the cheapest factorisation that certifies
+// them: singular values <= max(rank_threshold, max(m, k) eps s_max) are zero. When A certainly has full
+// rank by that rule (full_rank_lstsq's certificate: with a Householder QR of A or Aᵀ, σ_min >= 1 /
+// ||R⁻¹||_F is above max(rank_threshold, max(m, k) eps ||A||_F), which bounds the floor, as σ_max <=
+// ||A||_F), the QR is the factorisation (a few times cheaper than the SVD on the working sets of the
+// active set); otherwise the SVD decides, as in Python. Either gives the same A⁺ b, the same kernel and
+// the same multipliers (to rounding): only the basis of the kernel differs, which no answer depends on.
+class Split {
+ public:
+  static Split of(const MatrixXd& A, double rank_threshold) {
+    Split out;
+    const Index m = A.rows(), k = A.cols();
+    out.m_ = m, out.k_ = k;
+    if (m && k) {
+      const double floor = std::max(rank_threshold, double(std::max(m, k)) * kEps * A.norm());
+      out.wide_ = m <= k;
+      out.qr_.compute(out.wide_ ? MatrixXd(A.transpose()) : A);
+      const Index p = std::min(m, k);
+      if (upper_inverse(out.qr_.matrixQR().topRows(p), out.R_inv_) && out.R_inv_.norm() * floor < 1.0) {
+        out.kind_ = Kind::kQr;
+        out.rank = p;
+        return out;
+      }
+      Eigen::BDCSVD<MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeFullV);
+      out.U_ = svd.matrixU();
+      out.s_ = svd.singularValues();
+      out.V_ = svd.matrixV();
+    } else {
+      out.U_ = MatrixXd::Zero(m, 0);
+      out.s_ = VectorXd(0);
+      out.V_ = MatrixXd::Identity(k, k);
+    }
+    const double floor =
+        out.s_.size() ? std::max(rank_threshold, double(std::max(m, k)) * kEps * out.s_(0)) : rank_threshold;
+    out.rank = (out.s_.array() > floor).count();
+    out.kind_ = Kind::kSvd;
+    return out;
+  }
+
+  // A⁺ b (k,).
+  VectorXd solve(const VectorXd& b) const {
+    const Index r = rank;
+    if (kind_ == Kind::kSvd) return V_.leftCols(r) * ((U_.leftCols(r).transpose() * b).cwiseQuotient(s_.head(r)));
+    if (wide_) {  // Aᵀ = Q R: A⁺ = Q₁ R⁻ᵀ
+      VectorXd y = VectorXd::Zero(k_);
+      y.head(m_).noalias() = R_inv_.transpose() * b;
+      y.applyOnTheLeft(qr_.householderQ());
+      return y;
+    }
+    VectorXd Qtb = qr_.householderQ().transpose() * b;  // A = Q R: A⁺ = R⁻¹ Q₁ᵀ
+    return R_inv_ * Qtb.head(k_);
+  }
+
+  // (Aᵀ)⁺ g (m,): the multipliers λ of min ||g + Aᵀ λ|| are (Aᵀ)⁺ (-g).
+  VectorXd solve_transposed(const VectorXd& g) const {
+    const Index r = rank;
+    if (kind_ == Kind::kSvd) return U_.leftCols(r) * ((V_.leftCols(r).transpose() * g).cwiseQuotient(s_.head(r)));
+    if (wide_) {  // Aᵀ = Q R: (Aᵀ)⁺ = R⁻¹ Q₁ᵀ
+      VectorXd Qtg = qr_.householderQ().transpose() * g;
+      return R_inv_ * Qtg.head(m_);
+    }
+    VectorXd y = VectorXd::Zero(m_);  // A = Q R: (Aᵀ)⁺ = Q₁ R⁻ᵀ
+    y.head(k_).noalias() = R_inv_.transpose() * g;
+    y.applyOnTheLeft(qr_.householderQ());
+    return y;
+  }
+
+  // An orthonormal basis of ker A (k, k - rank).
+  MatrixXd null_basis() const {
+    if (kind_ == Kind::kSvd) return V_.rightCols(V_.cols() - rank);
+    if (!wide_) return MatrixXd(k_, 0);
+    MatrixXd N = MatrixXd::Zero(k_, k_ - m_);  // the last columns of the complete Q of Aᵀ = Q R
+    N.bottomRows(k_ - m_).setIdentity();
+    N.applyOnTheLeft(qr_.householderQ());
+    return N;
+  }
+
+  Index rank = 0;
+
+ private:
+  enum class Kind { kSvd, kQr };
+  Kind kind_ = Kind::kSvd;
+  Index m_ = 0, k_ = 0;
+  bool wide_ = false;
+  Eigen::HouseholderQR<MatrixXd> qr_;  // of Aᵀ when wide_, else of A
+  MatrixXd R_inv_;
+  MatrixXd U_;
+  VectorXd s_;
+  MatrixXd V_;
+};
 
 // drake_sot.linalg.full_rank_lstsq: A⁺ b by Householder QR for a tall A (m >= k) when its full column
 // rank is certain by SvdSplit's rule (σ_min >= 1 / ||R⁻¹||_F above the floor with σ_max <= ||A||_F).
@@ -190,14 +244,14 @@ Rows nonzero(const std::vector<signed char>& v) {
 
 // The first iteration of a level's active set when the caller has it (the SVD and the step).
 struct First {
-  SvdSplit split;
+  Split split;
   VectorXd d;
 };
 
 // The SVD of the last least squares of a level when it ran with no hard row held, and its row count.
 struct Last {
   Index rows;
-  SvdSplit split;
+  Split split;
 };
 
 struct Options {
@@ -359,6 +413,7 @@ class ActiveSet {
  private:
   MatrixXd times_Z(const MatrixXd& M) const { return z_identity_ ? M : MatrixXd(M * Z_); }
   VectorXd Z_times(const VectorXd& y) const { return z_identity_ ? y : VectorXd(Z_ * y); }
+  MatrixXd Z_times(const MatrixXd& N) const { return z_identity_ ? N : MatrixXd(Z_ * N); }
   void set_Z(const MatrixXd& Z) {
     Z_ = Z;
     z_identity_ = false;
@@ -418,7 +473,7 @@ class ActiveSet {
         N = last->split.null_basis();
       } else {
         const MatrixXd F = Index(fixed_rows.size()) == m ? J : take_rows(J, fixed_rows);
-        N = SvdSplit::of(times_Z(F), rt_).null_basis();
+        N = Split::of(times_Z(F), rt_).null_basis();
       }
       if (z_identity_)
         set_Z(N);
@@ -436,20 +491,18 @@ class ActiveSet {
     const Index m = A.rows(), k = A.cols();
     std::optional<VectorXd> y;
     if (m >= k) y = full_rank_lstsq(A, b, rt_);  // a tall level that takes all the freedom left
-    std::optional<SvdSplit> split;
+    std::optional<Split> split;
     VectorXd d;
     MatrixXd basis;
     if (!y) {
-      split = SvdSplit::of(A, rt_);
-      const Index r = split->rank;
-      const MatrixXd V = z_identity_ ? split->V : MatrixXd(Z_ * split->V);
-      d = V.leftCols(r) * ((split->U.leftCols(r).transpose() * b).cwiseQuotient(split->s.head(r)));
-      basis = V.rightCols(V.cols() - r);
+      split = Split::of(A, rt_);
+      d = Z_times(split->solve(b));
+      basis = Z_times(split->null_basis());
     } else {
       d = Z_times(*y);
       basis = MatrixXd(n_, 0);
     }
-    if (!step(d)) return First{split ? std::move(*split) : SvdSplit::of(A, rt_), d};
+    if (!step(d)) return First{split ? std::move(*split) : Split::of(A, rt_), d};
     ++iterations_;
     set_Z(basis);
     return std::nullopt;
@@ -567,7 +620,7 @@ class ActiveSet {
     int still = 0;
     bool bland = false;
     std::optional<Last> last;
-    SvdSplit constraint;
+    Split constraint;
     MatrixXd ZN;
     bool zn_identity = true;
     Rows rows;
@@ -576,7 +629,7 @@ class ActiveSet {
     for (int iteration = 1; iteration <= limit; ++iteration) {
       ++iterations_;
       if (!held.empty()) {
-        constraint = SvdSplit::of(times_Z(take_rows(C, held)), rt_);
+        constraint = Split::of(times_Z(take_rows(C, held)), rt_);
         const MatrixXd N = constraint.null_basis();
         ZN = z_identity_ ? N : MatrixXd(Z_ * N);
         zn_identity = false;
@@ -599,10 +652,10 @@ class ActiveSet {
       last.reset();
       bool moved = false;
       if (AW.rows() && (zn_identity || ZN.cols())) {
-        SvdSplit split;
+        Split split;
         VectorXd d;
         if (!first) {
-          split = SvdSplit::of(zn_identity ? AW : MatrixXd(AW * ZN), rt_);
+          split = Split::of(zn_identity ? AW : MatrixXd(AW * ZN), rt_);
           const VectorXd y = split.solve(target - AW * x);
           d = zn_identity ? y : VectorXd(ZN * y);
         } else {  // the first iteration, already computed (the same least squares)
@@ -679,9 +732,7 @@ class ActiveSet {
         if (!held.empty() && !(bland && from_soft)) {
           VectorXd g = AW.transpose() * residual;
           if (!z_identity_) g = Z_.transpose() * g;
-          const Index r = constraint.rank;
-          const VectorXd multiplier = constraint.U.leftCols(r) *
-                                      ((constraint.V.leftCols(r).transpose() * (-g)).cwiseQuotient(constraint.s.head(r)));
+          const VectorXd multiplier = constraint.solve_transposed(-g);
           VectorXd wrong(held.size());
           for (Index j = 0; j < Index(held.size()); ++j) wrong(j) = -hard[held[j]] * multiplier(j);
           from_hard = leaving_of(wrong, held, true, tol_, bland);
@@ -909,7 +960,7 @@ std::optional<Idle> inequalities_idle(const std::vector<Level>& levels, double r
     // The last level fixes its rows in what the equality rows above it leave (the guessed rows hold,
     // they fix nothing): that space is wider than Z, its rank there is counted.
     const MatrixXd J = last->J * Q.rightCols(n - head);
-    const Index left = J.cols() - SvdSplit::of(J, rank_threshold).rank;
+    const Index left = J.cols() - Split::of(J, rank_threshold).rank;
     std::fill(free_dims.begin() + last_index, free_dims.end(), left);
   }
   return Idle{std::move(x), std::move(free_dims)};
