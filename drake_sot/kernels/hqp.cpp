@@ -138,6 +138,25 @@ class Split {
     return N;
   }
 
+  // M N (M has k columns) with N = null_basis(), without forming N when it is the last columns of a
+  // Householder Q: (M Q)[:, m:].
+  MatrixXd times_null(const MatrixXd& M) const {
+    if (kind_ == Kind::kSvd) return M * V_.rightCols(V_.cols() - rank);
+    if (!wide_) return MatrixXd(M.rows(), 0);
+    MatrixXd MQ = M * qr_.householderQ();
+    return MQ.rightCols(k_ - m_);
+  }
+
+  // N y (k,) for y (k - rank,), N = null_basis().
+  VectorXd null_times(const VectorXd& y) const {
+    if (kind_ == Kind::kSvd) return V_.rightCols(V_.cols() - rank) * y;
+    VectorXd v = VectorXd::Zero(k_);
+    if (!wide_) return v;
+    v.tail(k_ - m_) = y;
+    v.applyOnTheLeft(qr_.householderQ());
+    return v;
+  }
+
   Index rank = 0;
 
  private:
@@ -621,43 +640,48 @@ class ActiveSet {
     bool bland = false;
     std::optional<Last> last;
     Split constraint;
-    MatrixXd ZN;
-    bool zn_identity = true;
+    // The level's rows and the hard rows seen in Z, once for the level (neither changes in its active
+    // set): each iteration then works in the k coordinates of Z, and only its step goes back to q̇.
+    const MatrixXd AZ = times_Z(A);
+    MatrixXd CZ, AWZ;
+    Index N_cols = 0;  // the directions left by the held hard rows
+    bool has_N = false;
     Rows rows;
     MatrixXd AW;
     VectorXd target;
     for (int iteration = 1; iteration <= limit; ++iteration) {
       ++iterations_;
-      if (!held.empty()) {
-        constraint = Split::of(times_Z(take_rows(C, held)), rt_);
-        const MatrixXd N = constraint.null_basis();
-        ZN = z_identity_ ? N : MatrixXd(Z_ * N);
-        zn_identity = false;
+      if (!held.empty()) {  // the directions of Z that keep the held hard rows where they are
+        if (!CZ.size()) CZ = times_Z(C);
+        constraint = Split::of(take_rows(CZ, held), rt_);
+        N_cols = CZ.cols() - constraint.rank;
+        has_N = true;
       } else {
-        zn_identity = z_identity_;
-        if (!z_identity_) ZN = Z_;
+        has_N = false;
       }
       if (!soft.empty()) {
         rows.clear();
         for (Index i = 0; i < Index(side.size()); ++i)
           if (side[i]) rows.push_back(i);
         AW = take_rows(A, rows);
+        AWZ = take_rows(AZ, rows);
         target.resize(rows.size());
         for (Index j = 0; j < Index(rows.size()); ++j)
           target(j) = side[rows[j]] == -1 ? lower(rows[j]) : upper(rows[j]);
       } else {
         AW = A;
+        AWZ = AZ;
         target = upper;
       }
       last.reset();
       bool moved = false;
-      if (AW.rows() && (zn_identity || ZN.cols())) {
+      if (AW.rows() && (has_N ? N_cols : free_dims())) {
         Split split;
         VectorXd d;
         if (!first) {
-          split = Split::of(zn_identity ? AW : MatrixXd(AW * ZN), rt_);
+          split = Split::of(has_N ? constraint.times_null(AWZ) : AWZ, rt_);
           const VectorXd y = split.solve(target - AW * x);
-          d = zn_identity ? y : VectorXd(ZN * y);
+          d = Z_times(has_N ? constraint.null_times(y) : y);
         } else {  // the first iteration, already computed (the same least squares)
           split = std::move(first->split);
           d = std::move(first->d);
