@@ -57,7 +57,16 @@ bool upper_inverse(const Eigen::Ref<const MatrixXd>& R, MatrixXd& R_inv) {
   const Index k = R.rows();
   for (Index i = 0; i < k; ++i)
     if (R(i, i) == 0.0) return false;
-  R_inv = R.triangularView<Eigen::Upper>().solve(MatrixXd::Identity(k, k));
+  // Back substitution column by column (the blocked solver's set-up outweighs it at these sizes).
+  R_inv.setZero(k, k);
+  for (Index j = 0; j < k; ++j) {
+    R_inv(j, j) = 1.0 / R(j, j);
+    for (Index i = j - 1; i >= 0; --i) {
+      double sum = 0.0;
+      for (Index l = i + 1; l <= j; ++l) sum += R(i, l) * R_inv(l, j);
+      R_inv(i, j) = -sum / R(i, i);
+    }
+  }
   return true;
 }
 
@@ -640,6 +649,7 @@ class ActiveSet {
     bool bland = false;
     std::optional<Last> last;
     Split constraint;
+    Rows constraint_rows;  // the held rows `constraint` factorises
     // The level's rows and the hard rows seen in Z, once for the level (neither changes in its active
     // set): each iteration then works in the k coordinates of Z, and only its step goes back to q̇.
     const MatrixXd AZ = times_Z(A);
@@ -653,7 +663,10 @@ class ActiveSet {
       ++iterations_;
       if (!held.empty()) {  // the directions of Z that keep the held hard rows where they are
         if (!CZ.size()) CZ = times_Z(C);
-        constraint = Split::of(take_rows(CZ, held), rt_);
+        if (held != constraint_rows) {  // the same rows as the last iteration: the same factorisation
+          constraint = Split::of(take_rows(CZ, held), rt_);
+          constraint_rows = held;
+        }
         N_cols = CZ.cols() - constraint.rank;
         has_N = true;
       } else {
