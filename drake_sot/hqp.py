@@ -10,6 +10,11 @@ The active set never gives up: on a degenerate point it turns to Bland's smalles
 and a last-resort guard returns the iterate it reached, naming the level
 (:attr:`HqpResult.unsettled`), rather than raising. A control loop passes the last tick's
 result as ``warm_start``: when the same rows are at a bound, the tick is one equality solve.
+
+Two implementations of one solver: the compiled one (``drake_sot/kernels/hqp.cpp``, Eigen, no
+BLAS, the GIL released), which :func:`solve_hqp` calls when the compiled kernels are loaded
+(:mod:`drake_sot.kernels`), and the numpy one below (:func:`_solve_numpy`), its oracle and its
+fallback. They take the same decisions and agree to rounding (``tests/test_kernels_hqp.py``).
 """
 
 from __future__ import annotations
@@ -255,6 +260,12 @@ def solve_hqp(
     certificate: one more QR); with it, its rows are tried instead, first. A refused guess gives
     the next (:func:`_guessed`: the rows found outside added, those pulled inward dropped), up to
     :data:`GUESSES` equality solves before the active set.
+
+    Where it runs: validation here, in Python, once; then the whole solve (shortcut, runs of
+    equality levels, active set, damped levels included, regularisation) in one call to the
+    compiled kernels when they are loaded, else in numpy (:func:`_solve_numpy`; the same
+    decisions, q̇ the same to rounding). The compiled solve uses no BLAS: its time does not
+    depend on the BLAS thread count.
 
     Why not DAQP's hierarchical mode: it is faster, but it makes each level soft with a fixed
     penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), so its q̇ can be
