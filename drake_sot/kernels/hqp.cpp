@@ -93,6 +93,7 @@ class Split {
         out.rank = p;
         return out;
       }
+      if (out.wide_ && out.complete_orthogonal(A, rank_threshold)) return out;
       Eigen::BDCSVD<MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeFullV);
       out.U_ = svd.matrixU();
       out.s_ = svd.singularValues();
@@ -113,6 +114,13 @@ class Split {
   VectorXd solve(const VectorXd& b) const {
     const Index r = rank;
     if (kind_ == Kind::kSvd) return V_.leftCols(r) * ((U_.leftCols(r).transpose() * b).cwiseQuotient(s_.head(r)));
+    if (kind_ == Kind::kCod) {  // A = P Tᵀ Q₁ᵀ, Tᵀ = Q₂ R₂: A⁺ = Q₁ R₂⁻¹ Q₂ᵀ Pᵀ
+      const VectorXd q2 = qr2_.householderQ().transpose() * (cp_.colsPermutation().transpose() * b);
+      VectorXd y = VectorXd::Zero(k_);
+      y.head(r).noalias() = R_inv_ * q2.head(r);
+      y.applyOnTheLeft(cp_.householderQ());
+      return y;
+    }
     if (wide_) {  // Aᵀ = Q R: A⁺ = Q₁ R⁻ᵀ
       VectorXd y = VectorXd::Zero(k_);
       y.head(m_).noalias() = R_inv_.transpose() * b;
@@ -127,6 +135,13 @@ class Split {
   VectorXd solve_transposed(const VectorXd& g) const {
     const Index r = rank;
     if (kind_ == Kind::kSvd) return U_.leftCols(r) * ((V_.leftCols(r).transpose() * g).cwiseQuotient(s_.head(r)));
+    if (kind_ == Kind::kCod) {  // Aᵀ = Q₁ T Pᵀ: (Aᵀ)⁺ = P Q₂ R₂⁻ᵀ Q₁ᵀ
+      const VectorXd qg = cp_.householderQ().transpose() * g;
+      VectorXd w = VectorXd::Zero(m_);
+      w.head(r).noalias() = R_inv_.transpose() * qg.head(r);
+      w.applyOnTheLeft(qr2_.householderQ());
+      return cp_.colsPermutation() * w;
+    }
     if (wide_) {  // Aᵀ = Q R: (Aᵀ)⁺ = R⁻¹ Q₁ᵀ
       VectorXd Qtg = qr_.householderQ().transpose() * g;
       return R_inv_ * Qtg.head(m_);
@@ -141,9 +156,12 @@ class Split {
   MatrixXd null_basis() const {
     if (kind_ == Kind::kSvd) return V_.rightCols(V_.cols() - rank);
     if (!wide_) return MatrixXd(k_, 0);
-    MatrixXd N = MatrixXd::Zero(k_, k_ - m_);  // the last columns of the complete Q of Aᵀ = Q R
-    N.bottomRows(k_ - m_).setIdentity();
-    N.applyOnTheLeft(qr_.householderQ());
+    MatrixXd N = MatrixXd::Zero(k_, k_ - rank);  // the last columns of the complete Q of Aᵀ (P) = Q R
+    N.bottomRows(k_ - rank).setIdentity();
+    if (kind_ == Kind::kCod)
+      N.applyOnTheLeft(cp_.householderQ());
+    else
+      N.applyOnTheLeft(qr_.householderQ());
     return N;
   }
 
@@ -152,8 +170,8 @@ class Split {
   MatrixXd times_null(const MatrixXd& M) const {
     if (kind_ == Kind::kSvd) return M * V_.rightCols(V_.cols() - rank);
     if (!wide_) return MatrixXd(M.rows(), 0);
-    MatrixXd MQ = M * qr_.householderQ();
-    return MQ.rightCols(k_ - m_);
+    MatrixXd MQ = kind_ == Kind::kCod ? MatrixXd(M * cp_.householderQ()) : MatrixXd(M * qr_.householderQ());
+    return MQ.rightCols(k_ - rank);
   }
 
   // N y (k,) for y (k - rank,), N = null_basis().
@@ -161,20 +179,55 @@ class Split {
     if (kind_ == Kind::kSvd) return V_.rightCols(V_.cols() - rank) * y;
     VectorXd v = VectorXd::Zero(k_);
     if (!wide_) return v;
-    v.tail(k_ - m_) = y;
-    v.applyOnTheLeft(qr_.householderQ());
+    v.tail(k_ - rank) = y;
+    if (kind_ == Kind::kCod)
+      v.applyOnTheLeft(cp_.householderQ());
+    else
+      v.applyOnTheLeft(qr_.householderQ());
     return v;
   }
 
   Index rank = 0;
 
  private:
-  enum class Kind { kSvd, kQr };
+  // A wide A whose rows depend on one another to rounding (a row repeated, doubled, or the sum of
+  // two others, as degenerate hierarchies have): its rank r certified from a QR with column
+  // pivoting, Aᵀ P = Q [R11 R12; 0 R22], as SvdSplit would decide it (σ_r >= 1 / ||R11⁻¹||_F is above
+  // the floor, σ_{r+1} <= ||R22||_F below it), and R22 at rounding's level: A is taken as
+  // P [R11 R12; 0 0]ᵀ Qᵀ, a complete orthogonal decomposition (Golub and Van Loan 2013, 5.4.2), the
+  // SVD's truncation to rounding. False (nothing certified) for the SVD.
+  bool complete_orthogonal(const MatrixXd& A, double rank_threshold) {
+    const Index m = m_, k = k_;
+    cp_.compute(A.transpose());
+    const MatrixXd& R = cp_.matrixQR();  // (k, m): R in its upper triangle
+    const double a_norm = A.norm();      // ||A||_F >= s_max >= ||A||_F / sqrt(m)
+    const double below = std::min(std::max(rank_threshold, double(k) * kEps * a_norm / std::sqrt(double(m))),
+                                  10.0 * double(k) * kEps * a_norm);
+    std::vector<double> tail(m + 1, 0.0);  // tail[i] = ||R22||_F² for r = i
+    for (Index i = m - 1; i >= 0; --i) tail[i] = tail[i + 1] + R.row(i).segment(i, m - i).squaredNorm();
+    Index r = 0;
+    while (r < m && std::sqrt(tail[r]) > below) ++r;
+    if (r == 0 || r == m) return false;
+    const double floor = std::max(rank_threshold, double(k) * kEps * a_norm);
+    MatrixXd R11_inv;
+    if (!upper_inverse(R.topLeftCorner(r, r), R11_inv) || !(R11_inv.norm() * floor < 1.0)) return false;
+    MatrixXd T = R.topRows(r);  // [R11 R12], the Householder vectors below its diagonal cleared
+    for (Index i = 1; i < r; ++i) T.row(i).head(i).setZero();
+    qr2_.compute(T.transpose());
+    if (!upper_inverse(qr2_.matrixQR().topRows(r), R_inv_)) return false;
+    kind_ = Kind::kCod;
+    rank = r;
+    return true;
+  }
+
+  enum class Kind { kSvd, kQr, kCod };
   Kind kind_ = Kind::kSvd;
   Index m_ = 0, k_ = 0;
   bool wide_ = false;
   Eigen::HouseholderQR<MatrixXd> qr_;  // of Aᵀ when wide_, else of A
-  MatrixXd R_inv_;
+  Eigen::ColPivHouseholderQR<MatrixXd> cp_;  // kCod: of Aᵀ
+  Eigen::HouseholderQR<MatrixXd> qr2_;       // kCod: of Tᵀ = [R11 R12]ᵀ
+  MatrixXd R_inv_;                           // kQr: R⁻¹; kCod: R₂⁻¹
   MatrixXd U_;
   VectorXd s_;
   MatrixXd V_;
