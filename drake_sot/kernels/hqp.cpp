@@ -257,17 +257,25 @@ struct Block {
 
 // hqp._first_block: the first of the rows lower <= M q̇ <= upper that the step x + α d leaves, (row,
 // α >= 0, +1 upper / -1 lower), or (-1, inf, 0). `lowest`: Bland's rule among the rows that block at
-// the shortest step (to 1e-12), the one of smallest index.
+// the shortest step (to 1e-12), the one of smallest index. `skip`: when given, the rows i with
+// skip[i] != 0 are left out (held in the working set), as numpy leaves them out of its copy.
 Block first_block(const MatrixXd& M, const VectorXd& lower, const VectorXd& upper, const VectorXd& x,
-                  const VectorXd& d, const VectorXd& eps, bool lowest) {
+                  const VectorXd& d, const VectorXd& eps, bool lowest,
+                  const std::vector<signed char>* skip = nullptr) {
+  const Index m = M.rows();
+  const auto out = [&](Index i) { return skip && (*skip)[i]; };
   const VectorXd after = M * (x + d);
-  if (((after.array() <= upper.array()) && (after.array() >= lower.array())).all()) return {-1, kInf, 0};
+  bool inside = true;
+  for (Index i = 0; i < m && inside; ++i) inside = out(i) || (after(i) <= upper(i) && after(i) >= lower(i));
+  if (inside) return {-1, kInf, 0};
   const VectorXd rate = M * d;
   const VectorXd value = M * x;
-  const Index m = M.rows();
   bool any = false;
+  Index k = -1;
   VectorXd steps = VectorXd::Constant(m, kInf);
   for (Index i = 0; i < m; ++i) {
+    if (out(i)) continue;
+    if (k < 0) k = i;
     if (rate(i) > eps(i)) {
       steps(i) = (upper(i) - value(i)) / rate(i);
       any = true;
@@ -277,13 +285,12 @@ Block first_block(const MatrixXd& M, const VectorXd& lower, const VectorXd& uppe
     }
   }
   if (!any) return {-1, kInf, 0};
-  Index k = 0;
-  for (Index i = 1; i < m; ++i)
-    if (steps(i) < steps(k)) k = i;  // the first of the smallest, as numpy's argmin
+  for (Index i = k + 1; i < m; ++i)
+    if (!out(i) && steps(i) < steps(k)) k = i;  // the first of the smallest, as numpy's argmin
   const double step = std::max(steps(k), 0.0);
   if (lowest) {
     for (Index i = 0; i < m; ++i) {
-      if (steps(i) <= step + 1e-12) {
+      if (!out(i) && steps(i) <= step + 1e-12) {
         k = i;
         break;
       }
@@ -548,18 +555,14 @@ class ActiveSet {
     // One step whose least squares held exactly the rows now fixed: a minimum-norm step.
     const bool single = !last || n_fixed == last->rows;
     if (iterations > 1 || !single) min_norm_ = false;
-    if (n_fixed) {
-      MatrixXd N;
-      if (last && single) {
-        N = last->split.null_basis();
-      } else {
+    if (n_fixed) {  // Z N, N the kernel of the fixed rows in Z (applied, not built, when it is a Q's)
+      std::optional<Split> fresh;
+      if (!(last && single)) {
         const MatrixXd F = Index(fixed_rows.size()) == m ? J : take_rows(J, fixed_rows);
-        N = Split::of(times_Z(F), rt_).null_basis();
+        fresh = Split::of(times_Z(F), rt_);
       }
-      if (z_identity_)
-        set_Z(N);
-      else
-        Z_ = Z_ * N;
+      const Split& split = fresh ? *fresh : last->split;
+      set_Z(z_identity_ ? split.null_basis() : split.times_null(Z_));
     }
     if (!hard.empty()) add_hard(take_rows(J, hard), take(lower, hard), take(upper, hard));
   }
@@ -578,7 +581,7 @@ class ActiveSet {
     if (!y) {
       split = Split::of(A, rt_);
       d = Z_times(split->solve(b));
-      basis = Z_times(split->null_basis());
+      basis = z_identity_ ? split->null_basis() : split->times_null(Z_);
     } else {
       d = Z_times(*y);
       basis = MatrixXd(n_, 0);
@@ -706,6 +709,7 @@ class ActiveSet {
     // The level's rows and the hard rows seen in Z, once for the level (neither changes in its active
     // set): each iteration then works in the k coordinates of Z, and only its step goes back to q̇.
     const MatrixXd AZ = times_Z(A);
+    const VectorXd A_norms = soft.empty() ? VectorXd() : row_norms(A);
     MatrixXd CZ, AWZ;
     Index N_cols = 0;  // the directions left by the held hard rows
     bool has_N = false;
@@ -761,31 +765,17 @@ class ActiveSet {
           int blocker_kind = 0;  // 0 none, 1 a row of the level, 2 a hard row
           Index blocker_row = -1;
           int blocker_bound = 0;
-          if (!soft.empty()) {
-            Rows free;
-            for (Index i : soft)
-              if (side[i] == 0) free.push_back(i);
-            if (!free.empty()) {
-              const MatrixXd Af = take_rows(A, free);
-              const Block b = first_block(Af, take(lower, free), take(upper, free), x, d,
-                                          1e-10 * d_norm * row_norms(Af), bland);
-              if (b.step < alpha) alpha = b.step, blocker_kind = 1, blocker_row = free[b.row], blocker_bound = b.bound;
+          if (!soft.empty()) {  // the level's free rows: side 0 (2 marks its equality rows)
+            bool any_free = false;
+            for (Index i : soft) any_free = any_free || side[i] == 0;
+            if (any_free) {
+              const Block b = first_block(A, lower, upper, x, d, 1e-10 * d_norm * A_norms, bland, &side);
+              if (b.step < alpha) alpha = b.step, blocker_kind = 1, blocker_row = b.row, blocker_bound = b.bound;
             }
           }
           if (n_hard) {
-            Block b;
-            Rows free;
-            if (held.empty()) {
-              b = first_block(C, lo_, hi_, x, d, 1e-10 * d_norm * c_norms_, bland);
-            } else {
-              for (Index i = 0; i < n_hard; ++i)
-                if (!hard[i]) free.push_back(i);
-              b = first_block(take_rows(C, free), take(lo_, free), take(hi_, free), x, d,
-                              1e-10 * d_norm * take(c_norms_, free), bland);
-            }
-            if (b.step < alpha)
-              alpha = b.step, blocker_kind = 2, blocker_row = held.empty() ? b.row : free[b.row],
-              blocker_bound = b.bound;
+            const Block b = first_block(C, lo_, hi_, x, d, 1e-10 * d_norm * c_norms_, bland, &hard);
+            if (b.step < alpha) alpha = b.step, blocker_kind = 2, blocker_row = b.row, blocker_bound = b.bound;
           }
           moved = alpha * d_norm > 1e-15 * (1.0 + x.norm());
           x += alpha * d;
