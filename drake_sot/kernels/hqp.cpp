@@ -82,7 +82,8 @@ class Split {
   static Split of(const MatrixXd& A, double rank_threshold) {
     Split out;
     const Index m = A.rows(), k = A.cols();
-    out.m_ = m, out.k_ = k;
+    out.m_ = m;
+    out.k_ = k;
     if (m && k) {
       const double floor = std::max(rank_threshold, double(std::max(m, k)) * kEps * A.norm());
       out.wide_ = m <= k;
@@ -409,9 +410,13 @@ class ActiveSet {
     VectorXd lower, upper;
     if (Index(keep.size()) != m0) {
       if (keep.empty()) return;
-      J = take_rows(J0, keep), lower = take(lower0, keep), upper = take(upper0, keep);
+      J = take_rows(J0, keep);
+      lower = take(lower0, keep);
+      upper = take(upper0, keep);
     } else {
-      J = J0, lower = lower0, upper = upper0;
+      J = J0;
+      lower = lower0;
+      upper = upper0;
     }
     const Index m = J.rows();
     std::vector<bool> equality(m);
@@ -455,7 +460,8 @@ class ActiveSet {
       const Index m = levels[i]->J.rows();
       J_all.middleRows(at, m) = levels[i]->J;
       target.segment(at, m) = levels[i]->upper;
-      sizes[i] = m, starts[i] = at;
+      sizes[i] = m;
+      starts[i] = at;
       at += m;
     }
     const MatrixXd A = times_Z(J_all);
@@ -507,7 +513,8 @@ class ActiveSet {
     z_identity_ = false;
   }
 
-  // hqp._ActiveSet._finish: the level's active set, then its rows fixed or made hard. With damping
+  // hqp._ActiveSet._finish: the level's active set, then its rows fixed or made hard (Escande, Mansard,
+  // Wieber 2014: the equality and violated rows keep their values below, those that hold keep holding). With damping
   // μ > 0, the rows μ Zᵀ (q̇ - q̇_start) = 0 join its least squares (Nakamura and Hanafusa 1986), for
   // its active set only.
   void finish(const MatrixXd& J, const VectorXd& lower, const VectorXd& upper, const std::vector<bool>& equality,
@@ -518,7 +525,8 @@ class ActiveSet {
     int iterations;
     if (damping) {
       min_norm_ = false;
-      const MatrixXd D = z_identity_ ? MatrixXd(damping * MatrixXd::Identity(n_, n_)) : MatrixXd(damping * Z_.transpose());
+      const MatrixXd D =
+          z_identity_ ? MatrixXd(damping * MatrixXd::Identity(n_, n_)) : MatrixXd(damping * Z_.transpose());
       const VectorXd start = D * x_;
       MatrixXd A(m + D.rows(), n_);
       A << J, D;
@@ -688,7 +696,9 @@ class ActiveSet {
     return (value - lower).cwiseMin(upper - value).minCoeff();
   }
 
-  // hqp._ActiveSet._minimise: the primal active set of one level; updates x_ and `side` in place.
+  // hqp._ActiveSet._minimise: the primal active set of one level (Escande, Mansard, Wieber 2014: the
+  // level's own inequality rows soft, those of the levels above that held hard, each working set one
+  // least squares in the basis of what the levels above leave); updates x_ and `side` in place.
   // `side`: 2 equality, ±1 held at upper/lower, 0 free; `soft` the inequality rows. Anti-cycling:
   // Bland's smallest-index rule after bland_after iterations that do not move q̇, and a last-resort
   // guard after iterations_per_row iterations per row that names the level in `unsettled`.
@@ -770,12 +780,22 @@ class ActiveSet {
             for (Index i : soft) any_free = any_free || side[i] == 0;
             if (any_free) {
               const Block b = first_block(A, lower, upper, x, d, 1e-10 * d_norm * A_norms, bland, &side);
-              if (b.step < alpha) alpha = b.step, blocker_kind = 1, blocker_row = b.row, blocker_bound = b.bound;
+              if (b.step < alpha) {
+                alpha = b.step;
+                blocker_kind = 1;
+                blocker_row = b.row;
+                blocker_bound = b.bound;
+              }
             }
           }
           if (n_hard) {
             const Block b = first_block(C, lo_, hi_, x, d, 1e-10 * d_norm * c_norms_, bland, &hard);
-            if (b.step < alpha) alpha = b.step, blocker_kind = 2, blocker_row = b.row, blocker_bound = b.bound;
+            if (b.step < alpha) {
+              alpha = b.step;
+              blocker_kind = 2;
+              blocker_row = b.row;
+              blocker_bound = b.bound;
+            }
           }
           moved = alpha * d_norm > 1e-15 * (1.0 + x.norm());
           x += alpha * d;
@@ -807,7 +827,8 @@ class ActiveSet {
               wrong.push_back(-s * residual(j));  // < 0: pulled outward, fine
             }
           }
-          from_soft = leaving_of(Eigen::Map<const VectorXd>(wrong.data(), wrong.size()), inequality, false, tol_, bland);
+          const Eigen::Map<const VectorXd> wrong_map(wrong.data(), wrong.size());
+          from_soft = leaving_of(wrong_map, inequality, false, tol_, bland);
         }
         if (!held.empty() && !(bland && from_soft)) {
           VectorXd g = AW.transpose() * residual;
@@ -943,7 +964,9 @@ std::optional<Idle> inequalities_idle(const std::vector<Level>& levels, double r
         equalities.push_back({level.J, level.upper});
         total += m;
         fixed += m;
-        last_is_equality = true, last_index = index, last_rows = m;
+        last_is_equality = true;
+        last_index = index;
+        last_rows = m;
       }
     } else {
       return std::nullopt;
@@ -1067,8 +1090,12 @@ Binding next_guess(const Refusal& refusal, Index count) {
     std::sort(order.begin(), order.end(), [&](Index a, Index b) { return rows[a] < rows[b]; });
     std::vector<Index> r(rows.size());
     std::vector<double> s(rows.size());
-    for (Index i = 0; i < Index(order.size()); ++i) r[i] = rows[order[i]], s[i] = sides[order[i]];
-    rows = std::move(r), sides = std::move(s);
+    for (Index i = 0; i < Index(order.size()); ++i) {
+      r[i] = rows[order[i]];
+      s[i] = sides[order[i]];
+    }
+    rows = std::move(r);
+    sides = std::move(s);
   }
   return guess;
 }
