@@ -10,6 +10,11 @@ The active set never gives up: on a degenerate point it turns to Bland's smalles
 and a last-resort guard returns the iterate it reached, naming the level
 (:attr:`HqpResult.unsettled`), rather than raising. A control loop passes the last tick's
 result as ``warm_start``: when the same rows are at a bound, the tick is one equality solve.
+
+Two implementations of one solver: the compiled one (``drake_sot/kernels/hqp.cpp``, Eigen, no
+BLAS, the GIL released), which :func:`solve_hqp` calls when the compiled kernels are loaded
+(:mod:`drake_sot.kernels`), and the numpy one below (:func:`_solve_numpy`), its oracle and its
+fallback. They take the same decisions and agree to rounding (``tests/test_kernels_hqp.py``).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg.lapack
 
-from drake_sot import validation
+from drake_sot import kernels, validation
 from drake_sot.linalg import SvdSplit, _upper_mask, full_rank_lstsq
 from drake_sot.validation import nonnegative
 
@@ -260,6 +265,12 @@ def solve_hqp(
     the next (:func:`_guessed`: the rows found outside added, those pulled inward dropped), up to
     :data:`GUESSES` equality solves before the active set.
 
+    Where it runs: validation here, in Python, once; then the whole solve (shortcut, runs of
+    equality levels, active set, damped levels included, regularisation) in one call to the
+    compiled kernels when they are loaded, else in numpy (:func:`_solve_numpy`; the same
+    decisions, q̇ the same to rounding). The compiled solve uses no BLAS: its time does not
+    depend on the BLAS thread count.
+
     Why not DAQP's hierarchical mode: it is faster, but it makes each level soft with a fixed
     penalty (``rho_soft = 1e-8``, hard-coded in its ``daqp_hiqp``), so its q̇ can be
     lexicographically worse than the strict hierarchy's (measurements: ``benchmarks/README.md``).
@@ -339,52 +350,92 @@ def solve_hqp(
         mus = _dampings(damping, level_names, validate=False)
     if not checked:
         return HqpResult(qdot=np.zeros(0), free_dims=(), iterations=0)
-    fast = (
-        None
-        if any(mus)
-        else _guessed(
-            checked,
-            rank_threshold,
-            tolerance,
-            None if warm_start is None else _binding(warm_start, checked, level_names),
-        )
+    binding = None if warm_start is None or any(mus) else _binding(warm_start, checked, level_names)
+    solve = _solve_numpy if kernels.compiled is None else _solve_compiled
+    qdot, free_dims, iterations, unsettled = solve(
+        checked, level_names, mus, rank_threshold, tolerance, binding
     )
-    if fast is not None:
-        qdot, free_dims = fast
-        return HqpResult(
-            qdot=qdot,
-            free_dims=free_dims,
-            iterations=len(checked),
-            names=level_names,
-            problem=checked,
-            tolerance=tolerance,
-        )
-    solver = _ActiveSet(checked[0][0].shape[1], rank_threshold, tolerance)
-    free_dims: list[int] = []
-    i = 0
-    while i < len(checked):
-        run = i
-        # exact equality levels (J, t, t)
-        while run < len(checked) and checked[run][1] is checked[run][2] and not mus[run]:
-            run += 1
-        if run - i >= 2:
-            i += solver.equality_run(checked[i:run], free_dims)
-            if i == run:
-                continue
-        J, lower, upper = checked[i]
-        solver.level(J, lower, upper, level_names[i], mus[i])
-        free_dims.append(solver.free_dims)
-        i += 1
-    solver.regularise()
     return HqpResult(
-        qdot=solver.x,
-        free_dims=tuple(free_dims),
-        iterations=solver.iterations,
-        unsettled=tuple(solver.unsettled),
+        qdot=qdot,
+        free_dims=free_dims,
+        iterations=iterations,
+        unsettled=unsettled,
         names=level_names,
         problem=checked,
         tolerance=tolerance,
     )
+
+
+#: What both solvers give :func:`solve_hqp`: q̇ (n,), the free dimensions, the iterations and the
+#: unsettled levels' names.
+_Solution = tuple[np.ndarray, tuple[int, ...], int, tuple[str, ...]]
+
+
+def _solve_compiled(
+    levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    names: tuple[str, ...],
+    mus: list[float],
+    rank_threshold: float,
+    tolerance: float,
+    binding: dict[int, tuple[np.ndarray, np.ndarray]] | None,
+) -> _Solution:
+    """:func:`_solve_numpy` in C++ (``drake_sot/kernels/hqp.cpp``: the same steps, decisions and rank
+    floors, its answers the same to rounding where the rank decisions coincide), damped levels
+    included; one call, with the GIL released, whose time does not depend on a BLAS thread count."""
+    qdot, free_dims, iterations, unsettled = kernels.compiled.solve_hqp(
+        [level[0] for level in levels],
+        [level[1] for level in levels],
+        [level[2] for level in levels],
+        [level[1] is level[2] for level in levels],
+        names,
+        mus,
+        rank_threshold,
+        tolerance,
+        None
+        if binding is None
+        else {index: (rows.tolist(), sides.tolist()) for index, (rows, sides) in binding.items()},
+        _ActiveSet.BLAND_AFTER,
+        _ActiveSet.ITERATIONS_PER_ROW,
+        GUESSES,
+        ALL_AT_ONCE,
+    )
+    return qdot, tuple(free_dims), iterations, tuple(unsettled)
+
+
+def _solve_numpy(
+    levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    names: tuple[str, ...],
+    mus: list[float],
+    rank_threshold: float,
+    tolerance: float,
+    binding: dict[int, tuple[np.ndarray, np.ndarray]] | None,
+) -> _Solution:
+    """:func:`solve_hqp` on validated levels, in numpy: the shortcut (:func:`_guessed`, not with a
+    damped level) from the warm start's ``binding`` (:func:`_binding`), else the active set level
+    by level, runs of equality levels together. The oracle of :func:`_solve_compiled`, and the
+    package's path when the compiled kernels are not there (:mod:`drake_sot.kernels`)."""
+    fast = None if any(mus) else _guessed(levels, rank_threshold, tolerance, binding)
+    if fast is not None:
+        qdot, free_dims = fast
+        return qdot, free_dims, len(levels), ()
+    solver = _ActiveSet(levels[0][0].shape[1], rank_threshold, tolerance)
+    free_dims: list[int] = []
+    i = 0
+    while i < len(levels):
+        run = i
+        # exact equality levels (J, t, t)
+        while run < len(levels) and levels[run][1] is levels[run][2] and not mus[run]:
+            run += 1
+        if run - i >= 2:
+            i += solver.equality_run(levels[i:run], free_dims)
+            if i == run:
+                continue
+        J, lower, upper = levels[i]
+        solver.level(J, lower, upper, names[i], mus[i])
+        free_dims.append(solver.free_dims)
+        i += 1
+    solver.regularise()
+    return solver.x, tuple(free_dims), solver.iterations, tuple(solver.unsettled)
 
 
 def _dampings(

@@ -10,5 +10,6 @@ void bind_preview(pybind11::module_& m);
 void bind_inequalities(pybind11::module_& m);
 void bind_stabilization(pybind11::module_& m);
 void bind_generalized(pybind11::module_& m);
+void bind_hqp(pybind11::module_& m);
 
 }  // namespace drake_sot

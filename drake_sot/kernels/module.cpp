@@ -17,4 +17,5 @@ PYBIND11_MODULE(_compiled, m) {
   drake_sot::bind_inequalities(m);
   drake_sot::bind_stabilization(m);
   drake_sot::bind_generalized(m);
+  drake_sot::bind_hqp(m);
 }
