@@ -217,3 +217,36 @@ def test_the_compiled_path_never_raises_and_agrees_on_hostile_stacks(drawn):
         return
     if compiled.free_dims == numpy.free_dims and compiled.unsettled == numpy.unsettled == ():
         np.testing.assert_allclose(compiled.qdot, numpy.qdot, rtol=0.0, atol=1e-12 * scale(numpy.qdot))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_the_compiled_check_of_the_levels_accepts_and_refuses_as_the_numpy_one(seed):
+    """``levels_hold`` (one compiled call) in place of ``_validate_hqp``'s numpy calls: the same
+    levels pass, and a level it refuses gets ``_validate_hqp``'s message."""
+    from drake_sot.hqp import _validate_hqp
+
+    core = kernels.compiled
+    rng = np.random.default_rng(7000 + seed)
+    levels = random_hierarchy(rng, bool(seed % 2), int(rng.integers(3, 12)), int(rng.integers(1, 5)))
+    levels = [(J, lo, hi) if rng.random() < 0.7 or not (lo == hi).all() else (J, lo) for J, lo, hi in levels]
+    if seed % 4:  # one entry spoilt: NaN, an infinite bound on the wrong side, lower > upper, a shape
+        k = int(rng.integers(len(levels)))
+        J, *rest = (a.copy() for a in levels[k])
+        spoil = seed % 4
+        if spoil == 1:
+            J[0, 0] = rng.choice([np.nan, np.inf])
+        elif spoil == 2:
+            rest[0][0] = rng.choice([np.nan, np.inf])
+        else:
+            J = J[:, :-1]
+        levels[k] = (J, *rest)
+    holds = core.levels_hold([lv[0] for lv in levels], [lv[1] for lv in levels], [lv[-1] for lv in levels])
+    try:
+        _validate_hqp(levels, None)
+    except ValueError as error:
+        assert not holds
+        with pytest.raises(ValueError) as raised:
+            solve_hqp(levels)
+        assert str(raised.value) == str(error)
+    else:
+        assert holds

@@ -1180,9 +1180,37 @@ Result solve_hqp(const std::vector<MatrixXd>& Js, const std::vector<VectorXd>& l
   return {solver.x(), std::move(free_dims), solver.iterations(), solver.unsettled()};
 }
 
+// Whether levels given as float64 arrays hold what hqp._validate_hqp checks: J 2-D and finite, the
+// same column count throughout; lower and upper 1-D of J's row count, no NaN, lower < +inf,
+// upper > -inf, lower <= upper. One call in place of a few numpy calls per level; false sends the
+// caller to _validate_hqp, which names what fails.
+bool levels_hold(const std::vector<py::array_t<double>>& Js, const std::vector<py::array_t<double>>& lowers,
+                 const std::vector<py::array_t<double>>& uppers) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  if (Js.size() != lowers.size() || Js.size() != uppers.size()) return false;
+  for (std::size_t k = 0; k < Js.size(); ++k) {
+    const auto& J = Js[k];
+    if (J.ndim() != 2 || J.shape(1) != Js[0].shape(1)) return false;
+    const auto j = J.unchecked<2>();
+    for (py::ssize_t r = 0; r < j.shape(0); ++r)
+      for (py::ssize_t c = 0; c < j.shape(1); ++c)
+        if (!std::isfinite(j(r, c))) return false;
+    if (lowers[k].ndim() != 1 || uppers[k].ndim() != 1 || lowers[k].shape(0) != j.shape(0) ||
+        uppers[k].shape(0) != j.shape(0))
+      return false;
+    const auto lo = lowers[k].unchecked<1>();
+    const auto hi = uppers[k].unchecked<1>();
+    for (py::ssize_t r = 0; r < lo.shape(0); ++r)
+      if (!(lo(r) < inf && hi(r) > -inf && lo(r) <= hi(r))) return false;  // NaN fails every test
+  }
+  return true;
+}
+
 }  // namespace
 
 void bind_hqp(py::module_& m) {
+  m.def("levels_hold", &levels_hold, py::arg("J"), py::arg("lower"), py::arg("upper"),
+        "Whether float64 levels hold hqp._validate_hqp's checks (false: let it name what fails).");
   m.def("solve_hqp", &solve_hqp, py::arg("J"), py::arg("lower"), py::arg("upper"), py::arg("same"),
         py::arg("names"), py::arg("damping"), py::arg("rank_threshold"), py::arg("tolerance"), py::arg("binding"),
         py::arg("bland_after"), py::arg("iterations_per_row"), py::arg("guesses"), py::arg("all_at_once"),
